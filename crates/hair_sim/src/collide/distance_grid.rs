@@ -1,0 +1,97 @@
+//! A signed distance grid baked from the exact mesh distance, for the cheap far reject.
+
+use crate::math::Vec3;
+
+/// Signed distances sampled on a regular grid around the head (negative inside).
+///
+/// Trilinear interpolation of a distance function is off by at most one cell diagonal
+/// (the function is 1-Lipschitz and every corner lies within a diagonal of the point),
+/// so [`DistanceGrid::max_error`] bounds how wrong [`DistanceGrid::sample`] can be.
+#[derive(Clone, Debug)]
+pub struct DistanceGrid {
+    origin: Vec3,
+    cell: f32,
+    dims: [usize; 3],
+    values: Vec<f32>,
+    /// The grid reaches at least this far beyond the mesh on every side.
+    margin: f32,
+}
+
+impl DistanceGrid {
+    /// Samples `distance` on a grid with `resolution` cells along the longest side of the
+    /// bounding box of `points`, padded on every side by a quarter of that side.
+    pub fn bake(points: &[Vec3], resolution: u32, distance: impl Fn(Vec3) -> f32) -> Self {
+        let (min, max) =
+            points.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+        let margin = 0.25 * (max - min).max_element().max(1e-3);
+        let (min, max) = (min - Vec3::splat(margin), max + Vec3::splat(margin));
+        let cell = (max - min).max_element() / resolution as f32;
+        let dims = ((max - min) / cell).ceil().to_array().map(|n| n as usize + 1);
+        let mut values = Vec::with_capacity(dims[0] * dims[1] * dims[2]);
+        for z in 0..dims[2] {
+            for y in 0..dims[1] {
+                for x in 0..dims[0] {
+                    values.push(distance(min + Vec3::new(x as f32, y as f32, z as f32) * cell));
+                }
+            }
+        }
+        DistanceGrid { origin: min, cell, dims, values, margin }
+    }
+
+    /// The largest difference between [`sample`](Self::sample) and the true distance.
+    pub fn max_error(&self) -> f32 {
+        self.cell * 3f32.sqrt()
+    }
+
+    /// Edge length of one cell.
+    pub fn cell_size(&self) -> f32 {
+        self.cell
+    }
+
+    /// Interpolated signed distance at `p`, or `None` outside the grid, which means at
+    /// least [`margin`](Self::margin) away from the mesh (also for non-finite `p`).
+    #[inline]
+    pub fn sample(&self, p: Vec3) -> Option<f32> {
+        let g = (p - self.origin) / self.cell;
+        let [dx, dy, dz] = self.dims;
+        let inside =
+            g.cmpge(Vec3::ZERO).all() && g.x < (dx - 1) as f32 && g.y < (dy - 1) as f32 && g.z < (dz - 1) as f32;
+        if !inside {
+            return None;
+        }
+        let base = g.floor();
+        let t = g - base;
+        let [x, y, z] = base.to_array().map(|v| v as usize);
+        let at = |x: usize, y: usize, z: usize| self.values[(z * dy + y) * dx + x];
+        let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
+        let plane = |z: usize| {
+            lerp(lerp(at(x, y, z), at(x + 1, y, z), t.x), lerp(at(x, y + 1, z), at(x + 1, y + 1, z), t.x), t.y)
+        };
+        Some(lerp(plane(z), plane(z + 1), t.z))
+    }
+
+    /// How far beyond the mesh the grid reaches: a point outside the grid is at least
+    /// this far from the surface.
+    pub fn margin(&self) -> f32 {
+        self.margin
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn interpolates_a_sphere_within_the_error_bound() {
+        let points = [Vec3::splat(-1.0), Vec3::splat(1.0)];
+        let grid = DistanceGrid::bake(&points, 16, |p| p.length() - 1.0);
+        assert!(grid.margin() >= 0.5);
+        for i in 0..100 {
+            let p = Vec3::new((i as f32 * 0.13).sin(), (i as f32 * 0.29).cos(), (i as f32 * 0.07).sin()) * 1.2;
+            let approx = grid.sample(p).unwrap();
+            assert!((approx - (p.length() - 1.0)).abs() <= grid.max_error());
+        }
+        assert_eq!(grid.sample(Vec3::splat(5.0)), None);
+        assert_eq!(grid.sample(Vec3::NAN), None);
+    }
+}

@@ -1,0 +1,167 @@
+//! Collision: the head mesh (BVH + baked distance grid) and simple extra shapes.
+//!
+//! The head is tested in head-local space, so the collider is built once per mesh and
+//! never rebuilt as the head moves. Per particle, the distance grid answers "far from the
+//! head" with one trilinear lookup; only particles near the surface pay for the exact BVH
+//! query, which also gives the closest point and hence the surface normal to push along.
+
+mod distance_grid;
+mod shapes;
+
+pub use distance_grid::DistanceGrid;
+pub use shapes::ExtraCollider;
+
+use crate::math::Vec3;
+use crate::mesh::{HeadMesh, MeshError};
+use parry3d::query::PointQueryWithLocation;
+use parry3d::shape::{TriMesh, TriMeshFlags};
+
+/// Distance-grid cells along the longest side of the head's bounding box.
+pub const DEFAULT_GRID_RESOLUTION: u32 = 48;
+
+/// A contact found by a collision query: where to put the particle and which way is out.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Contact {
+    /// The particle position moved out to `thickness` above the surface.
+    pub position: Vec3,
+    /// Unit outward surface normal at the contact.
+    pub normal: Vec3,
+    /// How far below `thickness` above the surface the particle was (> 0).
+    pub depth: f32,
+}
+
+/// The head as a collision shape, in head-local space: a parry3d `TriMesh` (its BVH
+/// answers exact closest-point queries) and a signed distance grid baked from it.
+pub struct HeadCollider {
+    mesh: TriMesh,
+    grid: DistanceGrid,
+}
+
+impl HeadCollider {
+    /// Builds the BVH and bakes the distance grid (`resolution` cells along the longest
+    /// side). The mesh should be closed and wound outward; on an open mesh the inside test
+    /// still works locally, near each surface, through parry's pseudo-normals.
+    pub fn new(head: &HeadMesh, resolution: u32) -> Result<Self, MeshError> {
+        head.validate()?;
+        let flags =
+            TriMeshFlags::ORIENTED | TriMeshFlags::MERGE_DUPLICATE_VERTICES | TriMeshFlags::DELETE_DEGENERATE_TRIANGLES;
+        let mesh = TriMesh::with_flags(head.positions.clone(), head.triangles.clone(), flags)
+            .map_err(|_| MeshError::Degenerate)?;
+        if mesh.indices().is_empty() {
+            return Err(MeshError::Degenerate);
+        }
+        let grid = DistanceGrid::bake(&head.positions, resolution.max(2), |p| signed_distance_exact(&mesh, p));
+        Ok(HeadCollider { mesh, grid })
+    }
+
+    /// The baked distance grid.
+    pub fn grid(&self) -> &DistanceGrid {
+        &self.grid
+    }
+
+    /// Exact signed distance from a head-local point to the surface (negative inside).
+    pub fn signed_distance(&self, p: Vec3) -> f32 {
+        signed_distance_exact(&self.mesh, p)
+    }
+
+    /// If `p` (head-local) is closer than `thickness` to the surface, or inside the head,
+    /// returns where to move it: `thickness` out along the surface normal.
+    ///
+    /// The grid rejects far points with one lookup. Near the surface the BVH query finds
+    /// the closest point; the push follows the normal there, not the line from the head's
+    /// centre, which would push particles into an ear instead of out of it.
+    #[inline]
+    pub fn resolve(&self, p: Vec3, thickness: f32) -> Option<Contact> {
+        let approx = self.grid.sample(p)?;
+        let error = self.grid.max_error();
+        if approx > thickness + error {
+            return None;
+        }
+        // The true distance is within `error` of the estimate: search no further than that.
+        let max_dist = approx.abs() + error + thickness;
+        let (proj, (triangle, _)) = self.mesh.project_local_point_and_get_location_with_max_dist(p, false, max_dist)?;
+        let offset = p - proj.point;
+        let distance = offset.length();
+        let signed = if proj.is_inside { -distance } else { distance };
+        if signed >= thickness {
+            return None;
+        }
+        // Outward normal: away from the surface outside, towards it inside; on the surface
+        // itself the offset has no direction, so the face normal decides.
+        let normal =
+            if distance > 1e-7 { offset / signed } else { self.mesh.triangle(triangle).normal().unwrap_or(Vec3::Y) };
+        Some(Contact { position: proj.point + normal * thickness, normal, depth: thickness - signed })
+    }
+}
+
+fn signed_distance_exact(mesh: &TriMesh, p: Vec3) -> f32 {
+    let (proj, _) = mesh.project_local_point_and_get_location(p, false);
+    let distance = (p - proj.point).length();
+    if proj.is_inside { -distance } else { distance }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::Quat;
+    use crate::mesh::test_head;
+
+    #[test]
+    fn inside_and_outside_are_signed() {
+        let collider = HeadCollider::new(&test_head(3), 32).unwrap();
+        assert!(collider.signed_distance(Vec3::ZERO) < -0.07);
+        let above = collider.signed_distance(Vec3::new(0.0, 0.2, 0.0));
+        assert!((above - 0.09).abs() < 2e-3, "{above}");
+    }
+
+    #[test]
+    fn pushes_out_along_the_normal_to_thickness() {
+        let collider = HeadCollider::new(&test_head(4), 48).unwrap();
+        let inside = Vec3::new(0.0, 0.10, 0.0); // 1 cm under the crown
+        let contact = collider.resolve(inside, 0.005).expect("inside the head");
+        assert!(contact.normal.y > 0.99, "normal {:?}", contact.normal);
+        assert!((contact.position.y - 0.115).abs() < 1e-3, "{:?}", contact.position);
+        assert!((contact.depth - 0.015).abs() < 1e-3);
+        let after = collider.signed_distance(contact.position);
+        assert!((after - 0.005).abs() < 1e-4, "ends at thickness: {after}");
+        assert!(collider.resolve(Vec3::new(0.0, 0.3, 0.0), 0.005).is_none());
+        assert!(collider.resolve(Vec3::new(0.0, 0.113, 0.0), 0.005).is_some(), "within thickness");
+    }
+
+    #[test]
+    fn ear_is_escaped_sideways_not_towards_the_centre() {
+        // A point 4 mm under the steep flank of an ear, measured along the ray from the
+        // head's centre: pushing along that ray moves it 4 mm; the surface normal points
+        // sideways here, and pushing along it leaves by a much shorter way.
+        let collider = HeadCollider::new(&test_head(5), 64).unwrap();
+        let ear_axis = Vec3::new(1.0, 0.05, -0.1).normalize();
+        let ray = Quat::from_axis_angle(ear_axis.cross(Vec3::Y).normalize(), 0.127) * ear_axis;
+        let surface = (0..5000).map(|i| ray * (0.05 + i as f32 * 2e-5)).find(|&q| collider.signed_distance(q) > 0.0).unwrap();
+        let p = surface - ray * 0.004;
+        let d = collider.signed_distance(p);
+        assert!(d < 0.0, "the test point is inside the ear: {d}");
+        let contact = collider.resolve(p, 0.0).unwrap();
+        let normal_push = (contact.position - p).length();
+        assert!(collider.signed_distance(contact.position).abs() < 1e-5, "ends on the surface");
+        assert!(normal_push < 0.7 * 0.004, "normal push {normal_push} vs 4 mm along the centre ray");
+        assert!(contact.normal.dot(ray) < 0.8, "the normal leans sideways: {}", contact.normal.dot(ray));
+    }
+
+    #[test]
+    fn grid_agrees_with_the_bvh() {
+        let collider = HeadCollider::new(&test_head(3), 24).unwrap();
+        let err = collider.grid().max_error();
+        for i in 0..200 {
+            let f = i as f32 * 0.37;
+            let p = Vec3::new(f.sin() * 0.15, (f * 1.3).cos() * 0.18, (f * 0.7).sin() * 0.16);
+            if let Some(approx) = collider.grid().sample(p) {
+                assert!((approx - collider.signed_distance(p)).abs() <= err, "at {p:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn empty_mesh_is_an_error() {
+        assert_eq!(HeadCollider::new(&HeadMesh::default(), 8).err(), Some(MeshError::Empty));
+    }
+}

@@ -1,0 +1,66 @@
+//! Extra collision shapes in world space: spheres and capsules for neck and shoulders.
+
+use super::Contact;
+use crate::math::Vec3;
+
+/// A simple world-space collider besides the head mesh.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ExtraCollider {
+    /// A ball.
+    Sphere {
+        /// World-space centre.
+        center: Vec3,
+        /// Radius, metres.
+        radius: f32,
+    },
+    /// A segment swept by a ball.
+    Capsule {
+        /// One end of the axis, world space.
+        a: Vec3,
+        /// The other end of the axis, world space.
+        b: Vec3,
+        /// Radius, metres.
+        radius: f32,
+    },
+}
+
+impl ExtraCollider {
+    /// If `p` is closer than `thickness` to the surface, where to move it.
+    #[inline]
+    pub fn resolve(&self, p: Vec3, thickness: f32) -> Option<Contact> {
+        let (center, radius) = match *self {
+            ExtraCollider::Sphere { center, radius } => (center, radius),
+            ExtraCollider::Capsule { a, b, radius } => {
+                let ab = b - a;
+                let t = ((p - a).dot(ab) / ab.length_squared().max(1e-12)).clamp(0.0, 1.0);
+                (a + ab * t, radius)
+            }
+        };
+        let offset = p - center;
+        let distance = offset.length();
+        let reach = radius + thickness;
+        if !(distance < reach) {
+            return None; // also rejects NaN
+        }
+        let normal = if distance > 1e-7 { offset / distance } else { Vec3::Y };
+        Some(Contact { position: center + normal * reach, normal, depth: reach - distance })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sphere_and_capsule_push_to_the_surface() {
+        let sphere = ExtraCollider::Sphere { center: Vec3::ZERO, radius: 1.0 };
+        let c = sphere.resolve(Vec3::new(0.5, 0.0, 0.0), 0.1).unwrap();
+        assert!((c.position - Vec3::new(1.1, 0.0, 0.0)).length() < 1e-6);
+        assert!((c.depth - 0.6).abs() < 1e-6);
+        assert!(sphere.resolve(Vec3::new(2.0, 0.0, 0.0), 0.1).is_none());
+        let capsule = ExtraCollider::Capsule { a: Vec3::ZERO, b: Vec3::Y, radius: 0.5 };
+        let c = capsule.resolve(Vec3::new(0.2, 0.5, 0.0), 0.0).unwrap();
+        assert!((c.position - Vec3::new(0.5, 0.5, 0.0)).length() < 1e-6);
+        assert!((c.normal - Vec3::X).length() < 1e-6);
+    }
+}

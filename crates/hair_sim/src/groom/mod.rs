@@ -1,0 +1,260 @@
+//! Growing a groom: roots on the head surface, then guide strands from them.
+//!
+//! Pure functions of a [`HeadMesh`] and a seed: the same inputs always give the same
+//! groom, bit for bit.
+
+mod rng;
+
+pub use rng::SplitMix64;
+
+use crate::collide::HeadCollider;
+use crate::math::{Pose, Vec3};
+use crate::mesh::HeadMesh;
+use crate::solver::{RestShape, SimParams, StepInput, Strands, StrandsError};
+use std::fmt;
+
+/// Where a root sits on the head: a triangle and barycentric coordinates in it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RootBinding {
+    /// Triangle index into [`HeadMesh::triangles`].
+    pub triangle: u32,
+    /// Barycentric coordinates (sum to 1).
+    pub barycentric: [f32; 3],
+}
+
+impl RootBinding {
+    /// The root's head-local position.
+    pub fn position(&self, mesh: &HeadMesh) -> Vec3 {
+        mesh.point_at(self.triangle as usize, self.barycentric)
+    }
+
+    /// The interpolated surface normal at the root.
+    pub fn normal(&self, mesh: &HeadMesh) -> Vec3 {
+        mesh.normal_at(self.triangle as usize, self.barycentric)
+    }
+}
+
+/// Why a groom cannot be grown.
+#[derive(Clone, Debug, PartialEq)]
+pub enum GroomError {
+    /// No triangle may carry hair: every weight is zero (nothing painted as scalp).
+    NoScalp,
+    /// The weights do not match the triangles one to one.
+    WeightCountMismatch {
+        /// Triangles in the mesh.
+        triangles: usize,
+        /// Weights given.
+        weights: usize,
+    },
+    /// The strands could not be built.
+    Strands(StrandsError),
+}
+
+impl fmt::Display for GroomError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            GroomError::NoScalp => write!(f, "no triangle of the head is marked as scalp"),
+            GroomError::WeightCountMismatch { triangles, weights } => {
+                write!(f, "{weights} scalp weights for {triangles} triangles")
+            }
+            GroomError::Strands(e) => e.fmt(f),
+        }
+    }
+}
+
+impl std::error::Error for GroomError {}
+
+impl From<StrandsError> for GroomError {
+    fn from(e: StrandsError) -> Self {
+        GroomError::Strands(e)
+    }
+}
+
+/// Samples `count` roots uniformly by area over the triangles, each triangle's area
+/// multiplied by its weight (0 = no hair, 1 = full density). Sampling by area, not per
+/// vertex, keeps density even where the mesh is finely tessellated.
+pub fn sample_roots(mesh: &HeadMesh, weights: &[f32], count: usize, seed: u64) -> Result<Vec<RootBinding>, GroomError> {
+    if weights.len() != mesh.triangles.len() {
+        return Err(GroomError::WeightCountMismatch { triangles: mesh.triangles.len(), weights: weights.len() });
+    }
+    let mut cumulative = Vec::with_capacity(weights.len());
+    let mut total = 0.0f64;
+    for (t, &w) in weights.iter().enumerate() {
+        let w = if w.is_finite() { w.clamp(0.0, 1.0) } else { 0.0 };
+        total += (mesh.triangle_area(t) * w) as f64;
+        cumulative.push(total);
+    }
+    if total <= 0.0 {
+        return Err(GroomError::NoScalp);
+    }
+    let mut rng = SplitMix64::new(seed);
+    let roots = (0..count)
+        .map(|_| {
+            let target = rng.next_f64() * total;
+            let triangle = cumulative.partition_point(|&c| c <= target).min(weights.len() - 1);
+            // Uniform point in a triangle: fold the unit square onto it.
+            let (mut u, mut v) = (rng.next_f32(), rng.next_f32());
+            if u + v > 1.0 {
+                (u, v) = (1.0 - u, 1.0 - v);
+            }
+            RootBinding { triangle: triangle as u32, barycentric: [1.0 - u - v, u, v] }
+        })
+        .collect();
+    Ok(roots)
+}
+
+/// How guide strands grow from their roots.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GuideParams {
+    /// Segments per strand (the reference uses 10); particles = segments + 1.
+    pub segments: usize,
+    /// Strand length, metres.
+    pub length: f32,
+    /// Random length variation as a fraction of `length` (0.2 = ±20%).
+    pub length_variation: f32,
+    /// Curl: radians the growth direction turns per segment, around an axis across the
+    /// strand (0 = straight).
+    pub curl: f32,
+}
+
+impl Default for GuideParams {
+    fn default() -> Self {
+        GuideParams { segments: 10, length: 0.2, length_variation: 0.2, curl: 0.0 }
+    }
+}
+
+/// Grows one guide per root along the interpolated surface normal (the reference's
+/// initial direction), bending by `curl` per segment. Returns head-local rest positions,
+/// strand-major, `segments + 1` per strand.
+pub fn grow_guides(mesh: &HeadMesh, roots: &[RootBinding], params: &GuideParams, seed: u64) -> Vec<Vec3> {
+    let segments = params.segments.max(1);
+    let mut rng = SplitMix64::new(seed ^ 0x6775_6964_6573);
+    let mut positions = Vec::with_capacity(roots.len() * (segments + 1));
+    for root in roots {
+        let variation = 1.0 + params.length_variation * (2.0 * rng.next_f32() - 1.0);
+        let segment_length = (params.length * variation).max(1e-4) / segments as f32;
+        let normal = root.normal(mesh);
+        let across = normal.any_orthonormal_vector();
+        let mut direction = normal;
+        let mut p = root.position(mesh);
+        positions.push(p);
+        for _ in 0..segments {
+            p += direction * segment_length;
+            positions.push(p);
+            direction = crate::math::Quat::from_axis_angle(across, params.curl) * direction;
+        }
+    }
+    positions
+}
+
+/// Lets freshly grown strands fall under gravity onto the head for `steps` steps of
+/// 1/60 s with no shape keeping, and returns where they came to rest: the "comb" pass
+/// that makes a default groom drape instead of standing out like a hedgehog.
+pub fn settle(
+    rest: RestShape,
+    collider: Option<&HeadCollider>,
+    params: &SimParams,
+    steps: usize,
+) -> Result<RestShape, GroomError> {
+    let n = rest.particles_per_strand;
+    let (mut params, _) = params.sanitized();
+    params.local_stiffness = params.local_stiffness.min(0.05);
+    params.global_stiffness_root = 0.0;
+    params.global_stiffness_tip = 0.0;
+    params.wind.strength = 0.0;
+    params.drag = params.drag.max(8.0); // overdamped: settle, do not swing
+    let mut strands = Strands::new(rest, Pose::IDENTITY);
+    for k in 0..steps {
+        let input = StepInput {
+            dt: 1.0 / 60.0,
+            time: k as f32 / 60.0,
+            head_from: Pose::IDENTITY,
+            head_to: Pose::IDENTITY,
+            collider,
+            extra_colliders: &[],
+            params: &params,
+        };
+        strands.step(&input);
+    }
+    Ok(RestShape::new(strands.positions().to_vec(), n)?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::test_head;
+
+    fn top_half(mesh: &HeadMesh) -> Vec<f32> {
+        mesh.triangles.iter().map(|t| if mesh.corners(t).iter().all(|p| p.y > 0.0) { 1.0 } else { 0.0 }).collect()
+    }
+
+    #[test]
+    fn roots_land_only_on_weighted_triangles_and_are_deterministic() {
+        let mesh = test_head(3);
+        let weights = top_half(&mesh);
+        let roots = sample_roots(&mesh, &weights, 500, 7).unwrap();
+        assert_eq!(roots.len(), 500);
+        assert!(roots.iter().all(|r| weights[r.triangle as usize] == 1.0));
+        assert!(roots.iter().all(|r| (r.barycentric.iter().sum::<f32>() - 1.0).abs() < 1e-5));
+        assert!(roots.iter().all(|r| r.barycentric.iter().all(|&b| b >= 0.0)));
+        assert_eq!(roots, sample_roots(&mesh, &weights, 500, 7).unwrap());
+        assert_ne!(roots, sample_roots(&mesh, &weights, 500, 8).unwrap());
+    }
+
+    #[test]
+    fn density_follows_area_not_vertex_count() {
+        // Two triangles of equal area: one whole, the other split into 4 small ones.
+        // Per-vertex sampling would favour the split half; area sampling gives ~50/50.
+        let mut positions = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::new(3.0, 0.0, 0.0), Vec3::new(4.0, 0.0, 0.0)];
+        positions.extend([
+            Vec3::new(3.0, 1.0, 0.0),
+            Vec3::new(3.5, 0.0, 0.0),
+            Vec3::new(3.5, 0.5, 0.0),
+            Vec3::new(3.0, 0.5, 0.0),
+        ]);
+        let triangles = vec![[0, 1, 2], [3, 6, 8], [6, 4, 7], [8, 7, 5], [6, 7, 8]];
+        let mesh = HeadMesh::from_triangles(positions, triangles).unwrap();
+        let roots = sample_roots(&mesh, &[1.0; 5], 4000, 1).unwrap();
+        let on_big = roots.iter().filter(|r| r.triangle == 0).count() as f32 / 4000.0;
+        assert!((on_big - 0.5).abs() < 0.03, "{on_big}");
+    }
+
+    #[test]
+    fn no_scalp_is_an_error() {
+        let mesh = test_head(1);
+        let zero = vec![0.0; mesh.triangles.len()];
+        assert_eq!(sample_roots(&mesh, &zero, 10, 0), Err(GroomError::NoScalp));
+        assert!(matches!(sample_roots(&mesh, &[1.0], 10, 0), Err(GroomError::WeightCountMismatch { .. })));
+    }
+
+    #[test]
+    fn guides_start_along_the_normal_with_the_asked_length() {
+        let mesh = test_head(3);
+        let roots = sample_roots(&mesh, &top_half(&mesh), 50, 3).unwrap();
+        let params = GuideParams { segments: 10, length: 0.2, length_variation: 0.0, curl: 0.0 };
+        let guides = grow_guides(&mesh, &roots, &params, 3);
+        assert_eq!(guides.len(), 50 * 11);
+        for (strand, root) in guides.chunks_exact(11).zip(&roots) {
+            assert!((strand[0] - root.position(&mesh)).length() < 1e-6);
+            let dir = (strand[1] - strand[0]).normalize();
+            assert!(dir.dot(root.normal(&mesh)) > 0.9999);
+            assert!(((strand[10] - strand[0]).length() - 0.2).abs() < 1e-4);
+        }
+    }
+
+    #[test]
+    fn settling_drapes_the_hair_down_and_outside_the_head() {
+        let mesh = test_head(3);
+        let collider = HeadCollider::new(&mesh, 32).unwrap();
+        let roots = sample_roots(&mesh, &top_half(&mesh), 40, 5).unwrap();
+        let grown = grow_guides(&mesh, &roots, &GuideParams::default(), 5);
+        let rest = RestShape::new(grown, 11).unwrap();
+        let mean_tip_y = |r: &RestShape| r.positions.chunks_exact(11).map(|s| s[10].y).sum::<f32>() / 40.0;
+        let before = mean_tip_y(&rest);
+        let settled = settle(rest, Some(&collider), &SimParams::default(), 240).unwrap();
+        let after = mean_tip_y(&settled);
+        assert!(after < before - 0.1, "tips fell from {before} to {after}");
+        let deepest = settled.positions.iter().map(|&p| collider.signed_distance(p)).fold(f32::MAX, f32::min);
+        assert!(deepest > -1e-3, "no particle inside the head: {deepest}");
+    }
+}

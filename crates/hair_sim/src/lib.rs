@@ -1,0 +1,51 @@
+//! Engine-free strand hair: growth, simulation and head-mesh collision.
+//!
+//! This crate knows nothing about Bevy; `bevy_hair` drives it. It builds in about a
+//! minute, so everything algorithmic lives here, with its tests.
+//!
+//! ```
+//! use hair_sim::prelude::*;
+//!
+//! let head = test_head(3); // a closed ellipsoid head with ears
+//! let collider = HeadCollider::new(&head, 32).unwrap();
+//! let crown: Vec<f32> = head.triangles.iter()
+//!     .map(|t| if head.corners(t).iter().all(|p| p.y > 0.05) { 1.0 } else { 0.0 })
+//!     .collect();
+//! let roots = sample_roots(&head, &crown, 100, 1).unwrap();
+//! let guides = grow_guides(&head, &roots, &GuideParams::default(), 1);
+//! let mut strands = Strands::new(RestShape::new(guides, 11).unwrap(), Pose::IDENTITY);
+//! let params = SimParams::default();
+//! for k in 0..60 {
+//!     strands.step(&StepInput {
+//!         dt: 1.0 / 60.0,
+//!         time: k as f32 / 60.0,
+//!         head_from: Pose::IDENTITY,
+//!         head_to: Pose::IDENTITY,
+//!         collider: Some(&collider),
+//!         extra_colliders: &[],
+//!         params: &params,
+//!     });
+//! }
+//! assert!(strands.max_stretch() < 1e-3);
+//! ```
+//!
+//! Layout: [`mesh`] (the head and its validation), [`groom`] (roots and guides),
+//! [`solver`] (state, settings, the step), [`collide`] (BVH + distance grid, spheres,
+//! capsules). All public vectors are glam 0.33 ([`math`]), the version parry3d uses.
+
+#![warn(missing_docs)]
+
+pub mod collide;
+pub mod groom;
+pub mod math;
+pub mod mesh;
+pub mod solver;
+
+/// The types most users need.
+pub mod prelude {
+    pub use crate::collide::{DEFAULT_GRID_RESOLUTION, ExtraCollider, HeadCollider};
+    pub use crate::groom::{GroomError, GuideParams, RootBinding, grow_guides, sample_roots, settle};
+    pub use crate::math::{Pose, Quat, Vec3};
+    pub use crate::mesh::{HeadMesh, MeshError, test_head};
+    pub use crate::solver::{LengthMode, RestShape, SimParams, StepInput, StepReport, Strands, Wind};
+}

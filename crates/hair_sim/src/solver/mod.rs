@@ -1,0 +1,255 @@
+//! The strand solver: state, settings and the fixed step.
+//!
+//! One [`Strands`] holds a whole groom in flat arrays, strand `i` particle `j` at
+//! `i * n + j`. A step is independent per strand, so [`Strands::chunks_mut`] splits the
+//! state into disjoint [`StrandChunk`]s that any thread pool can step in parallel; the
+//! result is bit-identical to [`Strands::step`], whatever the chunking.
+
+mod params;
+mod step;
+mod wind;
+
+pub use params::{LengthMode, ParamIssue, SimParams, Wind, stiffness_per_application};
+pub use wind::wind_at;
+
+use crate::collide::{ExtraCollider, HeadCollider};
+use crate::math::{Pose, Quat, Vec3};
+use std::fmt;
+
+/// Shortest segment the solver accepts, metres; shorter rest segments are lengthened.
+pub const MIN_SEGMENT_LENGTH: f32 = 1e-5;
+
+/// Why a set of strands cannot be simulated.
+#[derive(Clone, Debug, PartialEq)]
+pub enum StrandsError {
+    /// Fewer than two particles per strand: there is no segment to simulate.
+    TooFewParticles(usize),
+    /// The number of rest positions is not a whole number of strands.
+    RaggedStrands {
+        /// Rest positions given.
+        positions: usize,
+        /// Particles per strand asked for.
+        particles_per_strand: usize,
+    },
+    /// A rest position is NaN or infinite.
+    NonFiniteRest {
+        /// Its index.
+        index: usize,
+    },
+}
+
+impl fmt::Display for StrandsError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            StrandsError::TooFewParticles(n) => {
+                write!(f, "a strand needs at least 2 particles, got {n}")
+            }
+            StrandsError::RaggedStrands { positions, particles_per_strand } => write!(
+                f,
+                "{positions} rest positions are not a whole number of {particles_per_strand}-particle strands"
+            ),
+            StrandsError::NonFiniteRest { index } => {
+                write!(f, "rest position {index} is NaN or infinite")
+            }
+        }
+    }
+}
+
+impl std::error::Error for StrandsError {}
+
+/// The rest shape, fixed while simulating: what shape keeping and resets aim for.
+#[derive(Clone, Debug)]
+pub struct RestShape {
+    /// Particles per strand.
+    pub particles_per_strand: usize,
+    /// Rest positions in head-local space.
+    pub positions: Vec<Vec3>,
+    /// Rest length of the segment ending at each particle (0 at roots).
+    pub lengths: Vec<f32>,
+    /// Rest direction of the segment ending at each particle, in its parent segment's
+    /// frame (unused at roots).
+    pub local_directions: Vec<Vec3>,
+    /// Head-local frame at each root (maps +Y onto the first segment's rest direction).
+    pub root_frames: Vec<Quat>,
+}
+
+impl RestShape {
+    /// Derives lengths and local directions from head-local rest positions.
+    pub fn new(positions: Vec<Vec3>, particles_per_strand: usize) -> Result<Self, StrandsError> {
+        let n = particles_per_strand;
+        if n < 2 {
+            return Err(StrandsError::TooFewParticles(n));
+        }
+        if positions.len() % n != 0 {
+            return Err(StrandsError::RaggedStrands { positions: positions.len(), particles_per_strand: n });
+        }
+        if let Some(index) = positions.iter().position(|p| !p.is_finite()) {
+            return Err(StrandsError::NonFiniteRest { index });
+        }
+        let mut lengths = vec![0.0; positions.len()];
+        let mut local_directions = vec![Vec3::Y; positions.len()];
+        let mut root_frames = Vec::with_capacity(positions.len() / n);
+        for (s, strand) in positions.chunks_exact(n).enumerate() {
+            let first = (strand[1] - strand[0]).normalize_or(Vec3::Y);
+            let frame = Quat::from_rotation_arc(Vec3::Y, first);
+            root_frames.push(frame);
+            // At rest no segment deviates from where its parent expects it, so every
+            // frame along the strand equals the root frame (see `step::local_shape`).
+            for j in 1..n {
+                let segment = strand[j] - strand[j - 1];
+                lengths[s * n + j] = segment.length().max(MIN_SEGMENT_LENGTH);
+                local_directions[s * n + j] = frame.inverse() * segment.normalize_or(first);
+            }
+        }
+        Ok(RestShape { particles_per_strand: n, positions, lengths, local_directions, root_frames })
+    }
+
+    /// Number of strands.
+    pub fn strand_count(&self) -> usize {
+        self.positions.len() / self.particles_per_strand
+    }
+}
+
+/// What one step did, summed over strands.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StepReport {
+    /// Strands reset to the rest pose because their root jumped (teleport).
+    pub teleport_resets: u32,
+    /// Strands reset because a non-finite value appeared (should stay 0).
+    pub nan_resets: u32,
+    /// Particle–collider contacts resolved in the last substep.
+    pub contacts: u32,
+    /// Deepest penetration found (before resolving), metres below the thickness offset.
+    pub max_depth: f32,
+}
+
+impl StepReport {
+    /// Adds another chunk's report to this one.
+    pub fn merge(&mut self, other: StepReport) {
+        self.teleport_resets += other.teleport_resets;
+        self.nan_resets += other.nan_resets;
+        self.contacts += other.contacts;
+        self.max_depth = self.max_depth.max(other.max_depth);
+    }
+}
+
+/// Everything one step needs besides the strand state.
+#[derive(Clone, Copy)]
+pub struct StepInput<'a> {
+    /// Step length, seconds. Non-finite or non-positive steps do nothing.
+    pub dt: f32,
+    /// Simulation time at the start of the step, seconds (drives wind gusts).
+    pub time: f32,
+    /// Head pose at the start of the step.
+    pub head_from: Pose,
+    /// Head pose at the end of the step; roots follow the interpolation between the two.
+    pub head_to: Pose,
+    /// The head collider, in head-local space (scale already baked in).
+    pub collider: Option<&'a HeadCollider>,
+    /// Extra world-space colliders.
+    pub extra_colliders: &'a [ExtraCollider],
+    /// Settings; pass them through [`SimParams::sanitized`] first.
+    pub params: &'a SimParams,
+}
+
+/// The simulated state of a groom: positions and velocities in world space.
+#[derive(Clone, Debug)]
+pub struct Strands {
+    rest: RestShape,
+    positions: Vec<Vec3>,
+    velocities: Vec<Vec3>,
+}
+
+impl Strands {
+    /// Strands at rest, placed by the head pose `pose`.
+    pub fn new(rest: RestShape, pose: Pose) -> Self {
+        let positions = rest.positions.iter().map(|&p| pose.transform_point(p)).collect();
+        let velocities = vec![Vec3::ZERO; rest.positions.len()];
+        Strands { rest, positions, velocities }
+    }
+
+    /// The rest shape.
+    pub fn rest(&self) -> &RestShape {
+        &self.rest
+    }
+
+    /// Particles per strand.
+    pub fn particles_per_strand(&self) -> usize {
+        self.rest.particles_per_strand
+    }
+
+    /// Number of strands.
+    pub fn strand_count(&self) -> usize {
+        self.rest.strand_count()
+    }
+
+    /// World positions, strand-major.
+    pub fn positions(&self) -> &[Vec3] {
+        &self.positions
+    }
+
+    /// World velocities, strand-major.
+    pub fn velocities(&self) -> &[Vec3] {
+        &self.velocities
+    }
+
+    /// Puts every strand back at rest under `pose`, motionless.
+    pub fn reset(&mut self, pose: Pose) {
+        for (p, &r) in self.positions.iter_mut().zip(&self.rest.positions) {
+            *p = pose.transform_point(r);
+        }
+        self.velocities.fill(Vec3::ZERO);
+    }
+
+    /// Splits the state into chunks of `strands_per_chunk` strands (the last may be
+    /// shorter) that can be stepped on different threads.
+    pub fn chunks_mut(&mut self, strands_per_chunk: usize) -> Vec<StrandChunk<'_>> {
+        let n = self.rest.particles_per_strand;
+        let size = strands_per_chunk.max(1) * n;
+        self.positions
+            .chunks_mut(size)
+            .zip(self.velocities.chunks_mut(size))
+            .enumerate()
+            .map(|(c, (positions, velocities))| StrandChunk {
+                first_strand: c * strands_per_chunk.max(1),
+                rest: &self.rest,
+                positions,
+                velocities,
+            })
+            .collect()
+    }
+
+    /// Advances every strand by one step on the calling thread.
+    pub fn step(&mut self, input: &StepInput) -> StepReport {
+        let mut report = StepReport::default();
+        let all = self.strand_count().max(1);
+        for mut chunk in self.chunks_mut(all) {
+            report.merge(chunk.step(input));
+        }
+        report
+    }
+
+    /// Largest segment length divided by its rest length, minus one (0 = no stretch).
+    pub fn max_stretch(&self) -> f32 {
+        let n = self.rest.particles_per_strand;
+        (0..self.positions.len())
+            .filter(|i| i % n != 0)
+            .map(|i| ((self.positions[i] - self.positions[i - 1]).length() / self.rest.lengths[i] - 1.0).abs())
+            .fold(0.0, f32::max)
+    }
+}
+
+/// A contiguous run of strands borrowed from [`Strands`], steppable on its own thread.
+pub struct StrandChunk<'a> {
+    first_strand: usize,
+    rest: &'a RestShape,
+    positions: &'a mut [Vec3],
+    velocities: &'a mut [Vec3],
+}
+
+impl StrandChunk<'_> {
+    /// Advances the strands of this chunk by one step.
+    pub fn step(&mut self, input: &StepInput) -> StepReport {
+        step::step_chunk(self.first_strand, self.rest, self.positions, self.velocities, input)
+    }
+}

@@ -1,0 +1,222 @@
+//! Simulation settings, and how bad values are caught and replaced.
+
+use crate::math::Vec3;
+use std::fmt;
+
+/// How segment length is kept.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LengthMode {
+    /// Follow-The-Leader (Müller et al. 2012): every segment keeps its rest length exactly;
+    /// the velocity correction `ftl_damping` removes the energy FTL would add.
+    #[default]
+    Inextensible,
+    /// The reference mass-spring model: `F_s = k_s (l − l0)`, `F_d = k_d v` along each
+    /// segment, plus a clamp that keeps every segment within `length_tolerance` of its
+    /// rest length.
+    Springs,
+}
+
+/// Wind: a steady direction and strength with gusts.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Wind {
+    /// Direction the air moves towards (need not be unit length; zero means no wind).
+    pub direction: Vec3,
+    /// Acceleration, m/s², felt by a segment lying across the wind.
+    pub strength: f32,
+    /// Gust amplitude as a fraction of `strength` (0 = steady).
+    pub gust_strength: f32,
+    /// Gusts per second.
+    pub gust_frequency: f32,
+}
+
+impl Default for Wind {
+    fn default() -> Self {
+        Wind { direction: Vec3::X, strength: 0.0, gust_strength: 0.5, gust_frequency: 0.7 }
+    }
+}
+
+/// Every setting of the solver. Stiffnesses are "fraction of the error removed per 1/60 s":
+/// they mean the same whatever the timestep, substep or iteration count.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SimParams {
+    /// Acceleration of gravity, world space, m/s².
+    pub gravity: Vec3,
+    /// Substeps per step; roots follow the head's interpolated pose across them.
+    pub substeps: u32,
+    /// Constraint iterations per substep.
+    pub iterations: u32,
+    /// Air drag, 1/s: velocity decays as `exp(−drag·t)`.
+    pub drag: f32,
+    /// Inextensible (default) or the reference's mass-spring model.
+    pub length_mode: LengthMode,
+    /// Mass of one particle, kg (spring model).
+    pub particle_mass: f32,
+    /// Spring stiffness `k_s`, N/m (spring model).
+    pub spring_stiffness: f32,
+    /// Spring damping `k_d`, N·s/m, on the segment's relative velocity (spring model).
+    pub spring_damping: f32,
+    /// Allowed stretch or shrink of a segment as a fraction of rest length (spring model).
+    pub length_tolerance: f32,
+    /// Müller's FTL velocity correction, 0..1 (inextensible model).
+    pub ftl_damping: f32,
+    /// Local shape stiffness, 0..1: each segment toward its rest direction in its parent's frame.
+    pub local_stiffness: f32,
+    /// Global shape stiffness at the root, 0..1: toward the rest pose carried by the head.
+    pub global_stiffness_root: f32,
+    /// Global shape stiffness at the tip; linear in between.
+    pub global_stiffness_tip: f32,
+    /// Wind.
+    pub wind: Wind,
+    /// Collide with the head and the extra colliders.
+    pub collision: bool,
+    /// Distance, m, kept between particles and collider surfaces.
+    pub collision_thickness: f32,
+    /// Fraction, 0..1, of tangential sliding removed on contact.
+    pub friction: f32,
+    /// Speed limit, m/s, per particle (the per-step displacement clamp).
+    pub max_speed: f32,
+    /// A root moving further than this in one step, m, resets its strand to the rest pose.
+    pub teleport_distance: f32,
+}
+
+impl Default for SimParams {
+    fn default() -> Self {
+        SimParams {
+            gravity: Vec3::new(0.0, -9.81, 0.0),
+            substeps: 4,
+            iterations: 2,
+            drag: 1.0,
+            length_mode: LengthMode::Inextensible,
+            particle_mass: 1e-3,
+            spring_stiffness: 20.0,
+            spring_damping: 0.02,
+            length_tolerance: 0.1,
+            ftl_damping: 0.9,
+            local_stiffness: 0.3,
+            global_stiffness_root: 0.2,
+            global_stiffness_tip: 0.0,
+            wind: Wind::default(),
+            collision: true,
+            collision_thickness: 0.003,
+            friction: 0.3,
+            max_speed: 15.0,
+            teleport_distance: 0.5,
+        }
+    }
+}
+
+/// A setting that was NaN, infinite or out of range, and what was used instead.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ParamIssue {
+    /// The field, e.g. `"wind.strength"`.
+    pub field: &'static str,
+    /// The value given.
+    pub given: f32,
+    /// The value used.
+    pub used: f32,
+}
+
+impl fmt::Display for ParamIssue {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{} = {} is not usable; using {}", self.field, self.given, self.used)
+    }
+}
+
+impl SimParams {
+    /// Returns settings the solver can always run with, and the list of fields that had to
+    /// change: NaN or infinite values take the default, others are clamped to their range.
+    pub fn sanitized(&self) -> (SimParams, Vec<ParamIssue>) {
+        let defaults = SimParams::default();
+        let mut p = *self;
+        let mut issues = Vec::new();
+        let mut fix = |field: &'static str, value: &mut f32, default: f32, min: f32, max: f32| {
+            let used = if value.is_finite() { value.clamp(min, max) } else { default };
+            if used != *value {
+                issues.push(ParamIssue { field, given: *value, used });
+                *value = used;
+            }
+        };
+        fix("drag", &mut p.drag, defaults.drag, 0.0, 1e3);
+        fix("particle_mass", &mut p.particle_mass, defaults.particle_mass, 1e-7, 1e3);
+        fix("spring_stiffness", &mut p.spring_stiffness, defaults.spring_stiffness, 0.0, 1e7);
+        fix("spring_damping", &mut p.spring_damping, defaults.spring_damping, 0.0, 1e5);
+        fix("length_tolerance", &mut p.length_tolerance, defaults.length_tolerance, 0.0, 0.9);
+        fix("ftl_damping", &mut p.ftl_damping, defaults.ftl_damping, 0.0, 1.0);
+        fix("local_stiffness", &mut p.local_stiffness, defaults.local_stiffness, 0.0, 1.0);
+        fix("global_stiffness_root", &mut p.global_stiffness_root, defaults.global_stiffness_root, 0.0, 1.0);
+        fix("global_stiffness_tip", &mut p.global_stiffness_tip, defaults.global_stiffness_tip, 0.0, 1.0);
+        fix("wind.strength", &mut p.wind.strength, defaults.wind.strength, -1e3, 1e3);
+        fix("wind.gust_strength", &mut p.wind.gust_strength, defaults.wind.gust_strength, 0.0, 10.0);
+        fix("wind.gust_frequency", &mut p.wind.gust_frequency, defaults.wind.gust_frequency, 0.0, 100.0);
+        fix("collision_thickness", &mut p.collision_thickness, defaults.collision_thickness, 0.0, 0.1);
+        fix("friction", &mut p.friction, defaults.friction, 0.0, 1.0);
+        fix("max_speed", &mut p.max_speed, defaults.max_speed, 1e-3, 1e3);
+        fix("teleport_distance", &mut p.teleport_distance, defaults.teleport_distance, 1e-3, 1e4);
+        for (field, v, d) in [
+            ("gravity.x", &mut p.gravity.x, defaults.gravity.x),
+            ("gravity.y", &mut p.gravity.y, defaults.gravity.y),
+            ("gravity.z", &mut p.gravity.z, defaults.gravity.z),
+            ("wind.direction.x", &mut p.wind.direction.x, 0.0),
+            ("wind.direction.y", &mut p.wind.direction.y, 0.0),
+            ("wind.direction.z", &mut p.wind.direction.z, 0.0),
+        ] {
+            fix(field, v, d, -1e3, 1e3);
+        }
+        let mut fix_count = |field: &'static str, value: &mut u32, max: u32| {
+            let used = (*value).clamp(1, max);
+            if used != *value {
+                issues.push(ParamIssue { field, given: *value as f32, used: used as f32 });
+                *value = used;
+            }
+        };
+        fix_count("substeps", &mut p.substeps, 64);
+        fix_count("iterations", &mut p.iterations, 32);
+        (p, issues)
+    }
+}
+
+/// Turns a "fraction of the error removed per 1/60 s" stiffness into the fraction to remove
+/// per application, when it is applied `applications_per_second` times a second. The
+/// error then decays by the same factor each second, whatever the step and iteration count.
+#[inline]
+pub fn stiffness_per_application(stiffness: f32, applications_per_second: f32) -> f32 {
+    if stiffness >= 1.0 {
+        return 1.0;
+    }
+    1.0 - (1.0 - stiffness).powf(60.0 / applications_per_second)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bad_values_are_replaced_and_named() {
+        let bad = SimParams {
+            drag: f32::NAN,
+            friction: -1.0,
+            substeps: 0,
+            gravity: Vec3::new(0.0, f32::INFINITY, 0.0),
+            ..SimParams::default()
+        };
+        let (fixed, issues) = bad.sanitized();
+        assert_eq!(fixed.drag, 1.0);
+        assert_eq!(fixed.friction, 0.0);
+        assert_eq!(fixed.substeps, 1);
+        assert_eq!(fixed.gravity.y, -9.81);
+        let fields: Vec<_> = issues.iter().map(|i| i.field).collect();
+        assert_eq!(fields, ["drag", "friction", "gravity.y", "substeps"]);
+        assert!(issues[1].to_string().contains("friction = -1"));
+        assert!(SimParams::default().sanitized().1.is_empty());
+    }
+
+    #[test]
+    fn stiffness_decay_per_second_is_rate_independent() {
+        let s = 0.3;
+        let per_second = |n: f32| (1.0 - stiffness_per_application(s, n)).powf(n);
+        assert!((per_second(60.0) - 0.7f32.powi(60)).abs() < 1e-9);
+        assert!((per_second(240.0) - per_second(960.0)).abs() < 1e-6);
+        assert_eq!(stiffness_per_application(1.0, 480.0), 1.0);
+        assert_eq!(stiffness_per_application(0.0, 480.0), 0.0);
+    }
+}

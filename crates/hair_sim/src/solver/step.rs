@@ -1,0 +1,339 @@
+//! One fixed step for a run of strands. Per substep and strand:
+//!
+//! 1. integrate free particles: gravity, wind across the segment, springs (spring model),
+//!    drag, the speed clamp;
+//! 2. pin the root to the head pose interpolated for this substep;
+//! 3. `iterations` × (global shape, local shape, length constraint);
+//! 4. collision with the head (head-local) and the extra colliders, with friction;
+//! 5. velocities from the position change, plus Müller's FTL correction.
+//!
+//! A strand whose root jumped more than `teleport_distance` is reset to the rest pose
+//! instead; a strand that somehow produced a non-finite value is reset too.
+
+use super::params::{LengthMode, SimParams, stiffness_per_application};
+use super::wind::wind_at;
+use super::{RestShape, StepInput, StepReport};
+use crate::collide::Contact;
+use crate::math::{Pose, Quat, Vec3};
+
+/// Longest step the solver takes in one go; longer ones (a frame hitch) are shortened,
+/// because the head's motion over them is unknown anyway.
+const MAX_STEP: f32 = 1.0 / 15.0;
+
+/// Per-step constants shared by every strand of a chunk.
+struct Constants {
+    h: f32,
+    poses: Vec<Pose>,
+    drag_factor: f32,
+    max_step_move: f32,
+    local_alpha: f32,
+    global_alpha: Vec<f32>,
+    spring_k: f32,
+    spring_d: f32,
+    ftl_velocity: f32,
+}
+
+impl Constants {
+    fn new(input: &StepInput, n: usize) -> Option<Self> {
+        let p = input.params;
+        if !(input.dt > 0.0 && input.dt.is_finite()) || !input.head_to.is_valid() {
+            return None;
+        }
+        let dt = input.dt.min(MAX_STEP);
+        let from = if input.head_from.is_valid() { input.head_from } else { input.head_to };
+        let substeps = p.substeps.max(1);
+        let h = dt / substeps as f32;
+        let poses = (0..=substeps).map(|s| from.lerp(&input.head_to, s as f32 / substeps as f32)).collect();
+        // Shape constraints run `iterations` times per substep.
+        let applications_per_second = p.iterations.max(1) as f32 / h;
+        let global_alpha = (0..n)
+            .map(|j| {
+                let t = j as f32 / (n - 1) as f32;
+                let s = p.global_stiffness_root + (p.global_stiffness_tip - p.global_stiffness_root) * t;
+                stiffness_per_application(s, applications_per_second)
+            })
+            .collect();
+        // Explicit springs are stable while ω·h < 2; the stiffest mode of a chain has
+        // ω = 2√(k/m). Cap k and the damping so a slider can never blow the solver up.
+        let m = p.particle_mass;
+        Some(Constants {
+            h,
+            poses,
+            drag_factor: (-p.drag * h).exp(),
+            max_step_move: p.max_speed * h,
+            local_alpha: stiffness_per_application(p.local_stiffness, applications_per_second),
+            global_alpha,
+            spring_k: p.spring_stiffness.min(m * (1.5 / h).powi(2) / 4.0),
+            spring_d: p.spring_damping.min(0.5 * m / h),
+            ftl_velocity: p.ftl_damping / h,
+        })
+    }
+}
+
+/// Scratch buffers for one strand, reused across strands.
+struct Scratch {
+    start: Vec<Vec3>,
+    force: Vec<Vec3>,
+    ftl_correction: Vec<Vec3>,
+}
+
+pub(super) fn step_chunk(
+    first_strand: usize,
+    rest: &RestShape,
+    positions: &mut [Vec3],
+    velocities: &mut [Vec3],
+    input: &StepInput,
+) -> StepReport {
+    let n = rest.particles_per_strand;
+    let mut report = StepReport::default();
+    let Some(c) = Constants::new(input, n) else {
+        return report;
+    };
+    let p = input.params;
+    let mut scratch =
+        Scratch { start: vec![Vec3::ZERO; n], force: vec![Vec3::ZERO; n], ftl_correction: vec![Vec3::ZERO; n] };
+    let head_to = *c.poses.last().expect("at least one pose");
+
+    for (k, (xs, vs)) in positions.chunks_exact_mut(n).zip(velocities.chunks_exact_mut(n)).enumerate() {
+        let strand = first_strand + k;
+        let rest_x = &rest.positions[strand * n..][..n];
+        let root_jump = (head_to.transform_point(rest_x[0]) - xs[0]).length();
+        if !(root_jump <= p.teleport_distance) {
+            reset_strand(xs, vs, rest_x, &head_to);
+            report.teleport_resets += 1;
+            continue;
+        }
+        for s in 1..c.poses.len() {
+            let (pose_before, pose) = (&c.poses[s - 1], &c.poses[s]);
+            let time = input.time + c.h * s as f32;
+            substep(strand, rest, xs, vs, &mut scratch, &c, p, time, pose_before, pose, input, &mut report);
+        }
+        if !xs.iter().chain(vs.iter()).all(|v| v.is_finite()) {
+            reset_strand(xs, vs, rest_x, &head_to);
+            report.nan_resets += 1;
+        }
+    }
+    report
+}
+
+fn reset_strand(xs: &mut [Vec3], vs: &mut [Vec3], rest_x: &[Vec3], pose: &Pose) {
+    for (x, &r) in xs.iter_mut().zip(rest_x) {
+        *x = pose.transform_point(r);
+    }
+    vs.fill(Vec3::ZERO);
+}
+
+#[allow(clippy::too_many_arguments)] // one call site; the arguments are the step's context
+fn substep(
+    strand: usize,
+    rest: &RestShape,
+    xs: &mut [Vec3],
+    vs: &mut [Vec3],
+    scratch: &mut Scratch,
+    c: &Constants,
+    p: &SimParams,
+    time: f32,
+    pose_before: &Pose,
+    pose: &Pose,
+    input: &StepInput,
+    report: &mut StepReport,
+) {
+    let n = xs.len();
+    let base = strand * n;
+    let h = c.h;
+    scratch.start.copy_from_slice(xs);
+
+    // 1. Forces and integration of the free particles.
+    let wind = wind_at(&p.wind, strand as u32, time);
+    scratch.force.fill(Vec3::ZERO);
+    if p.length_mode == LengthMode::Springs {
+        for j in 1..n {
+            let d = xs[j] - xs[j - 1];
+            let l = d.length();
+            if l > 1e-9 {
+                let dir = d / l;
+                let stretch = c.spring_k * (l - rest.lengths[base + j]);
+                let damping = c.spring_d * (vs[j] - vs[j - 1]).dot(dir);
+                let f = dir * (stretch + damping);
+                scratch.force[j] -= f;
+                scratch.force[j - 1] += f;
+            }
+        }
+    }
+    let inv_mass = 1.0 / p.particle_mass;
+    for j in 1..n {
+        let tangent = (xs[j] - xs[j - 1]).normalize_or_zero();
+        let wind_across = wind - tangent * wind.dot(tangent);
+        let a = p.gravity + wind_across + scratch.force[j] * inv_mass;
+        let v = (vs[j] + a * h) * c.drag_factor;
+        let step = (v * h).clamp_length_max(c.max_step_move);
+        xs[j] += step;
+    }
+
+    // 2. The root follows the head.
+    xs[0] = pose.transform_point(rest.positions[base]);
+
+    // 3. Shape and length.
+    scratch.ftl_correction.fill(Vec3::ZERO);
+    for _ in 0..p.iterations {
+        global_shape(&rest.positions[base..][..n], xs, &c.global_alpha, pose);
+        if c.local_alpha > 0.0 {
+            local_shape(rest, base, xs, c.local_alpha, pose.rotation * rest.root_frames[strand]);
+        }
+        match p.length_mode {
+            LengthMode::Inextensible => follow_the_leader(&rest.lengths[base..][..n], xs, &mut scratch.ftl_correction),
+            LengthMode::Springs => clamp_lengths(&rest.lengths[base..][..n], xs, p.length_tolerance),
+        }
+    }
+
+    // 4. Collision.
+    if p.collision {
+        for j in 1..n {
+            let start = scratch.start[j];
+            if let Some(collider) = input.collider {
+                let local = pose.inverse_transform_point(xs[j]);
+                if let Some(contact) = collider.resolve(local, p.collision_thickness) {
+                    // Friction acts on sliding relative to the head, so compare in head space.
+                    let local_start = pose_before.inverse_transform_point(start);
+                    xs[j] = pose.transform_point(with_friction(contact, local_start, p.friction));
+                    report.contacts += 1;
+                    report.max_depth = report.max_depth.max(contact.depth);
+                }
+            }
+            for extra in input.extra_colliders {
+                if let Some(contact) = extra.resolve(xs[j], p.collision_thickness) {
+                    xs[j] = with_friction(contact, start, p.friction);
+                    report.contacts += 1;
+                    report.max_depth = report.max_depth.max(contact.depth);
+                }
+            }
+        }
+    }
+
+    // 5. Velocities.
+    vs[0] = (xs[0] - scratch.start[0]) / h;
+    for j in 1..n {
+        let next_correction = if j + 1 < n { scratch.ftl_correction[j + 1] } else { Vec3::ZERO };
+        let v = (xs[j] - scratch.start[j]) / h - next_correction * c.ftl_velocity;
+        vs[j] = v.clamp_length_max(p.max_speed);
+    }
+}
+
+/// Pulls each particle toward the rest pose carried by the head, by `alpha[j]`.
+fn global_shape(rest_x: &[Vec3], xs: &mut [Vec3], alpha: &[f32], pose: &Pose) {
+    for j in 1..xs.len() {
+        if alpha[j] > 0.0 {
+            xs[j] += (pose.transform_point(rest_x[j]) - xs[j]) * alpha[j];
+        }
+    }
+}
+
+/// Pulls each segment toward its rest direction in its parent segment's frame.
+///
+/// The frame starts as the head-carried root frame; each segment's deviation from where
+/// its parent expected it rotates the frame handed to its child, so a bent strand keeps
+/// its curl relative to the bend instead of snapping back to the head's orientation.
+fn local_shape(rest: &RestShape, base: usize, xs: &mut [Vec3], alpha: f32, root_frame: Quat) {
+    let mut frame = root_frame;
+    for j in 1..xs.len() {
+        let expected = frame * rest.local_directions[base + j];
+        let target = xs[j - 1] + expected * rest.lengths[base + j];
+        xs[j] += (target - xs[j]) * alpha;
+        let actual = (xs[j] - xs[j - 1]).normalize_or(expected);
+        frame = (Quat::from_rotation_arc(expected, actual) * frame).normalize();
+    }
+}
+
+/// Follow-The-Leader: walk root → tip, putting each particle at rest length from its
+/// parent. Records each particle's correction for Müller's velocity term.
+fn follow_the_leader(lengths: &[f32], xs: &mut [Vec3], corrections: &mut [Vec3]) {
+    for j in 1..xs.len() {
+        let d = xs[j] - xs[j - 1];
+        let placed = xs[j - 1] + d.normalize_or(Vec3::NEG_Y) * lengths[j];
+        corrections[j] += placed - xs[j];
+        xs[j] = placed;
+    }
+}
+
+/// The reference's length constraint: no segment longer or shorter than `tolerance` ×
+/// its rest length. Root → tip, so each fix rests on an already-fixed parent.
+fn clamp_lengths(lengths: &[f32], xs: &mut [Vec3], tolerance: f32) {
+    for j in 1..xs.len() {
+        let d = xs[j] - xs[j - 1];
+        let l = d.length();
+        let clamped = l.clamp(lengths[j] * (1.0 - tolerance), lengths[j] * (1.0 + tolerance));
+        if clamped != l {
+            xs[j] = xs[j - 1] + d.normalize_or(Vec3::NEG_Y) * clamped;
+        }
+    }
+}
+
+/// The contact position with a `friction` fraction of the tangential slide since `start`
+/// taken back.
+#[inline]
+fn with_friction(contact: Contact, start: Vec3, friction: f32) -> Vec3 {
+    let slide = contact.position - start;
+    let tangential = slide - contact.normal * slide.dot(contact.normal);
+    contact.position - tangential * friction
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ftl_restores_rest_lengths_and_records_corrections() {
+        let lengths = [0.0, 1.0, 1.0];
+        let mut xs = [Vec3::ZERO, Vec3::new(0.0, -2.0, 0.0), Vec3::new(0.0, -2.5, 0.0)];
+        let mut corr = [Vec3::ZERO; 3];
+        follow_the_leader(&lengths, &mut xs, &mut corr);
+        assert_eq!(xs[1], Vec3::new(0.0, -1.0, 0.0));
+        assert_eq!(xs[2], Vec3::new(0.0, -2.0, 0.0));
+        assert_eq!(corr[1], Vec3::new(0.0, 1.0, 0.0));
+        assert_eq!(corr[2], Vec3::new(0.0, 0.5, 0.0));
+    }
+
+    #[test]
+    fn clamp_keeps_lengths_within_tolerance() {
+        let lengths = [0.0, 1.0, 1.0];
+        let mut xs = [Vec3::ZERO, Vec3::new(0.0, -1.5, 0.0), Vec3::new(0.0, -1.55, 0.0)];
+        clamp_lengths(&lengths, &mut xs, 0.1);
+        assert!((xs[1].y + 1.1).abs() < 1e-6);
+        assert!(((xs[2] - xs[1]).length() - 0.9).abs() < 1e-6);
+        let mut within = [Vec3::ZERO, Vec3::new(0.0, -1.05, 0.0), Vec3::new(0.0, -2.0, 0.0)];
+        clamp_lengths(&lengths, &mut within, 0.1);
+        assert_eq!(within[1].y, -1.05, "inside the tolerance nothing moves");
+    }
+
+    #[test]
+    fn local_shape_keeps_the_bend_relative_to_the_parent() {
+        // Rest: an L (down, then +X). Rotate the whole strand 90° about Z by moving the
+        // first segment: full-stiffness local shape must turn the second segment with it.
+        let rest = RestShape::new(vec![Vec3::ZERO, Vec3::NEG_Y, Vec3::new(1.0, -1.0, 0.0)], 3).unwrap();
+        // The head turned 90° about Z: the root frame turns, and full-stiffness local shape
+        // must carry the bend along the strand, not just the first segment.
+        let turn = Quat::from_rotation_z(std::f32::consts::FRAC_PI_2);
+        let mut xs = [Vec3::ZERO, Vec3::new(0.3, -0.2, 0.0), Vec3::new(5.0, 5.0, 0.0)];
+        local_shape(&rest, 0, &mut xs, 1.0, turn * rest.root_frames[0]);
+        assert!((xs[1] - turn * Vec3::NEG_Y).length() < 1e-5, "first {:?}", xs[1]);
+        let second = xs[2] - xs[1];
+        assert!((second - turn * Vec3::X).length() < 1e-5, "second segment {second:?}");
+        // Half stiffness from a strand bent at the root: the child follows the parent's
+        // actual direction, so the L stays an L (angle between segments stays 90°).
+        let mut bent = [Vec3::ZERO, Vec3::new(1.0, -1.0, 0.0).normalize(), Vec3::new(9.0, 0.0, 0.0)];
+        for _ in 0..60 {
+            local_shape(&rest, 0, &mut bent, 0.5, rest.root_frames[0]);
+        }
+        let (a, b) = ((bent[1] - bent[0]).normalize(), (bent[2] - bent[1]).normalize());
+        assert!(a.dot(b).abs() < 1e-3, "right angle kept: {}", a.dot(b));
+    }
+
+    #[test]
+    fn friction_takes_back_tangential_slide_only() {
+        let contact = Contact { position: Vec3::new(1.0, 0.0, 0.0), normal: Vec3::Y, depth: 0.1 };
+        let start = Vec3::new(0.0, -0.5, 0.0);
+        assert_eq!(with_friction(contact, start, 0.0), contact.position);
+        let full = with_friction(contact, start, 1.0);
+        assert!((full - Vec3::new(0.0, 0.0, 0.0)).length() < 1e-6, "{full:?}");
+    }
+}

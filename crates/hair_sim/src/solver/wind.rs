@@ -1,0 +1,68 @@
+//! Gusting wind: smooth 1-D value noise per strand, deterministic in (strand, time).
+
+use super::params::Wind;
+use crate::math::Vec3;
+
+/// A hash of an integer to [0, 1): cheap, stateless, the same on every machine.
+#[inline]
+pub(crate) fn hash01(mut x: u32) -> f32 {
+    x ^= x >> 16;
+    x = x.wrapping_mul(0x7feb_352d);
+    x ^= x >> 15;
+    x = x.wrapping_mul(0x846c_a68b);
+    x ^= x >> 16;
+    (x >> 8) as f32 / (1u32 << 24) as f32
+}
+
+/// Smooth noise in [−1, 1]: cubic interpolation between hashed values at integer `t`.
+#[inline]
+fn value_noise(seed: u32, t: f32) -> f32 {
+    let i = t.floor();
+    let f = t - i;
+    let i = i as i64 as u32;
+    let a = hash01(seed ^ i.wrapping_mul(0x9e37_79b9));
+    let b = hash01(seed ^ i.wrapping_add(1).wrapping_mul(0x9e37_79b9));
+    let s = f * f * (3.0 - 2.0 * f);
+    (a + (b - a) * s) * 2.0 - 1.0
+}
+
+/// The wind acceleration felt by strand `strand` at `time`, before the perpendicular
+/// projection: direction × strength × (1 + gust · noise). Neighbouring strands share most
+/// of a gust (a slow shared term) and differ a little (a per-strand term).
+#[inline]
+pub fn wind_at(wind: &Wind, strand: u32, time: f32) -> Vec3 {
+    let direction = wind.direction.normalize_or_zero();
+    if wind.strength == 0.0 || direction == Vec3::ZERO {
+        return Vec3::ZERO;
+    }
+    let t = time * wind.gust_frequency;
+    let shared = value_noise(0x5eed, t);
+    let own = value_noise(strand.wrapping_mul(0x2545_f491), t * 1.7 + hash01(strand) * 16.0);
+    let gust = 0.7 * shared + 0.3 * own;
+    direction * wind.strength * (1.0 + wind.gust_strength * gust).max(0.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gusts_vary_smoothly_around_the_mean() {
+        let wind = Wind { direction: Vec3::new(2.0, 0.0, 0.0), strength: 3.0, gust_strength: 0.5, gust_frequency: 1.0 };
+        let samples: Vec<f32> = (0..600).map(|k| wind_at(&wind, 7, k as f32 / 60.0).x).collect();
+        let mean = samples.iter().sum::<f32>() / samples.len() as f32;
+        assert!((mean - 3.0).abs() < 0.6, "mean {mean}");
+        assert!(samples.iter().all(|&s| (1.5..=4.5).contains(&s)));
+        let biggest_jump = samples.windows(2).map(|w| (w[1] - w[0]).abs()).fold(0.0, f32::max);
+        assert!(biggest_jump < 0.2, "smooth: {biggest_jump}");
+        assert!(samples.iter().any(|&s| (s - samples[0]).abs() > 0.3), "it does gust");
+        assert_eq!(wind_at(&Wind { strength: 0.0, ..wind }, 1, 0.5), Vec3::ZERO);
+    }
+
+    #[test]
+    fn hash_is_uniform_enough() {
+        let mean = (0..10_000).map(hash01).sum::<f32>() / 10_000.0;
+        assert!((mean - 0.5).abs() < 0.01);
+        assert!((0..10_000).map(hash01).all(|h| (0.0..1.0).contains(&h)));
+    }
+}

@@ -1,0 +1,1 @@
+pub use hair_sim;
