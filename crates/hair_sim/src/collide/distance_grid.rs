@@ -4,9 +4,10 @@ use crate::math::Vec3;
 
 /// Signed distances sampled on a regular grid around the head (negative inside).
 ///
-/// Trilinear interpolation of a distance function is off by at most one cell diagonal
-/// (the function is 1-Lipschitz and every corner lies within a diagonal of the point),
-/// so [`DistanceGrid::max_error`] bounds how wrong [`DistanceGrid::sample`] can be.
+/// Trilinear interpolation of a distance function is off by at most half a cell
+/// diagonal: the function is 1-Lipschitz, so the error is at most the weighted mean
+/// distance from the point to the cell's corners, which peaks at the cell centre.
+/// [`DistanceGrid::max_error`] is that bound.
 #[derive(Clone, Debug)]
 pub struct DistanceGrid {
     origin: Vec3,
@@ -40,7 +41,7 @@ impl DistanceGrid {
 
     /// The largest difference between [`sample`](Self::sample) and the true distance.
     pub fn max_error(&self) -> f32 {
-        self.cell * 3f32.sqrt()
+        0.5 * self.cell * 3f32.sqrt()
     }
 
     /// Edge length of one cell.

@@ -17,7 +17,7 @@ use parry3d::query::PointQueryWithLocation;
 use parry3d::shape::{TriMesh, TriMeshFlags};
 
 /// Distance-grid cells along the longest side of the head's bounding box.
-pub const DEFAULT_GRID_RESOLUTION: u32 = 48;
+pub const DEFAULT_GRID_RESOLUTION: u32 = 64;
 
 /// A contact found by a collision query: where to put the particle and which way is out.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -136,7 +136,8 @@ mod tests {
         let collider = HeadCollider::new(&test_head(5), 64).unwrap();
         let ear_axis = Vec3::new(1.0, 0.05, -0.1).normalize();
         let ray = Quat::from_axis_angle(ear_axis.cross(Vec3::Y).normalize(), 0.127) * ear_axis;
-        let surface = (0..5000).map(|i| ray * (0.05 + i as f32 * 2e-5)).find(|&q| collider.signed_distance(q) > 0.0).unwrap();
+        let surface =
+            (0..5000).map(|i| ray * (0.05 + i as f32 * 2e-5)).find(|&q| collider.signed_distance(q) > 0.0).unwrap();
         let p = surface - ray * 0.004;
         let d = collider.signed_distance(p);
         assert!(d < 0.0, "the test point is inside the ear: {d}");

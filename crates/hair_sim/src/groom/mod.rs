@@ -3,8 +3,10 @@
 //! Pure functions of a [`HeadMesh`] and a seed: the same inputs always give the same
 //! groom, bit for bit.
 
+mod labels;
 mod rng;
 
+pub use labels::{labels_from_colors, triangle_weights};
 pub use rng::SplitMix64;
 
 use crate::collide::HeadCollider;

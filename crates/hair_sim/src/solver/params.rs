@@ -1,10 +1,13 @@
 //! Simulation settings, and how bad values are caught and replaced.
 
-use crate::math::Vec3;
 use std::fmt;
+
+#[cfg(feature = "reflect")]
+use bevy_reflect::Reflect;
 
 /// How segment length is kept.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "reflect", derive(Reflect))]
 pub enum LengthMode {
     /// Follow-The-Leader (Müller et al. 2012): every segment keeps its rest length exactly;
     /// the velocity correction `ftl_damping` removes the energy FTL would add.
@@ -18,9 +21,11 @@ pub enum LengthMode {
 
 /// Wind: a steady direction and strength with gusts.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "reflect", derive(Reflect))]
 pub struct Wind {
-    /// Direction the air moves towards (need not be unit length; zero means no wind).
-    pub direction: Vec3,
+    /// Direction the air moves towards, world space (need not be unit length; zero means
+    /// no wind). Plain arrays here keep the settings reflectable from any glam version.
+    pub direction: [f32; 3],
     /// Acceleration, m/s², felt by a segment lying across the wind.
     pub strength: f32,
     /// Gust amplitude as a fraction of `strength` (0 = steady).
@@ -31,16 +36,17 @@ pub struct Wind {
 
 impl Default for Wind {
     fn default() -> Self {
-        Wind { direction: Vec3::X, strength: 0.0, gust_strength: 0.5, gust_frequency: 0.7 }
+        Wind { direction: [1.0, 0.0, 0.0], strength: 0.0, gust_strength: 0.5, gust_frequency: 0.7 }
     }
 }
 
 /// Every setting of the solver. Stiffnesses are "fraction of the error removed per 1/60 s":
 /// they mean the same whatever the timestep, substep or iteration count.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "reflect", derive(Reflect))]
 pub struct SimParams {
     /// Acceleration of gravity, world space, m/s².
-    pub gravity: Vec3,
+    pub gravity: [f32; 3],
     /// Substeps per step; roots follow the head's interpolated pose across them.
     pub substeps: u32,
     /// Constraint iterations per substep.
@@ -82,9 +88,9 @@ pub struct SimParams {
 impl Default for SimParams {
     fn default() -> Self {
         SimParams {
-            gravity: Vec3::new(0.0, -9.81, 0.0),
-            substeps: 4,
-            iterations: 2,
+            gravity: [0.0, -9.81, 0.0],
+            substeps: 2,
+            iterations: 1,
             drag: 1.0,
             length_mode: LengthMode::Inextensible,
             particle_mass: 1e-3,
@@ -152,13 +158,16 @@ impl SimParams {
         fix("friction", &mut p.friction, defaults.friction, 0.0, 1.0);
         fix("max_speed", &mut p.max_speed, defaults.max_speed, 1e-3, 1e3);
         fix("teleport_distance", &mut p.teleport_distance, defaults.teleport_distance, 1e-3, 1e4);
+        let [gx, gy, gz] = &mut p.gravity;
+        let [wx, wy, wz] = &mut p.wind.direction;
+        let [dgx, dgy, dgz] = defaults.gravity;
         for (field, v, d) in [
-            ("gravity.x", &mut p.gravity.x, defaults.gravity.x),
-            ("gravity.y", &mut p.gravity.y, defaults.gravity.y),
-            ("gravity.z", &mut p.gravity.z, defaults.gravity.z),
-            ("wind.direction.x", &mut p.wind.direction.x, 0.0),
-            ("wind.direction.y", &mut p.wind.direction.y, 0.0),
-            ("wind.direction.z", &mut p.wind.direction.z, 0.0),
+            ("gravity.x", gx, dgx),
+            ("gravity.y", gy, dgy),
+            ("gravity.z", gz, dgz),
+            ("wind.direction.x", wx, 0.0),
+            ("wind.direction.y", wy, 0.0),
+            ("wind.direction.z", wz, 0.0),
         ] {
             fix(field, v, d, -1e3, 1e3);
         }
@@ -196,14 +205,14 @@ mod tests {
             drag: f32::NAN,
             friction: -1.0,
             substeps: 0,
-            gravity: Vec3::new(0.0, f32::INFINITY, 0.0),
+            gravity: [0.0, f32::INFINITY, 0.0],
             ..SimParams::default()
         };
         let (fixed, issues) = bad.sanitized();
         assert_eq!(fixed.drag, 1.0);
         assert_eq!(fixed.friction, 0.0);
         assert_eq!(fixed.substeps, 1);
-        assert_eq!(fixed.gravity.y, -9.81);
+        assert_eq!(fixed.gravity[1], -9.81);
         let fields: Vec<_> = issues.iter().map(|i| i.field).collect();
         assert_eq!(fields, ["drag", "friction", "gravity.y", "substeps"]);
         assert!(issues[1].to_string().contains("friction = -1"));

@@ -4,7 +4,8 @@
 //!    drag, the speed clamp;
 //! 2. pin the root to the head pose interpolated for this substep;
 //! 3. `iterations` × (global shape, local shape, length constraint);
-//! 4. collision with the head (head-local) and the extra colliders, with friction;
+//! 4. collision with the head (head-local) and the extra colliders, with friction, then a
+//!    final length pass (inextensible mode);
 //! 5. velocities from the position change, plus Müller's FTL correction.
 //!
 //! A strand whose root jumped more than `teleport_distance` is reset to the rest pose
@@ -161,10 +162,11 @@ fn substep(
         }
     }
     let inv_mass = 1.0 / p.particle_mass;
+    let gravity = Vec3::from_array(p.gravity);
     for j in 1..n {
         let tangent = (xs[j] - xs[j - 1]).normalize_or_zero();
         let wind_across = wind - tangent * wind.dot(tangent);
-        let a = p.gravity + wind_across + scratch.force[j] * inv_mass;
+        let a = gravity + wind_across + scratch.force[j] * inv_mass;
         let v = (vs[j] + a * h) * c.drag_factor;
         let step = (v * h).clamp_length_max(c.max_step_move);
         xs[j] += step;
@@ -186,27 +188,13 @@ fn substep(
         }
     }
 
-    // 4. Collision.
+    // 4. Collision, then one more length pass: pushing particles out of the head
+    //    stretches segments, and FTL only moves each particle along its parent segment,
+    //    which leaves it outside the surface it was just pushed to (to first order).
     if p.collision {
-        for j in 1..n {
-            let start = scratch.start[j];
-            if let Some(collider) = input.collider {
-                let local = pose.inverse_transform_point(xs[j]);
-                if let Some(contact) = collider.resolve(local, p.collision_thickness) {
-                    // Friction acts on sliding relative to the head, so compare in head space.
-                    let local_start = pose_before.inverse_transform_point(start);
-                    xs[j] = pose.transform_point(with_friction(contact, local_start, p.friction));
-                    report.contacts += 1;
-                    report.max_depth = report.max_depth.max(contact.depth);
-                }
-            }
-            for extra in input.extra_colliders {
-                if let Some(contact) = extra.resolve(xs[j], p.collision_thickness) {
-                    xs[j] = with_friction(contact, start, p.friction);
-                    report.contacts += 1;
-                    report.max_depth = report.max_depth.max(contact.depth);
-                }
-            }
+        collide(xs, &scratch.start, p, pose_before, pose, input, report);
+        if p.length_mode == LengthMode::Inextensible {
+            follow_the_leader(&rest.lengths[base..][..n], xs, &mut scratch.ftl_correction);
         }
     }
 
@@ -216,6 +204,37 @@ fn substep(
         let next_correction = if j + 1 < n { scratch.ftl_correction[j + 1] } else { Vec3::ZERO };
         let v = (xs[j] - scratch.start[j]) / h - next_correction * c.ftl_velocity;
         vs[j] = v.clamp_length_max(p.max_speed);
+    }
+}
+
+/// Moves particles out of the head and the extra colliders, with friction.
+fn collide(
+    xs: &mut [Vec3],
+    start: &[Vec3],
+    p: &SimParams,
+    pose_before: &Pose,
+    pose: &Pose,
+    input: &StepInput,
+    report: &mut StepReport,
+) {
+    for j in 1..xs.len() {
+        if let Some(collider) = input.collider {
+            let local = pose.inverse_transform_point(xs[j]);
+            if let Some(contact) = collider.resolve(local, p.collision_thickness) {
+                // Friction acts on sliding relative to the head, so compare in head space.
+                let local_start = pose_before.inverse_transform_point(start[j]);
+                xs[j] = pose.transform_point(with_friction(contact, local_start, p.friction));
+                report.contacts += 1;
+                report.max_depth = report.max_depth.max(contact.depth);
+            }
+        }
+        for extra in input.extra_colliders {
+            if let Some(contact) = extra.resolve(xs[j], p.collision_thickness) {
+                xs[j] = with_friction(contact, start[j], p.friction);
+                report.contacts += 1;
+                report.max_depth = report.max_depth.max(contact.depth);
+            }
+        }
     }
 }
 

@@ -31,7 +31,7 @@ fn value_noise(seed: u32, t: f32) -> f32 {
 /// of a gust (a slow shared term) and differ a little (a per-strand term).
 #[inline]
 pub fn wind_at(wind: &Wind, strand: u32, time: f32) -> Vec3 {
-    let direction = wind.direction.normalize_or_zero();
+    let direction = Vec3::from_array(wind.direction).normalize_or_zero();
     if wind.strength == 0.0 || direction == Vec3::ZERO {
         return Vec3::ZERO;
     }
@@ -48,7 +48,7 @@ mod tests {
 
     #[test]
     fn gusts_vary_smoothly_around_the_mean() {
-        let wind = Wind { direction: Vec3::new(2.0, 0.0, 0.0), strength: 3.0, gust_strength: 0.5, gust_frequency: 1.0 };
+        let wind = Wind { direction: [2.0, 0.0, 0.0], strength: 3.0, gust_strength: 0.5, gust_frequency: 1.0 };
         let samples: Vec<f32> = (0..600).map(|k| wind_at(&wind, 7, k as f32 / 60.0).x).collect();
         let mean = samples.iter().sum::<f32>() / samples.len() as f32;
         assert!((mean - 3.0).abs() < 0.6, "mean {mean}");

@@ -1,0 +1,127 @@
+//! CLI benchmark: a groom on the procedural head (5,120 triangles) while keyframes
+//! turn, nod and shake it; prints one JSON line.
+//!
+//! ```text
+//! cargo run --release -p hair_sim --example bench -- --guides 2048 --particles 16 --steps 600
+//! ```
+
+use hair_sim::prelude::*;
+use std::time::Instant;
+
+/// Head keyframes: (time s, yaw rad, pitch rad), looped; a turn, a nod, a fast shake.
+const KEYS: [(f32, f32, f32); 9] = [
+    (0.0, 0.0, 0.0),
+    (0.6, 0.8, 0.0),
+    (1.2, -0.8, 0.0),
+    (1.8, 0.0, 0.35),
+    (2.4, 0.0, -0.3),
+    (2.65, 0.5, 0.0),
+    (2.9, -0.5, 0.0),
+    (3.15, 0.5, 0.0),
+    (3.6, 0.0, 0.0),
+];
+
+fn head_pose(time: f32) -> Pose {
+    let period = KEYS[KEYS.len() - 1].0;
+    let t = time.rem_euclid(period);
+    let k = KEYS.windows(2).position(|w| t < w[1].0).unwrap_or(KEYS.len() - 2);
+    let ((t0, yaw0, pitch0), (t1, yaw1, pitch1)) = (KEYS[k], KEYS[k + 1]);
+    let f = (t - t0) / (t1 - t0);
+    let s = f * f * (3.0 - 2.0 * f); // ease in and out, as authored keyframes do
+    let rotation =
+        Quat::from_rotation_y(yaw0 + (yaw1 - yaw0) * s) * Quat::from_rotation_x(pitch0 + (pitch1 - pitch0) * s);
+    Pose::new(rotation, Vec3::new(0.0, 1.6, 0.0))
+}
+
+fn arg(name: &str, default: usize) -> usize {
+    let args: Vec<String> = std::env::args().collect();
+    args.iter()
+        .position(|a| a == name)
+        .and_then(|i| args.get(i + 1))
+        .map(|v| v.parse().unwrap_or_else(|_| panic!("{name} takes a whole number, got {v}")))
+        .unwrap_or(default)
+}
+
+fn main() {
+    let guides = arg("--guides", 2048);
+    let particles = arg("--particles", 16).max(2);
+    let steps = arg("--steps", 600).max(1);
+    let threads = arg("--threads", std::thread::available_parallelism().map_or(1, |n| n.get())).max(1);
+
+    let head = test_head(4);
+    let collider = HeadCollider::new(&head, DEFAULT_GRID_RESOLUTION).expect("procedural head");
+    let scalp: Vec<f32> = head
+        .triangles
+        .iter()
+        .map(|t| {
+            let c = head.corners(t).iter().sum::<Vec3>() / 3.0;
+            if c.y > 0.01 && c.z < 0.06 { 1.0 } else { 0.0 }
+        })
+        .collect();
+    let roots = sample_roots(&head, &scalp, guides, 1).expect("scalp");
+    let guide_params = GuideParams { segments: particles - 1, length: 0.25, ..GuideParams::default() };
+    let rest = RestShape::new(grow_guides(&head, &roots, &guide_params, 1), particles).expect("guides");
+    let mut params = SimParams::default();
+    if let Ok(v) = std::env::var("HAIR_BENCH_COLLISION") {
+        params.collision = v == "1";
+    }
+    if let Ok(v) = std::env::var("HAIR_BENCH_SUBSTEPS") {
+        params.substeps = v.parse().unwrap();
+    }
+    if let Ok(v) = std::env::var("HAIR_BENCH_LOCAL") {
+        params.local_stiffness = v.parse().unwrap();
+    }
+    let rest = settle(rest, Some(&collider), &params, 120).expect("settle");
+    let mut strands = Strands::new(rest, head_pose(0.0));
+
+    let chunk = strands.strand_count().div_ceil(threads * 4).max(1);
+    let dt = 1.0 / 60.0;
+    let mut times = Vec::with_capacity(steps);
+    let mut max_penetration = 0.0f32;
+    for k in 0..steps {
+        let time = k as f32 * dt;
+        let input = StepInput {
+            dt,
+            time,
+            head_from: head_pose(time),
+            head_to: head_pose(time + dt),
+            collider: Some(&collider),
+            extra_colliders: &[],
+            params: &params,
+        };
+        let start = Instant::now();
+        let mut chunks = strands.chunks_mut(chunk);
+        std::thread::scope(|scope| {
+            let per_thread = chunks.len().div_ceil(threads);
+            for group in chunks.chunks_mut(per_thread) {
+                scope.spawn(move || {
+                    group.iter_mut().for_each(|c| {
+                        c.step(&input);
+                    })
+                });
+            }
+        });
+        times.push(start.elapsed().as_secs_f64() * 1e3);
+        if k % 10 == 9 {
+            let pose = head_pose(time + dt);
+            let n = strands.particles_per_strand();
+            for (i, &p) in strands.positions().iter().enumerate().filter(|(i, _)| i % n != 0) {
+                let depth = -collider.signed_distance(pose.inverse_transform_point(p));
+                debug_assert!(p.is_finite(), "particle {i} is not finite");
+                max_penetration = max_penetration.max(depth);
+            }
+        }
+    }
+    times.sort_by(f64::total_cmp);
+    let median = times[times.len() / 2];
+    let particle_steps = (guides * particles) as f64;
+    println!(
+        "{{\"guides\":{guides},\"particles_per_strand\":{particles},\"steps\":{steps},\"threads\":{threads},\
+         \"head_triangles\":{},\"ms_per_step\":{median:.4},\"ns_per_particle_step\":{:.2},\
+         \"max_stretch\":{:.6},\"max_penetration_m\":{:.6}}}",
+        head.triangles.len(),
+        median * 1e6 / particle_steps,
+        strands.max_stretch(),
+        max_penetration.max(0.0)
+    );
+}
