@@ -71,6 +71,29 @@ impl DistanceGrid {
         Some(lerp(plane(z), plane(z + 1), t.z))
     }
 
+    /// The grid's lowest corner.
+    pub(super) fn origin(&self) -> Vec3 {
+        self.origin
+    }
+
+    /// Samples along each axis (one more than cells).
+    pub(super) fn dims(&self) -> [usize; 3] {
+        self.dims
+    }
+
+    /// The smallest and largest of the eight corner values of cell `[x, y, z]`: every
+    /// trilinear sample inside the cell lies between them.
+    pub(super) fn cell_range(&self, [x, y, z]: [usize; 3]) -> (f32, f32) {
+        let [dx, dy, _] = self.dims;
+        let mut range = (f32::INFINITY, f32::NEG_INFINITY);
+        for corner in 0..8 {
+            let (cx, cy, cz) = (x + (corner & 1), y + ((corner >> 1) & 1), z + (corner >> 2));
+            let v = self.values[(cz * dy + cy) * dx + cx];
+            range = (range.0.min(v), range.1.max(v));
+        }
+        range
+    }
+
     /// How far beyond the mesh the grid reaches: a point outside the grid is at least
     /// this far from the surface.
     pub fn margin(&self) -> f32 {

@@ -5,6 +5,7 @@
 //! head" with one trilinear lookup; only particles near the surface pay for the exact BVH
 //! query, which also gives the closest point and hence the surface normal to push along.
 
+mod candidates;
 mod distance_grid;
 mod shapes;
 
@@ -13,6 +14,7 @@ pub use shapes::ExtraCollider;
 
 use crate::math::Vec3;
 use crate::mesh::{HeadMesh, MeshError};
+use candidates::{CandidateGrid, Closest, Near};
 use parry3d::query::PointQueryWithLocation;
 use parry3d::shape::{TriMesh, TriMeshFlags};
 
@@ -35,6 +37,7 @@ pub struct Contact {
 pub struct HeadCollider {
     mesh: TriMesh,
     grid: DistanceGrid,
+    candidates: CandidateGrid,
 }
 
 impl HeadCollider {
@@ -51,7 +54,8 @@ impl HeadCollider {
             return Err(MeshError::Degenerate);
         }
         let grid = DistanceGrid::bake(&head.positions, resolution.max(2), |p| signed_distance_exact(&mesh, p));
-        Ok(HeadCollider { mesh, grid })
+        let candidates = CandidateGrid::bake(&grid, &mesh);
+        Ok(HeadCollider { mesh, grid, candidates })
     }
 
     /// The baked distance grid.
@@ -67,8 +71,9 @@ impl HeadCollider {
     /// If `p` (head-local) is closer than `thickness` to the surface, or inside the head,
     /// returns where to move it: `thickness` out along the surface normal.
     ///
-    /// The grid rejects far points with one lookup. Near the surface the BVH query finds
-    /// the closest point; the push follows the normal there, not the line from the head's
+    /// The grid rejects far points with one lookup. Near the surface an exact query finds
+    /// the closest point (a short per-cell candidate list baked from the BVH, or the BVH
+    /// itself); the push follows the normal there, not the line from the head's
     /// centre, which would push particles into an ear instead of out of it.
     #[inline]
     pub fn resolve(&self, p: Vec3, thickness: f32) -> Option<Contact> {
@@ -77,20 +82,37 @@ impl HeadCollider {
         if approx > thickness + error {
             return None;
         }
-        // The true distance is within `error` of the estimate: search no further than that.
-        let max_dist = approx.abs() + error + thickness;
-        let (proj, (triangle, _)) = self.mesh.project_local_point_and_get_location_with_max_dist(p, false, max_dist)?;
-        let offset = p - proj.point;
+        // Where the grid proves `p` outside, only triangles nearer than `thickness` can
+        // matter; inside or unsure, the true closest point is needed to push it out.
+        let outside = approx > error;
+        let reach = if outside { thickness } else { f32::INFINITY };
+        // Near the surface the decision is exact: the cell's candidate list holds every
+        // triangle that can be closest; without one, ask the BVH.
+        let closest = match self.candidates.closest(&self.mesh, p, reach) {
+            Near::Closest(closest) => closest,
+            Near::Beyond => return None,
+            Near::Unlisted => self.closest_by_bvh(p, approx.abs() + error + thickness)?,
+        };
+        let offset = p - closest.point;
         let distance = offset.length();
-        let signed = if proj.is_inside { -distance } else { distance };
+        let signed = if closest.inside { -distance } else { distance };
         if signed >= thickness {
             return None;
         }
         // Outward normal: away from the surface outside, towards it inside; on the surface
         // itself the offset has no direction, so the face normal decides.
-        let normal =
-            if distance > 1e-7 { offset / signed } else { self.mesh.triangle(triangle).normal().unwrap_or(Vec3::Y) };
-        Some(Contact { position: proj.point + normal * thickness, normal, depth: thickness - signed })
+        let normal = if distance > 1e-7 {
+            offset / signed
+        } else {
+            self.mesh.triangle(closest.triangle).normal().unwrap_or(Vec3::Y)
+        };
+        Some(Contact { position: closest.point + normal * thickness, normal, depth: thickness - signed })
+    }
+
+    /// The closest point by a BVH walk; the true distance is within `max_dist`.
+    fn closest_by_bvh(&self, p: Vec3, max_dist: f32) -> Option<Closest> {
+        let (proj, (triangle, _)) = self.mesh.project_local_point_and_get_location_with_max_dist(p, false, max_dist)?;
+        Some(Closest { point: proj.point, triangle, inside: proj.is_inside })
     }
 }
 
@@ -159,6 +181,28 @@ mod tests {
                 assert!((approx - collider.signed_distance(p)).abs() <= err, "at {p:?}");
             }
         }
+    }
+
+    #[test]
+    fn candidate_lists_agree_with_the_bvh() {
+        let collider = HeadCollider::new(&test_head(4), 48).unwrap();
+        let mut listed = 0;
+        for i in 0..4000 {
+            let f = i as f32 * 0.731;
+            let dir = Vec3::new(f.sin(), (f * 1.37).cos(), (f * 0.53).sin()).normalize();
+            let radius = 0.06 + 0.06 * ((f * 3.1).sin() * 0.5 + 0.5);
+            let p = dir * radius;
+            let Near::Closest(closest) = collider.candidates.closest(&collider.mesh, p, f32::INFINITY) else {
+                continue;
+            };
+            listed += 1;
+            let exact = collider.signed_distance(p);
+            let signed = if closest.inside { -1.0 } else { 1.0 } * (p - closest.point).length();
+            assert!((signed - exact).abs() < 1e-6, "at {p:?}: {signed} vs {exact}");
+            let near = matches!(collider.candidates.closest(&collider.mesh, p, 0.003), Near::Closest(_));
+            assert_eq!(near, exact.abs() < 0.003, "at {p:?}: {exact}");
+        }
+        assert!(listed > 500, "most near points have a list: {listed}");
     }
 
     #[test]

@@ -39,8 +39,8 @@ impl ExtraCollider {
         let offset = p - center;
         let distance = offset.length();
         let reach = radius + thickness;
-        if !(distance < reach) {
-            return None; // also rejects NaN
+        if distance.is_nan() || distance >= reach {
+            return None;
         }
         let normal = if distance > 1e-7 { offset / distance } else { Vec3::Y };
         Some(Contact { position: center + normal * reach, normal, depth: reach - distance })

@@ -80,7 +80,7 @@ impl RestShape {
         if n < 2 {
             return Err(StrandsError::TooFewParticles(n));
         }
-        if positions.len() % n != 0 {
+        if !positions.len().is_multiple_of(n) {
             return Err(StrandsError::RaggedStrands { positions: positions.len(), particles_per_strand: n });
         }
         if let Some(index) = positions.iter().position(|p| !p.is_finite()) {

@@ -37,7 +37,7 @@ struct Constants {
 impl Constants {
     fn new(input: &StepInput, n: usize) -> Option<Self> {
         let p = input.params;
-        if !(input.dt > 0.0 && input.dt.is_finite()) || !input.head_to.is_valid() {
+        if !(input.dt > 0.0 && input.dt.is_finite() && input.head_to.is_valid()) {
             return None;
         }
         let dt = input.dt.min(MAX_STEP);
@@ -99,7 +99,7 @@ pub(super) fn step_chunk(
         let strand = first_strand + k;
         let rest_x = &rest.positions[strand * n..][..n];
         let root_jump = (head_to.transform_point(rest_x[0]) - xs[0]).length();
-        if !(root_jump <= p.teleport_distance) {
+        if root_jump.is_nan() || root_jump > p.teleport_distance {
             reset_strand(xs, vs, rest_x, &head_to);
             report.teleport_resets += 1;
             continue;
