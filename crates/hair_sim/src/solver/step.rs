@@ -16,15 +16,46 @@ use super::wind::wind_at;
 use super::{RestShape, StepInput, StepReport};
 use crate::collide::Contact;
 use crate::math::{Pose, Quat, Vec3};
+use glam::{Mat3A, Vec3A};
 
 /// Longest step the solver takes in one go; longer ones (a frame hitch) are shortened,
 /// because the head's motion over them is unknown anyway.
 const MAX_STEP: f32 = 1.0 / 15.0;
 
+/// A head pose as matrices: per particle a matrix–vector product is cheaper than a
+/// quaternion rotation, and the inverse is a transpose computed once.
+#[derive(Clone, Copy)]
+struct PoseMatrix {
+    rotation: Mat3A,
+    inverse: Mat3A,
+    translation: Vec3A,
+}
+
+impl PoseMatrix {
+    fn new(pose: &Pose) -> Self {
+        let rotation = Mat3A::from_quat(pose.rotation);
+        PoseMatrix { rotation, inverse: rotation.transpose(), translation: pose.translation.into() }
+    }
+
+    /// Head-local point → world.
+    #[inline]
+    fn world_point(&self, p: Vec3) -> Vec3 {
+        (self.rotation * Vec3A::from(p) + self.translation).into()
+    }
+
+    /// World point → head-local.
+    #[inline]
+    fn local_point(&self, p: Vec3) -> Vec3 {
+        (self.inverse * (Vec3A::from(p) - self.translation)).into()
+    }
+}
+
 /// Per-step constants shared by every strand of a chunk.
 struct Constants {
     h: f32,
     poses: Vec<Pose>,
+    /// `poses` as matrices.
+    matrices: Vec<PoseMatrix>,
     drag_factor: f32,
     max_step_move: f32,
     local_alpha: f32,
@@ -44,7 +75,8 @@ impl Constants {
         let from = if input.head_from.is_valid() { input.head_from } else { input.head_to };
         let substeps = p.substeps.max(1);
         let h = dt / substeps as f32;
-        let poses = (0..=substeps).map(|s| from.lerp(&input.head_to, s as f32 / substeps as f32)).collect();
+        let poses: Vec<Pose> = (0..=substeps).map(|s| from.lerp(&input.head_to, s as f32 / substeps as f32)).collect();
+        let matrices = poses.iter().map(PoseMatrix::new).collect();
         // Shape constraints run `iterations` times per substep.
         let applications_per_second = p.iterations.max(1) as f32 / h;
         let global_alpha = (0..n)
@@ -60,6 +92,7 @@ impl Constants {
         Some(Constants {
             h,
             poses,
+            matrices,
             drag_factor: (-p.drag * h).exp(),
             max_step_move: p.max_speed * h,
             local_alpha: stiffness_per_application(p.local_stiffness, applications_per_second),
@@ -105,9 +138,11 @@ pub(super) fn step_chunk(
             continue;
         }
         for s in 1..c.poses.len() {
-            let (pose_before, pose) = (&c.poses[s - 1], &c.poses[s]);
+            let (pose_before, pose) = (&c.matrices[s - 1], &c.matrices[s]);
+            let frame = c.poses[s].rotation;
             let time = input.time + c.h * s as f32;
-            substep(strand, rest, xs, vs, &mut scratch, &c, p, time, pose_before, pose, input, &mut report);
+            let poses = SubstepPoses { before: pose_before, now: pose, frame };
+            substep(strand, rest, xs, vs, &mut scratch, &c, p, time, &poses, input, &mut report);
         }
         if !xs.iter().chain(vs.iter()).all(|v| v.is_finite()) {
             reset_strand(xs, vs, rest_x, &head_to);
@@ -124,6 +159,14 @@ fn reset_strand(xs: &mut [Vec3], vs: &mut [Vec3], rest_x: &[Vec3], pose: &Pose) 
     vs.fill(Vec3::ZERO);
 }
 
+/// The head at the start and end of a substep.
+struct SubstepPoses<'a> {
+    before: &'a PoseMatrix,
+    now: &'a PoseMatrix,
+    /// The rotation of `now`, for the root frames of local shape.
+    frame: Quat,
+}
+
 #[allow(clippy::too_many_arguments)] // one call site; the arguments are the step's context
 fn substep(
     strand: usize,
@@ -134,11 +177,11 @@ fn substep(
     c: &Constants,
     p: &SimParams,
     time: f32,
-    pose_before: &Pose,
-    pose: &Pose,
+    poses: &SubstepPoses,
     input: &StepInput,
     report: &mut StepReport,
 ) {
+    let pose = poses.now;
     let n = xs.len();
     let base = strand * n;
     let h = c.h;
@@ -164,8 +207,13 @@ fn substep(
     let inv_mass = 1.0 / p.particle_mass;
     let gravity = Vec3::from_array(p.gravity);
     for j in 1..n {
-        let tangent = (xs[j] - xs[j - 1]).normalize_or_zero();
-        let wind_across = wind - tangent * wind.dot(tangent);
+        // Only the wind across the segment pushes; without wind, skip the normalize.
+        let wind_across = if wind == Vec3::ZERO {
+            Vec3::ZERO
+        } else {
+            let tangent = (xs[j] - xs[j - 1]).normalize_or_zero();
+            wind - tangent * wind.dot(tangent)
+        };
         let a = gravity + wind_across + scratch.force[j] * inv_mass;
         let v = (vs[j] + a * h) * c.drag_factor;
         let step = (v * h).clamp_length_max(c.max_step_move);
@@ -173,14 +221,14 @@ fn substep(
     }
 
     // 2. The root follows the head.
-    xs[0] = pose.transform_point(rest.positions[base]);
+    xs[0] = pose.world_point(rest.positions[base]);
 
     // 3. Shape and length.
     scratch.ftl_correction.fill(Vec3::ZERO);
     for _ in 0..p.iterations {
         global_shape(&rest.positions[base..][..n], xs, &c.global_alpha, pose);
         if c.local_alpha > 0.0 {
-            local_shape(rest, base, xs, c.local_alpha, pose.rotation * rest.root_frames[strand]);
+            local_shape(rest, base, xs, c.local_alpha, poses.frame * rest.root_frames[strand]);
         }
         match p.length_mode {
             LengthMode::Inextensible => follow_the_leader(&rest.lengths[base..][..n], xs, &mut scratch.ftl_correction),
@@ -192,7 +240,7 @@ fn substep(
     //    stretches segments, and FTL only moves each particle along its parent segment,
     //    which leaves it outside the surface it was just pushed to (to first order).
     if p.collision {
-        collide(xs, &scratch.start, p, pose_before, pose, input, report);
+        collide(xs, &scratch.start, p, poses, input, report);
         if p.length_mode == LengthMode::Inextensible {
             follow_the_leader(&rest.lengths[base..][..n], xs, &mut scratch.ftl_correction);
         }
@@ -212,18 +260,17 @@ fn collide(
     xs: &mut [Vec3],
     start: &[Vec3],
     p: &SimParams,
-    pose_before: &Pose,
-    pose: &Pose,
+    poses: &SubstepPoses,
     input: &StepInput,
     report: &mut StepReport,
 ) {
     for j in 1..xs.len() {
         if let Some(collider) = input.collider {
-            let local = pose.inverse_transform_point(xs[j]);
+            let local = poses.now.local_point(xs[j]);
             if let Some(contact) = collider.resolve(local, p.collision_thickness) {
                 // Friction acts on sliding relative to the head, so compare in head space.
-                let local_start = pose_before.inverse_transform_point(start[j]);
-                xs[j] = pose.transform_point(with_friction(contact, local_start, p.friction));
+                let local_start = poses.before.local_point(start[j]);
+                xs[j] = poses.now.world_point(with_friction(contact, local_start, p.friction));
                 report.contacts += 1;
                 report.max_depth = report.max_depth.max(contact.depth);
             }
@@ -239,10 +286,10 @@ fn collide(
 }
 
 /// Pulls each particle toward the rest pose carried by the head, by `alpha[j]`.
-fn global_shape(rest_x: &[Vec3], xs: &mut [Vec3], alpha: &[f32], pose: &Pose) {
+fn global_shape(rest_x: &[Vec3], xs: &mut [Vec3], alpha: &[f32], pose: &PoseMatrix) {
     for j in 1..xs.len() {
         if alpha[j] > 0.0 {
-            xs[j] += (pose.transform_point(rest_x[j]) - xs[j]) * alpha[j];
+            xs[j] += (pose.world_point(rest_x[j]) - xs[j]) * alpha[j];
         }
     }
 }
@@ -253,14 +300,34 @@ fn global_shape(rest_x: &[Vec3], xs: &mut [Vec3], alpha: &[f32], pose: &Pose) {
 /// its parent expected it rotates the frame handed to its child, so a bent strand keeps
 /// its curl relative to the bend instead of snapping back to the head's orientation.
 fn local_shape(rest: &RestShape, base: usize, xs: &mut [Vec3], alpha: f32, root_frame: Quat) {
-    let mut frame = root_frame;
+    let mut frame = Mat3A::from_quat(root_frame);
     for j in 1..xs.len() {
-        let expected = frame * rest.local_directions[base + j];
-        let target = xs[j - 1] + expected * rest.lengths[base + j];
+        let expected = frame * Vec3A::from(rest.local_directions[base + j]);
+        let target = xs[j - 1] + Vec3::from(expected) * rest.lengths[base + j];
         xs[j] += (target - xs[j]) * alpha;
-        let actual = (xs[j] - xs[j - 1]).normalize_or(expected);
-        frame = (Quat::from_rotation_arc(expected, actual) * frame).normalize();
+        let actual = Vec3A::from(xs[j] - xs[j - 1]).normalize_or(expected);
+        frame = rotation_arc(expected, actual) * frame;
     }
+}
+
+/// The shortest-arc rotation taking unit `from` onto unit `to`, as a matrix (Rodrigues):
+/// `R = c·I + [v]× + v·vᵀ/(1 + c)` with `v = from × to`, `c = from · to`. Unlike the
+/// quaternion form it needs no square root, and it is orthonormal to rounding, so the
+/// frame chained along a strand needs no renormalising.
+#[inline]
+fn rotation_arc(from: Vec3A, to: Vec3A) -> Mat3A {
+    let c = from.dot(to);
+    if c < -0.999 {
+        // Nearly opposite: the axis is ill-defined; the quaternion form picks one.
+        return Mat3A::from_quat(Quat::from_rotation_arc(from.into(), to.into()));
+    }
+    let v = from.cross(to);
+    let kv = v / (1.0 + c);
+    Mat3A::from_cols(
+        Vec3A::new(c, v.z, -v.y) + kv * v.x,
+        Vec3A::new(-v.z, c, v.x) + kv * v.y,
+        Vec3A::new(v.y, -v.x, c) + kv * v.z,
+    )
 }
 
 /// Follow-The-Leader: walk root → tip, putting each particle at rest length from its
@@ -345,6 +412,21 @@ mod tests {
         }
         let (a, b) = ((bent[1] - bent[0]).normalize(), (bent[2] - bent[1]).normalize());
         assert!(a.dot(b).abs() < 1e-3, "right angle kept: {}", a.dot(b));
+    }
+
+    #[test]
+    fn rotation_arc_matches_the_quaternion_form() {
+        for i in 0..200 {
+            let f = i as f32 * 0.61;
+            let from = Vec3A::new(f.sin(), (f * 1.7).cos(), (f * 0.3).sin() - 0.2).normalize();
+            let to = Vec3A::new((f * 2.3).cos(), f.sin() * 0.5, (f * 1.1).cos()).normalize();
+            let m = rotation_arc(from, to);
+            let q = Mat3A::from_quat(Quat::from_rotation_arc(from.into(), to.into()));
+            assert!((m * from - to).length() < 1e-5, "maps from onto to");
+            for axis in [Vec3A::X, Vec3A::Y, Vec3A::Z] {
+                assert!((m * axis - q * axis).length() < 1e-4, "{i}: {:?} vs {:?}", m * axis, q * axis);
+            }
+        }
     }
 
     #[test]
