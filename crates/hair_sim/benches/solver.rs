@@ -1,0 +1,125 @@
+//! Criterion benches of the solver's pieces. Small samples, so the whole run takes about a
+//! minute: `cargo bench -p hair_sim` (or `-- step` to pick some).
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use hair_sim::groom::SplitMix64;
+use hair_sim::prelude::*;
+use std::hint::black_box;
+use std::time::Duration;
+
+const DT: f32 = 1.0 / 60.0;
+
+/// The head of `examples/bench.rs`: 5,120 triangles.
+fn head() -> HeadMesh {
+    test_head(4)
+}
+
+/// Scalp weights: the top and back of the head, as in `examples/bench.rs`.
+fn scalp(head: &HeadMesh) -> Vec<f32> {
+    head.triangles
+        .iter()
+        .map(|t| {
+            let c = head.corners(t).iter().sum::<Vec3>() / 3.0;
+            if c.y > 0.01 && c.z < 0.06 { 1.0 } else { 0.0 }
+        })
+        .collect()
+}
+
+/// A head turning and nodding, one pose per frame.
+fn head_pose(frame: u64) -> Pose {
+    let t = frame as f32 * DT;
+    Pose::new(
+        Quat::from_rotation_y(0.8 * (2.0 * t).sin()) * Quat::from_rotation_x(0.3 * (3.0 * t).sin()),
+        Vec3::new(0.0, 1.6, 0.0),
+    )
+}
+
+fn collider_build(c: &mut Criterion) {
+    let head = head();
+    c.bench_function("HeadCollider::new test_head(4) res 64", |b| {
+        b.iter(|| HeadCollider::new(black_box(&head), DEFAULT_GRID_RESOLUTION).unwrap())
+    });
+}
+
+fn collider_resolve(c: &mut Criterion) {
+    let head = head();
+    let collider = HeadCollider::new(&head, DEFAULT_GRID_RESOLUTION).unwrap();
+    let everywhere = vec![1.0; head.triangles.len()];
+    let roots = sample_roots(&head, &everywhere, 10_000, 9).unwrap();
+    let mut rng = SplitMix64::new(9);
+    let mut offset = |lo: f32, hi: f32| lo + (hi - lo) * rng.next_f32();
+    // Within ±5 mm of the surface: every point pays for the exact BVH query.
+    let near: Vec<Vec3> = roots.iter().map(|r| r.position(&head) + r.normal(&head) * offset(-0.005, 0.005)).collect();
+    // 2–4 cm off the surface: inside the distance grid, rejected by one lookup.
+    let grid: Vec<Vec3> = roots.iter().map(|r| r.position(&head) + r.normal(&head) * offset(0.02, 0.04)).collect();
+    // 0.5–1 m out: outside the grid, rejected by the bounds test.
+    let far: Vec<Vec3> = roots.iter().map(|r| r.normal(&head) * offset(0.5, 1.0)).collect();
+    let mut group = c.benchmark_group("HeadCollider::resolve 10k");
+    group.throughput(Throughput::Elements(10_000));
+    for (name, points) in [("near surface", &near), ("grid reject", &grid), ("far away", &far)] {
+        group.bench_function(name, |b| {
+            b.iter(|| points.iter().filter(|&&p| collider.resolve(black_box(p), 0.003).is_some()).count())
+        });
+    }
+    group.finish();
+}
+
+fn strand_step(c: &mut Criterion) {
+    let head = head();
+    let collider = HeadCollider::new(&head, DEFAULT_GRID_RESOLUTION).unwrap();
+    let roots = sample_roots(&head, &scalp(&head), 512, 1).unwrap();
+    let guide = GuideParams { segments: 15, length: 0.25, ..GuideParams::default() };
+    let rest = RestShape::new(grow_guides(&head, &roots, &guide, 1), 16).unwrap();
+    let rest = settle(rest, Some(&collider), &SimParams::default(), 120).unwrap();
+    let mut group = c.benchmark_group("Strands::step 512x16");
+    group.throughput(Throughput::Elements(512 * 16));
+    for collision in [true, false] {
+        let params = SimParams { collision, ..SimParams::default() };
+        let mut strands = Strands::new(rest.clone(), head_pose(0));
+        let mut frame = 0u64;
+        let name = if collision { "with collision" } else { "without collision" };
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                let input = StepInput {
+                    dt: DT,
+                    time: frame as f32 * DT,
+                    head_from: head_pose(frame),
+                    head_to: head_pose(frame + 1),
+                    collider: Some(&collider),
+                    extra_colliders: &[],
+                    params: &params,
+                };
+                frame += 1;
+                strands.step(black_box(&input))
+            })
+        });
+    }
+    group.finish();
+}
+
+fn groom(c: &mut Criterion) {
+    let head = head();
+    let weights = scalp(&head);
+    let params = GuideParams::default();
+    c.bench_function("sample_roots + grow_guides 2048", |b| {
+        b.iter(|| {
+            let roots = sample_roots(&head, black_box(&weights), 2048, 5).unwrap();
+            grow_guides(&head, &roots, &params, 5)
+        })
+    });
+}
+
+fn config() -> Criterion {
+    Criterion::default()
+        .sample_size(10)
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(2))
+        .without_plots()
+}
+
+criterion_group! {
+    name = benches;
+    config = config();
+    targets = collider_build, collider_resolve, strand_step, groom
+}
+criterion_main!(benches);
