@@ -141,7 +141,8 @@ impl CandidateGrid {
         if !inside {
             return None;
         }
-        let cell = g.floor().to_array().map(|v| v as usize);
+        // `g` is non-negative here, so truncation is the floor.
+        let cell = g.to_array().map(|v| v as usize);
         let [start, len] = self.ranges[(cell[2] * cy + cell[1]) * cx + cell[0]];
         if len == 0 {
             return None;

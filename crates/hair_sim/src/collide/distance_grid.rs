@@ -60,9 +60,9 @@ impl DistanceGrid {
         if !inside {
             return None;
         }
-        let base = g.floor();
-        let t = g - base;
-        let [x, y, z] = base.to_array().map(|v| v as usize);
+        // `g` is non-negative here, so truncation is the floor (and needs no libm call).
+        let [x, y, z] = g.to_array().map(|v| v as usize);
+        let t = g - Vec3::new(x as f32, y as f32, z as f32);
         let at = |x: usize, y: usize, z: usize| self.values[(z * dy + y) * dx + x];
         let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
         let plane = |z: usize| {
