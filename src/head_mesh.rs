@@ -25,7 +25,11 @@ pub(crate) fn read_head_mesh(mesh: &Mesh, scale: Vec3) -> Result<HeadMesh, Strin
     let positions = match mesh.try_attribute(Mesh::ATTRIBUTE_POSITION) {
         Ok(VertexAttributeValues::Float32x3(p)) => p,
         Ok(_) => return Err("the head mesh positions are not Float32x3".into()),
-        Err(e) => return Err(format!("cannot read the head mesh positions ({e}); keep the mesh in the main world (RenderAssetUsages::MAIN_WORLD)")),
+        Err(e) => {
+            return Err(format!(
+                "cannot read the head mesh positions ({e}); keep the mesh in the main world (RenderAssetUsages::MAIN_WORLD)"
+            ));
+        }
     };
     let positions: Vec<_> = positions.iter().map(|&p| to_sim(Vec3::from_array(p) * scale)).collect();
     let indices: Vec<u32> = match mesh.try_indices_option() {
@@ -41,7 +45,8 @@ pub(crate) fn read_head_mesh(mesh: &Mesh, scale: Vec3) -> Result<HeadMesh, Strin
     if let Ok(VertexAttributeValues::Float32x3(normals)) = mesh.try_attribute(Mesh::ATTRIBUTE_NORMAL)
         && normals.len() == head.positions.len()
     {
-        let authored: Vec<_> = normals.iter().map(|&n| to_sim((Vec3::from_array(n) / scale).normalize_or_zero())).collect();
+        let authored: Vec<_> =
+            normals.iter().map(|&n| to_sim((Vec3::from_array(n) / scale).normalize_or_zero())).collect();
         if authored.iter().all(|n| n.is_finite() && n.length() > 0.5) {
             head.normals = authored;
         }
@@ -49,24 +54,36 @@ pub(crate) fn read_head_mesh(mesh: &Mesh, scale: Vec3) -> Result<HeadMesh, Strin
     Ok(head)
 }
 
-/// Per-triangle scalp weights (0..1) from the labels `source` names, or why there are none.
-pub(crate) fn scalp_weights(mesh: &Mesh, head: &HeadMesh, source: &ScalpSource) -> Result<Vec<f32>, String> {
-    let vertex_weights = match source {
-        ScalpSource::Everywhere => vec![1.0; head.positions.len()],
-        ScalpSource::VertexColor { threshold } => match mesh.try_attribute(Mesh::ATTRIBUTE_COLOR) {
-            Ok(VertexAttributeValues::Float32x4(colors)) => labels_from_colors(colors, *threshold),
+/// Where scalp labels come from: a mesh attribute, or the user's rule (given the scale
+/// the head mesh was read with, so the rule sees the mesh's own units).
+pub(crate) enum Labels {
+    Source(ScalpSource),
+    Predicate(fn(Vec3) -> bool, Vec3),
+}
+
+/// Per-triangle scalp weights (0..1) from the labels, or why there are none.
+pub(crate) fn scalp_weights(mesh: &Mesh, head: &HeadMesh, labels: &Labels) -> Result<Vec<f32>, String> {
+    let source = match labels {
+        Labels::Source(source) => *source,
+        Labels::Predicate(..) => ScalpSource::Predicate,
+    };
+    let vertex_weights = match (labels, source) {
+        (Labels::Predicate(predicate, scale), _) => {
+            head.positions.iter().map(|&p| if predicate(from_sim(p) / *scale) { 1.0 } else { 0.0 }).collect()
+        }
+        (_, ScalpSource::Everywhere) => vec![1.0; head.positions.len()],
+        (_, ScalpSource::VertexColor { threshold }) => match mesh.try_attribute(Mesh::ATTRIBUTE_COLOR) {
+            Ok(VertexAttributeValues::Float32x4(colors)) => labels_from_colors(colors, threshold),
             Ok(_) => return Err("the head mesh COLOR_0 is not Float32x4".into()),
             Err(_) => {
                 return Err("the head mesh has no vertex colours (COLOR_0) to read the painted scalp from".into());
             }
         },
-        ScalpSource::Attribute => match mesh.try_attribute(ATTRIBUTE_SCALP) {
+        (_, ScalpSource::Attribute) => match mesh.try_attribute(ATTRIBUTE_SCALP) {
             Ok(VertexAttributeValues::Float32(w)) => w.clone(),
             _ => return Err("the head mesh has no _SCALP attribute to read scalp density from".into()),
         },
-        ScalpSource::Predicate(predicate) => {
-            head.positions.iter().map(|&p| if predicate(from_sim(p)) { 1.0 } else { 0.0 }).collect()
-        }
+        (_, ScalpSource::Predicate) => return Err("ScalpSource::Predicate needs a ScalpPredicate component".into()),
     };
     if vertex_weights.len() != head.positions.len() {
         return Err(format!(
@@ -82,7 +99,7 @@ pub(crate) fn scalp_weights(mesh: &Mesh, head: &HeadMesh, source: &ScalpSource) 
                 "no triangle of the head mesh is painted as scalp: COLOR_0 has no three-vertex region darker than {threshold}"
             ),
             ScalpSource::Attribute => "no triangle of the head mesh has a _SCALP weight above 0".into(),
-            ScalpSource::Predicate(_) => "the scalp predicate accepted no triangle of the head mesh".into(),
+            ScalpSource::Predicate => "the scalp predicate accepted no triangle of the head mesh".into(),
             ScalpSource::Everywhere => "the head mesh has no usable triangles".into(),
         });
     }
@@ -97,10 +114,16 @@ pub(crate) fn scalp_weights(mesh: &Mesh, head: &HeadMesh, source: &ScalpSource) 
 /// use their own head mesh.
 pub fn procedural_head_mesh(subdivisions: u32) -> Mesh {
     let head = test_head(subdivisions);
-    let colors: Vec<[f32; 4]> =
-        head.positions.iter().map(|p| if is_procedural_scalp(from_sim(*p)) { [0.0, 0.0, 0.0, 1.0] } else { SKIN }).collect();
+    let colors: Vec<[f32; 4]> = head
+        .positions
+        .iter()
+        .map(|p| if is_procedural_scalp(from_sim(*p)) { [0.0, 0.0, 0.0, 1.0] } else { SKIN })
+        .collect();
     Mesh::new(PrimitiveTopology::TriangleList, RenderAssetUsages::default())
-        .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, head.positions.iter().map(|p| p.to_array()).collect::<Vec<_>>())
+        .with_inserted_attribute(
+            Mesh::ATTRIBUTE_POSITION,
+            head.positions.iter().map(|p| p.to_array()).collect::<Vec<_>>(),
+        )
         .with_inserted_attribute(Mesh::ATTRIBUTE_NORMAL, head.normals.iter().map(|n| n.to_array()).collect::<Vec<_>>())
         .with_inserted_attribute(Mesh::ATTRIBUTE_COLOR, colors)
         .with_inserted_indices(Indices::U32(head.triangles.iter().flatten().copied().collect()))

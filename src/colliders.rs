@@ -1,0 +1,42 @@
+//! Extra colliders for hair besides the head: spheres and capsules (neck, shoulders).
+
+use crate::convert::to_sim;
+use bevy::prelude::*;
+use hair_sim::collide::ExtraCollider;
+
+/// A simple shape hair collides with, placed by this entity's [`GlobalTransform`]
+/// (its largest scale axis scales the radius).
+#[derive(Component, Reflect, Clone, Copy, Debug, PartialEq)]
+#[reflect(Component)]
+#[require(Transform)]
+pub enum HairCollider {
+    /// A ball around the entity's origin.
+    Sphere {
+        /// Radius, metres.
+        radius: f32,
+    },
+    /// A capsule along the entity's local Y axis.
+    Capsule {
+        /// Radius, metres.
+        radius: f32,
+        /// Half the length of the axis segment, metres.
+        half_length: f32,
+    },
+}
+
+impl HairCollider {
+    /// This collider in world space, for the solver.
+    pub(crate) fn to_world(self, transform: &GlobalTransform) -> ExtraCollider {
+        let scale = transform.scale().abs().max_element();
+        match self {
+            HairCollider::Sphere { radius } => {
+                ExtraCollider::Sphere { center: to_sim(transform.translation()), radius: radius * scale }
+            }
+            HairCollider::Capsule { radius, half_length } => ExtraCollider::Capsule {
+                a: to_sim(transform.transform_point(Vec3::NEG_Y * half_length)),
+                b: to_sim(transform.transform_point(Vec3::Y * half_length)),
+                radius: radius * scale,
+            },
+        }
+    }
+}

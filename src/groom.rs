@@ -1,0 +1,270 @@
+//! Growing a groom on a head entity: description, status, and the growth task.
+
+use crate::HairError;
+use crate::convert::pose_and_scale;
+use crate::head_mesh::{read_head_mesh, scalp_weights};
+use crate::settings::{HairSettings, HairSettingsOverride, effective};
+use crate::simulation::HairState;
+use bevy::asset::LoadState;
+use bevy::prelude::*;
+use bevy::tasks::{AsyncComputeTaskPool, Task, block_on, futures_lite::future};
+use hair_sim::collide::{DEFAULT_GRID_RESOLUTION, HeadCollider};
+use hair_sim::groom::{GuideParams, grow_guides, sample_roots, settle};
+use hair_sim::math::Pose;
+use hair_sim::mesh::HeadMesh;
+use hair_sim::solver::{RestShape, SimParams, Strands};
+use std::sync::Arc;
+
+/// Where on the head hair may grow.
+#[derive(Reflect, Clone, Copy, Debug, PartialEq)]
+pub enum ScalpSource {
+    /// Vertices painted darker than `threshold` in `COLOR_0` (luminance of linear RGB):
+    /// the reference's convention, and what Blender's vertex paint exports to glTF.
+    VertexColor {
+        /// Luminance below which a vertex is scalp.
+        threshold: f32,
+    },
+    /// The float vertex attribute `_SCALP` ([`ATTRIBUTE_SCALP`](crate::ATTRIBUTE_SCALP)),
+    /// a density weight 0..1.
+    Attribute,
+    /// The [`ScalpPredicate`] component on the same entity decides per vertex.
+    Predicate,
+    /// The whole mesh.
+    Everywhere,
+}
+
+impl Default for ScalpSource {
+    fn default() -> Self {
+        ScalpSource::VertexColor { threshold: 0.5 }
+    }
+}
+
+/// A user rule for [`ScalpSource::Predicate`]: `true` for head-local vertex positions
+/// (in the mesh's own units, before the entity's scale) that are scalp.
+#[derive(Component, Clone, Copy)]
+pub struct ScalpPredicate(pub fn(Vec3) -> bool);
+
+/// Put hair on this entity: the description of a groom. The entity needs a [`Mesh3d`]
+/// (the head) and a transform. The plugin grows the strands once the mesh is loaded, and
+/// again whenever this component changes.
+#[derive(Component, Reflect, Clone, Debug, PartialEq)]
+#[reflect(Component, Default)]
+#[require(GroomStatus, Transform)]
+pub struct HairGroom {
+    /// Number of guide strands (simulated).
+    pub guides: usize,
+    /// Segments per guide (the reference uses 10).
+    pub segments: usize,
+    /// Strand length, metres.
+    pub length: f32,
+    /// Random length variation, fraction of `length`.
+    pub length_variation: f32,
+    /// Curl, radians per segment.
+    pub curl: f32,
+    /// Seed: the same seed grows the same groom.
+    pub seed: u64,
+    /// Which part of the mesh is scalp.
+    pub scalp: ScalpSource,
+    /// Steps of the settle ("comb") pass that lets freshly grown hair fall onto the head
+    /// before it becomes the rest shape; 0 keeps the strands standing along the normals.
+    pub settle_steps: u32,
+}
+
+impl Default for HairGroom {
+    fn default() -> Self {
+        HairGroom {
+            guides: 1024,
+            segments: 10,
+            length: 0.25,
+            length_variation: 0.2,
+            curl: 0.0,
+            seed: 1,
+            scalp: ScalpSource::default(),
+            settle_steps: 180,
+        }
+    }
+}
+
+/// Where a groom stands. Check it (or read [`HairError`] messages) to learn why a head
+/// has no hair.
+#[derive(Component, Clone, Debug, Default, PartialEq)]
+pub enum GroomStatus {
+    /// Waiting for the head's mesh asset to load.
+    #[default]
+    WaitingForMesh,
+    /// Strands are being grown on a background task.
+    Growing,
+    /// Simulating.
+    Ready {
+        /// Guide strands.
+        guides: usize,
+        /// Particles per guide.
+        particles_per_strand: usize,
+    },
+    /// Could not grow; the reason is readable. The groom stays inert until its
+    /// description or mesh changes.
+    Failed(String),
+}
+
+/// Everything a background growth task hands back.
+pub(crate) struct Grown {
+    pub strands: Strands,
+    pub collider: Arc<HeadCollider>,
+    pub head: Arc<HeadMesh>,
+    pub roots: Vec<hair_sim::groom::RootBinding>,
+    pub scale: Vec3,
+}
+
+#[derive(Component)]
+pub(crate) struct GrowthTask(Task<Result<Grown, String>>);
+
+/// A new or changed groom (or a new mesh) starts over: waiting for its mesh.
+pub(crate) fn request_growth(
+    mut commands: Commands,
+    changed: Query<Entity, Or<(Changed<HairGroom>, Changed<Mesh3d>)>>,
+) {
+    for entity in &changed {
+        commands.entity(entity).remove::<(HairState, GrowthTask)>().insert(GroomStatus::WaitingForMesh);
+    }
+}
+
+/// Once the head mesh is available, reads it and starts growing on the async pool.
+#[allow(clippy::type_complexity)] // a query's filter list
+pub(crate) fn start_growth(
+    mut commands: Commands,
+    meshes: Option<Res<Assets<Mesh>>>,
+    server: Option<Res<AssetServer>>,
+    settings: Res<HairSettings>,
+    mut grooms: Query<(
+        Entity,
+        &HairGroom,
+        &mut GroomStatus,
+        Option<&Mesh3d>,
+        &GlobalTransform,
+        Option<&HairSettingsOverride>,
+        Option<&ScalpPredicate>,
+    )>,
+    mut errors: MessageWriter<HairError>,
+) {
+    for (entity, groom, mut status, mesh3d, transform, local, predicate) in &mut grooms {
+        if *status != GroomStatus::WaitingForMesh {
+            continue;
+        }
+        let mut fail = |reason: String| {
+            warn!("hair on {entity}: {reason}");
+            errors.write(HairError { entity, reason: reason.clone() });
+            *status = GroomStatus::Failed(reason);
+        };
+        let Some(mesh3d) = mesh3d else {
+            fail("the entity has a HairGroom but no Mesh3d to grow on".into());
+            continue;
+        };
+        let Some(meshes) = meshes.as_deref() else {
+            fail("there is no Assets<Mesh>: add MeshPlugin (part of DefaultPlugins)".into());
+            continue;
+        };
+        let Some(mesh) = meshes.get(&mesh3d.0) else {
+            if let Some(LoadState::Failed(e)) = server.as_ref().map(|s| s.load_state(&mesh3d.0)) {
+                fail(format!("the head mesh failed to load: {e}"));
+            }
+            continue; // still loading
+        };
+        let (pose, scale) = pose_and_scale(transform);
+        let prepared = check_groom(groom).and_then(|()| {
+            let head = read_head_mesh(mesh, scale)?;
+            let source = match (groom.scalp, predicate) {
+                (ScalpSource::Predicate, Some(p)) => crate::head_mesh::Labels::Predicate(p.0, scale),
+                (ScalpSource::Predicate, None) => {
+                    return Err("the groom asks for ScalpSource::Predicate but the entity has no ScalpPredicate".into());
+                }
+                (source, _) => crate::head_mesh::Labels::Source(source),
+            };
+            let weights = scalp_weights(mesh, &head, &source)?;
+            Ok((head, weights))
+        });
+        match prepared {
+            Err(reason) => fail(reason),
+            Ok((head, weights)) => {
+                let (params, _) = effective(&settings, local).sanitized();
+                let groom = groom.clone();
+                let task =
+                    AsyncComputeTaskPool::get().spawn(async move { grow(head, weights, groom, params, pose, scale) });
+                commands.entity(entity).insert(GrowthTask(task));
+                *status = GroomStatus::Growing;
+            }
+        }
+    }
+}
+
+/// Rejects descriptions that cannot grow anything, with a reason a user understands.
+fn check_groom(groom: &HairGroom) -> Result<(), String> {
+    if groom.guides == 0 {
+        return Err("the groom asks for 0 guides".into());
+    }
+    if groom.segments == 0 || groom.segments > 256 {
+        return Err(format!("the groom asks for {} segments per strand; use 1 to 256", groom.segments));
+    }
+    if !(groom.length.is_finite() && groom.length > 0.0) {
+        return Err(format!("the groom length {} is not a positive number of metres", groom.length));
+    }
+    if !(groom.length_variation.is_finite() && (0.0..1.0).contains(&groom.length_variation)) {
+        return Err(format!("the groom length variation {} must be in 0..1", groom.length_variation));
+    }
+    if !groom.curl.is_finite() {
+        return Err(format!("the groom curl {} is not a number", groom.curl));
+    }
+    Ok(())
+}
+
+/// The growth itself, off the main thread: roots, guides, collider, settle.
+fn grow(
+    head: HeadMesh,
+    weights: Vec<f32>,
+    groom: HairGroom,
+    params: SimParams,
+    pose: Pose,
+    scale: Vec3,
+) -> Result<Grown, String> {
+    let roots = sample_roots(&head, &weights, groom.guides, groom.seed).map_err(|e| e.to_string())?;
+    let guide_params = GuideParams {
+        segments: groom.segments,
+        length: groom.length,
+        length_variation: groom.length_variation,
+        curl: groom.curl,
+    };
+    let rest = RestShape::new(grow_guides(&head, &roots, &guide_params, groom.seed), groom.segments + 1)
+        .map_err(|e| e.to_string())?;
+    let collider = HeadCollider::new(&head, DEFAULT_GRID_RESOLUTION).map_err(|e| e.to_string())?;
+    let rest = settle(rest, Some(&collider), &params, groom.settle_steps as usize).map_err(|e| e.to_string())?;
+    Ok(Grown { strands: Strands::new(rest, pose), collider: Arc::new(collider), head: Arc::new(head), roots, scale })
+}
+
+/// Collects finished growth tasks: the groom starts simulating, or reports why not.
+pub(crate) fn finish_growth(
+    mut commands: Commands,
+    mut tasks: Query<(Entity, &mut GrowthTask, &mut GroomStatus, &GlobalTransform)>,
+    mut errors: MessageWriter<HairError>,
+) {
+    for (entity, mut task, mut status, transform) in &mut tasks {
+        let Some(result) = block_on(future::poll_once(&mut task.0)) else {
+            continue;
+        };
+        commands.entity(entity).remove::<GrowthTask>();
+        match result {
+            Ok(grown) => {
+                *status = GroomStatus::Ready {
+                    guides: grown.strands.strand_count(),
+                    particles_per_strand: grown.strands.particles_per_strand(),
+                };
+                // The head may have moved while the task ran: start from where it is now.
+                let (pose, _) = pose_and_scale(transform);
+                commands.entity(entity).insert(HairState::new(grown, pose));
+            }
+            Err(reason) => {
+                warn!("hair on {entity}: {reason}");
+                errors.write(HairError { entity, reason: reason.clone() });
+                *status = GroomStatus::Failed(reason);
+            }
+        }
+    }
+}

@@ -1,0 +1,97 @@
+//! Shared headless test harness: a MinimalPlugins app stepping exactly one fixed step
+//! per update, and a procedural head with a painted scalp.
+#![allow(dead_code)] // each test binary uses a different part
+
+use bevy::mesh::MeshPlugin;
+use bevy::prelude::*;
+use bevy::time::TimeUpdateStrategy;
+use bevy_hair::hair_sim::math::Vec3 as SimVec3;
+use bevy_hair::prelude::*;
+use bevy_hair::procedural_head_mesh;
+use std::time::Duration;
+
+/// One frame: a hair longer than 1/60 s, so every update runs exactly one 60 Hz step.
+pub const FRAME: Duration = Duration::from_nanos(16_666_667);
+
+/// A headless app with the hair plugin; time advances by [`FRAME`] per update.
+pub fn app() -> App {
+    let mut app = App::new();
+    app.add_plugins((MinimalPlugins, TransformPlugin, AssetPlugin::default(), MeshPlugin, HairPlugin::default()));
+    app.insert_resource(TimeUpdateStrategy::ManualDuration(FRAME));
+    app
+}
+
+/// A small groom that grows quickly.
+pub fn groom() -> HairGroom {
+    HairGroom { guides: 200, segments: 10, length: 0.2, settle_steps: 120, ..default() }
+}
+
+/// Spawns the procedural head (5,120 triangles) with `groom` at `transform`.
+pub fn spawn_head(app: &mut App, groom: HairGroom, transform: Transform) -> Entity {
+    let mesh = app.world_mut().resource_mut::<Assets<Mesh>>().add(procedural_head_mesh(4));
+    app.world_mut().spawn((Mesh3d(mesh), transform, groom)).id()
+}
+
+/// Updates until the groom is simulating (growth runs on a background task).
+pub fn wait_until_ready(app: &mut App, head: Entity) {
+    for _ in 0..2000 {
+        app.update();
+        match app.world().get::<GroomStatus>(head) {
+            Some(GroomStatus::Ready { .. }) if app.world().get::<HairState>(head).is_some() => return,
+            Some(GroomStatus::Failed(reason)) => panic!("growth failed: {reason}"),
+            _ => std::thread::sleep(Duration::from_millis(2)),
+        }
+    }
+    panic!("the groom did not finish growing");
+}
+
+/// An app with a grown groom on a head at the origin.
+pub fn grown(groom: HairGroom) -> (App, Entity) {
+    let mut app = app();
+    let head = spawn_head(&mut app, groom, Transform::default());
+    wait_until_ready(&mut app, head);
+    (app, head)
+}
+
+/// Runs `n` updates (= `n` fixed steps).
+pub fn run(app: &mut App, n: usize) {
+    for _ in 0..n {
+        app.update();
+    }
+}
+
+pub fn state(app: &App, head: Entity) -> &HairState {
+    app.world().get::<HairState>(head).expect("the groom is simulating")
+}
+
+/// Root and tip of every strand.
+pub fn roots_and_tips(app: &App, head: Entity) -> Vec<(Vec3, Vec3)> {
+    let state = state(app, head);
+    let n = state.particles_per_strand();
+    state.current_positions().chunks_exact(n).map(|s| (s[0], s[n - 1])).collect()
+}
+
+/// Deepest particle below the head surface, metres (0 or less: none inside).
+pub fn max_penetration(app: &App, head: Entity) -> f32 {
+    let state = state(app, head);
+    let pose = state.head_pose();
+    let n = state.particles_per_strand();
+    state
+        .strands()
+        .positions()
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| i % n != 0)
+        .map(|(_, &p)| -state.collider().signed_distance(pose.inverse_transform_point(p)))
+        .fold(f32::MIN, f32::max)
+}
+
+/// Every position finite.
+pub fn all_finite(app: &App, head: Entity) -> bool {
+    state(app, head).strands().positions().iter().all(|p: &SimVec3| p.is_finite())
+}
+
+/// Changes the global settings.
+pub fn settings(app: &mut App, change: impl FnOnce(&mut SimParams)) {
+    change(&mut app.world_mut().resource_mut::<HairSettings>().0);
+}
