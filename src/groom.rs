@@ -119,6 +119,7 @@ pub(crate) struct Grown {
 pub(crate) struct GrowthTask(Task<Result<Grown, String>>);
 
 /// A new or changed groom (or a new mesh) starts over: waiting for its mesh.
+#[allow(clippy::type_complexity)] // a query's filter list
 pub(crate) fn request_growth(
     mut commands: Commands,
     changed: Query<Entity, Or<(Changed<HairGroom>, Changed<Mesh3d>)>>,
