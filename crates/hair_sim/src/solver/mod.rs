@@ -117,7 +117,7 @@ pub struct StepReport {
     pub teleport_resets: u32,
     /// Strands reset because a non-finite value appeared (should stay 0).
     pub nan_resets: u32,
-    /// Particle–collider contacts resolved in the last substep.
+    /// Particle–collider contacts resolved, summed over the step's substeps.
     pub contacts: u32,
     /// Deepest penetration found (before resolving), metres below the thickness offset.
     pub max_depth: f32,

@@ -241,13 +241,16 @@ fn substep(
     //    which leaves it outside the surface it was just pushed to (to first order).
     if p.collision {
         collide(xs, &scratch.start, p, poses, input, report);
-        if p.length_mode == LengthMode::Inextensible {
-            follow_the_leader(&rest.lengths[base..][..n], xs, &mut scratch.ftl_correction);
+        // Both length models promise their bound after the step, whatever collision did.
+        match p.length_mode {
+            LengthMode::Inextensible => follow_the_leader(&rest.lengths[base..][..n], xs, &mut scratch.ftl_correction),
+            LengthMode::Springs => clamp_lengths(&rest.lengths[base..][..n], xs, p.length_tolerance),
         }
     }
 
     // 5. Velocities.
-    vs[0] = (xs[0] - scratch.start[0]) / h;
+    // The root moves with the head; its speed feeds spring damping, so it gets the same limit.
+    vs[0] = ((xs[0] - scratch.start[0]) / h).clamp_length_max(p.max_speed);
     for j in 1..n {
         let next_correction = if j + 1 < n { scratch.ftl_correction[j + 1] } else { Vec3::ZERO };
         let v = (xs[j] - scratch.start[j]) / h - next_correction * c.ftl_velocity;
