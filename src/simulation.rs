@@ -11,7 +11,7 @@ use hair_sim::collide::{ExtraCollider, HeadCollider};
 use hair_sim::groom::RootBinding;
 use hair_sim::math::Pose;
 use hair_sim::mesh::HeadMesh;
-use hair_sim::solver::{ParamIssue, StepInput, StepReport, Strands};
+use hair_sim::solver::{StepInput, StepReport, Strands};
 use std::sync::Arc;
 
 /// Fewest strands worth a task of their own.
@@ -33,7 +33,8 @@ pub struct HairState {
     previous: Vec<Vec3>,
     current: Vec<Vec3>,
     last_report: StepReport,
-    reported_issues: Vec<ParamIssue>,
+    /// Fields of the settings last reported as unusable (names, not values: NaN ≠ NaN).
+    reported_issues: Vec<&'static str>,
 }
 
 impl HairState {
@@ -148,14 +149,15 @@ pub(crate) fn simulate(
     let pool = ComputeTaskPool::get_or_init(TaskPool::default);
     for (entity, mut state, local) in &mut grooms {
         let (params, issues) = effective(&settings, local).sanitized();
-        if issues != state.reported_issues {
+        let fields: Vec<&'static str> = issues.iter().map(|i| i.field).collect();
+        if fields != state.reported_issues {
             if !issues.is_empty() {
                 let list: Vec<String> = issues.iter().map(ToString::to_string).collect();
                 let reason = format!("invalid hair settings: {}", list.join("; "));
                 warn!("hair on {entity}: {reason}");
                 errors.write(HairError { entity, reason });
             }
-            state.reported_issues = issues;
+            state.reported_issues = fields;
         }
         let state = &mut *state;
         let input = StepInput {

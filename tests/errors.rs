@@ -1,0 +1,101 @@
+//! Bad input gets a readable error, no panic, and never a NaN position.
+
+mod common;
+
+use bevy::asset::RenderAssetUsages;
+use bevy::ecs::message::Messages;
+use bevy::mesh::{Indices, PrimitiveTopology};
+use bevy::prelude::*;
+use bevy_hair::prelude::*;
+use common::*;
+
+fn errors(app: &App) -> Vec<String> {
+    let messages = app.world().resource::<Messages<HairError>>();
+    messages.iter_current_update_messages().map(|e| e.reason.clone()).collect()
+}
+
+/// Updates until the groom fails, collecting every error message on the way.
+fn failure(app: &mut App, head: Entity) -> (String, Vec<String>) {
+    let mut seen = Vec::new();
+    for _ in 0..50 {
+        app.update();
+        seen.extend(errors(app));
+        if let Some(GroomStatus::Failed(reason)) = app.world().get::<GroomStatus>(head) {
+            return (reason.clone(), seen);
+        }
+    }
+    panic!("the groom did not fail: {:?}", app.world().get::<GroomStatus>(head));
+}
+
+#[test]
+fn unpainted_head_names_the_missing_paint() {
+    let mut app = app();
+    let mut mesh = bevy_hair::procedural_head_mesh(3);
+    let skin = vec![[0.8, 0.6, 0.5, 1.0]; mesh.count_vertices()];
+    mesh.insert_attribute(Mesh::ATTRIBUTE_COLOR, skin);
+    let mesh = app.world_mut().resource_mut::<Assets<Mesh>>().add(mesh);
+    let head = app.world_mut().spawn((Mesh3d(mesh), groom())).id();
+    let (reason, messages) = failure(&mut app, head);
+    println!("{reason}");
+    assert!(reason.contains("COLOR_0"), "{reason}");
+    assert_eq!(messages, [reason]);
+    assert!(app.world().get::<HairState>(head).is_none());
+    run(&mut app, 5); // keeps running, stays inert
+    assert!(app.world().get::<HairState>(head).is_none());
+}
+
+#[test]
+fn mesh_without_colours_or_triangles_is_reported() {
+    let mut app = app();
+    let no_colours = bevy_hair::procedural_head_mesh(2).with_removed_attribute(Mesh::ATTRIBUTE_COLOR);
+    let empty = Mesh::new(PrimitiveTopology::TriangleList, RenderAssetUsages::default())
+        .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, Vec::<[f32; 3]>::new())
+        .with_inserted_indices(Indices::U32(vec![]));
+    let flat = Mesh::new(PrimitiveTopology::TriangleList, RenderAssetUsages::default())
+        .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]])
+        .with_inserted_indices(Indices::U32(vec![0, 1, 2]));
+    let expectations = [(no_colours, "no vertex colours"), (empty, "no triangles"), (flat, "zero area")];
+    for (mesh, expected) in expectations {
+        let mesh = app.world_mut().resource_mut::<Assets<Mesh>>().add(mesh);
+        let head = app.world_mut().spawn((Mesh3d(mesh), groom())).id();
+        let (reason, _) = failure(&mut app, head);
+        println!("{reason}");
+        assert!(reason.contains(expected), "{reason:?} should mention {expected:?}");
+    }
+    let bare = app.world_mut().spawn(groom()).id();
+    let (reason, _) = failure(&mut app, bare);
+    assert!(reason.contains("no Mesh3d"), "{reason}");
+}
+
+#[test]
+fn bad_groom_description_is_reported() {
+    let mut app = app();
+    let head = spawn_head(&mut app, HairGroom { length: f32::NAN, ..groom() }, Transform::default());
+    let (reason, _) = failure(&mut app, head);
+    assert!(reason.contains("length NaN"), "{reason}");
+    // Fixing the description regrows the groom.
+    app.world_mut().get_mut::<HairGroom>(head).unwrap().length = 0.2;
+    wait_until_ready(&mut app, head);
+    assert_eq!(state(&app, head).strands().strand_count(), 200);
+}
+
+#[test]
+fn nan_settings_are_named_once_and_never_simulated() {
+    let (mut app, head) = grown(groom());
+    settings(&mut app, |p| {
+        p.friction = f32::NAN;
+        p.collision_thickness = -1.0;
+        p.gravity = [0.0, f32::INFINITY, 0.0];
+    });
+    app.update();
+    let reported = errors(&app);
+    println!("{reported:?}");
+    assert_eq!(reported.len(), 1);
+    for field in ["friction", "collision_thickness", "gravity.y"] {
+        assert!(reported[0].contains(field), "{field} missing in {reported:?}");
+    }
+    run(&mut app, 60);
+    assert!(errors(&app).is_empty(), "reported once, not every step");
+    assert!(all_finite(&app, head));
+    assert!(state(&app, head).strands().max_stretch() < 1e-3);
+}
