@@ -3,6 +3,7 @@
 //!
 //! ```text
 //! cargo run --release -p hair_sim --example bench -- --guides 2048 --particles 16 --steps 600
+//! # also: --threads T, --no-collision
 //! ```
 
 use hair_sim::prelude::*;
@@ -61,17 +62,10 @@ fn main() {
     let roots = sample_roots(&head, &scalp, guides, 1).expect("scalp");
     let guide_params = GuideParams { segments: particles - 1, length: 0.25, ..GuideParams::default() };
     let rest = RestShape::new(grow_guides(&head, &roots, &guide_params, 1), particles).expect("guides");
-    let mut params = SimParams::default();
-    if let Ok(v) = std::env::var("HAIR_BENCH_COLLISION") {
-        params.collision = v == "1";
-    }
-    if let Ok(v) = std::env::var("HAIR_BENCH_SUBSTEPS") {
-        params.substeps = v.parse().unwrap();
-    }
-    if let Ok(v) = std::env::var("HAIR_BENCH_LOCAL") {
-        params.local_stiffness = v.parse().unwrap();
-    }
+    let params = SimParams::default();
     let rest = settle(rest, Some(&collider), &params, 120).expect("settle");
+    // `--no-collision` measures the solver alone (the groom still settles on the head).
+    let params = SimParams { collision: !std::env::args().any(|a| a == "--no-collision"), ..params };
     let mut strands = Strands::new(rest, head_pose(0.0));
 
     let chunk = strands.strand_count().div_ceil(threads * 4).max(1);
