@@ -173,14 +173,7 @@ pub(crate) fn start_growth(
         let (pose, scale) = pose_and_scale(transform);
         let prepared = check_groom(groom).and_then(|()| {
             let head = read_head_mesh(mesh, scale)?;
-            let source = match (groom.scalp, predicate) {
-                (ScalpSource::Predicate, Some(p)) => crate::head_mesh::Labels::Predicate(p.0, scale),
-                (ScalpSource::Predicate, None) => {
-                    return Err("the groom asks for ScalpSource::Predicate but the entity has no ScalpPredicate".into());
-                }
-                (source, _) => crate::head_mesh::Labels::Source(source),
-            };
-            let weights = scalp_weights(mesh, &head, &source)?;
+            let weights = scalp_weights(mesh, &head, groom.scalp, predicate.map(|p| p.0), scale)?;
             Ok((head, weights))
         });
         match prepared {

@@ -54,36 +54,33 @@ pub(crate) fn read_head_mesh(mesh: &Mesh, scale: Vec3) -> Result<HeadMesh, Strin
     Ok(head)
 }
 
-/// Where scalp labels come from: a mesh attribute, or the user's rule (given the scale
-/// the head mesh was read with, so the rule sees the mesh's own units).
-pub(crate) enum Labels {
-    Source(ScalpSource),
-    Predicate(fn(Vec3) -> bool, Vec3),
-}
-
-/// Per-triangle scalp weights (0..1) from the labels, or why there are none.
-pub(crate) fn scalp_weights(mesh: &Mesh, head: &HeadMesh, labels: &Labels) -> Result<Vec<f32>, String> {
-    let source = match labels {
-        Labels::Source(source) => *source,
-        Labels::Predicate(..) => ScalpSource::Predicate,
-    };
-    let vertex_weights = match (labels, source) {
-        (Labels::Predicate(predicate, scale), _) => {
-            head.positions.iter().map(|&p| if predicate(from_sim(p) / *scale) { 1.0 } else { 0.0 }).collect()
+/// Per-triangle scalp weights (0..1) from the labels `source` names, or why there are
+/// none. `predicate` is the user's rule for [`ScalpSource::Predicate`]; it sees positions
+/// in the mesh's own units, so they are divided by the `scale` the mesh was read with.
+pub(crate) fn scalp_weights(
+    mesh: &Mesh,
+    head: &HeadMesh,
+    source: ScalpSource,
+    predicate: Option<fn(Vec3) -> bool>,
+    scale: Vec3,
+) -> Result<Vec<f32>, String> {
+    let vertex_weights = match source {
+        ScalpSource::Predicate => {
+            let predicate = predicate.ok_or("ScalpSource::Predicate needs a ScalpPredicate component on the head")?;
+            head.positions.iter().map(|&p| if predicate(from_sim(p) / scale) { 1.0 } else { 0.0 }).collect()
         }
-        (_, ScalpSource::Everywhere) => vec![1.0; head.positions.len()],
-        (_, ScalpSource::VertexColor { threshold }) => match mesh.try_attribute(Mesh::ATTRIBUTE_COLOR) {
+        ScalpSource::Everywhere => vec![1.0; head.positions.len()],
+        ScalpSource::VertexColor { threshold } => match mesh.try_attribute(Mesh::ATTRIBUTE_COLOR) {
             Ok(VertexAttributeValues::Float32x4(colors)) => labels_from_colors(colors, threshold),
             Ok(_) => return Err("the head mesh COLOR_0 is not Float32x4".into()),
             Err(_) => {
                 return Err("the head mesh has no vertex colours (COLOR_0) to read the painted scalp from".into());
             }
         },
-        (_, ScalpSource::Attribute) => match mesh.try_attribute(ATTRIBUTE_SCALP) {
+        ScalpSource::Attribute => match mesh.try_attribute(ATTRIBUTE_SCALP) {
             Ok(VertexAttributeValues::Float32(w)) => w.clone(),
             _ => return Err("the head mesh has no _SCALP attribute to read scalp density from".into()),
         },
-        (_, ScalpSource::Predicate) => return Err("ScalpSource::Predicate needs a ScalpPredicate component".into()),
     };
     if vertex_weights.len() != head.positions.len() {
         return Err(format!(

@@ -2,6 +2,9 @@
 //! `SimParams::sanitized` + `Strands::step` never panic, never produce a non-finite value,
 //! and keep segment lengths where each length mode promises to.
 
+mod common;
+
+use common::{Groom, GroomSpec, groom_on_upper_half};
 use hair_sim::prelude::*;
 use hair_sim::solver::ParamIssue;
 use proptest::prelude::*;
@@ -10,22 +13,17 @@ use std::sync::OnceLock;
 const STRANDS: usize = 20;
 const PARTICLES: usize = 8;
 
-struct Groom {
-    collider: HeadCollider,
-    rest: RestShape,
-}
-
 fn groom() -> &'static Groom {
     static GROOM: OnceLock<Groom> = OnceLock::new();
     GROOM.get_or_init(|| {
-        let head = test_head(2);
-        let collider = HeadCollider::new(&head, 16).expect("procedural head");
-        let scalp: Vec<f32> =
-            head.triangles.iter().map(|t| if head.corners(t).iter().all(|p| p.y > 0.0) { 1.0 } else { 0.0 }).collect();
-        let roots = sample_roots(&head, &scalp, STRANDS, 11).expect("scalp");
-        let guide = GuideParams { segments: PARTICLES - 1, length: 0.2, length_variation: 0.2, curl: 0.2 };
-        let rest = RestShape::new(grow_guides(&head, &roots, &guide, 11), PARTICLES).expect("guides");
-        Groom { collider, rest }
+        groom_on_upper_half(GroomSpec {
+            subdivisions: 2,
+            grid: 16,
+            strands: STRANDS,
+            particles: PARTICLES,
+            curl: 0.2,
+            seed: 11,
+        })
     })
 }
 

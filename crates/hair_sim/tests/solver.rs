@@ -1,27 +1,18 @@
 //! Deterministic solver tests with measured numbers (run with `--nocapture` to see them).
 
+mod common;
+
+use common::{Groom, GroomSpec, groom_on_upper_half, max_distance_from_rest};
 use hair_sim::prelude::*;
 use std::sync::OnceLock;
 
 const DT: f32 = 1.0 / 60.0;
 
-struct Groom {
-    collider: HeadCollider,
-    rest: RestShape,
-}
-
 /// 48 strands × 12 particles, 20 cm long, on the upper half of a 1,280-triangle head.
 fn groom() -> &'static Groom {
     static GROOM: OnceLock<Groom> = OnceLock::new();
     GROOM.get_or_init(|| {
-        let head = test_head(3);
-        let collider = HeadCollider::new(&head, 32).expect("procedural head");
-        let scalp: Vec<f32> =
-            head.triangles.iter().map(|t| if head.corners(t).iter().all(|p| p.y > 0.0) { 1.0 } else { 0.0 }).collect();
-        let roots = sample_roots(&head, &scalp, 48, 3).expect("scalp");
-        let guide = GuideParams { segments: 11, length: 0.2, length_variation: 0.2, curl: 0.1 };
-        let rest = RestShape::new(grow_guides(&head, &roots, &guide, 3), 12).expect("guides");
-        Groom { collider, rest }
+        groom_on_upper_half(GroomSpec { subdivisions: 3, grid: 32, strands: 48, particles: 12, curl: 0.1, seed: 3 })
     })
 }
 
@@ -105,12 +96,7 @@ fn chunked_stepping_is_bit_identical_to_step() {
     }
     // The run exercised what could differ between chunkings: real motion and contacts.
     let pose = moving_head(120);
-    let moved = reference
-        .positions()
-        .iter()
-        .zip(&g.rest.positions)
-        .map(|(&p, &r)| (p - pose.transform_point(r)).length())
-        .fold(0.0f32, f32::max);
+    let moved = max_distance_from_rest(&reference, &g.rest, pose);
     println!("chunking: 120 steps, {contacts} contacts, {teleports} teleports, max deviation from rest {moved:.4} m");
     assert!(contacts > 0, "no contacts: the test would not cover collision");
     assert_eq!(teleports, 0);
@@ -280,12 +266,7 @@ fn a_ten_metre_jump_resets_every_strand_to_rest() {
     run_still(&mut strands, &params, 30, Some(&g.collider));
     let far = Pose::new(Quat::from_rotation_y(1.0), Vec3::new(10.0, 0.0, 0.0));
     let report = strands.step(&input(30, Pose::IDENTITY, far, Some(&g.collider), &params));
-    let off = strands
-        .positions()
-        .iter()
-        .zip(&g.rest.positions)
-        .map(|(&p, &r)| (p - far.transform_point(r)).length())
-        .fold(0.0f32, f32::max);
+    let off = max_distance_from_rest(&strands, &g.rest, far);
     println!("10 m jump: {report:?}, max distance from the rest pose {off:e} m");
     assert_eq!(report.teleport_resets as usize, strands.strand_count());
     assert!(off < 1e-5, "{off}");

@@ -1,0 +1,44 @@
+//! Fixtures shared by the integration tests.
+#![allow(dead_code)] // each test binary uses a different part
+
+use hair_sim::prelude::*;
+
+/// A groom on the procedural head, with the collider it was grown against.
+pub struct Groom {
+    pub collider: HeadCollider,
+    pub rest: RestShape,
+}
+
+/// What a [`Groom`] is grown from.
+pub struct GroomSpec {
+    /// `test_head` subdivisions.
+    pub subdivisions: u32,
+    /// Distance grid resolution.
+    pub grid: u32,
+    pub strands: usize,
+    pub particles: usize,
+    pub curl: f32,
+    pub seed: u64,
+}
+
+/// `spec.strands` guides, 20 cm ±20%, rooted on the upper half (y > 0) of the head.
+pub fn groom_on_upper_half(spec: GroomSpec) -> Groom {
+    let head = test_head(spec.subdivisions);
+    let collider = HeadCollider::new(&head, spec.grid).expect("procedural head");
+    let scalp: Vec<f32> =
+        head.triangles.iter().map(|t| if head.corners(t).iter().all(|p| p.y > 0.0) { 1.0 } else { 0.0 }).collect();
+    let roots = sample_roots(&head, &scalp, spec.strands, spec.seed).expect("scalp");
+    let guide = GuideParams { segments: spec.particles - 1, length: 0.2, length_variation: 0.2, curl: spec.curl };
+    let rest = RestShape::new(grow_guides(&head, &roots, &guide, spec.seed), spec.particles).expect("guides");
+    Groom { collider, rest }
+}
+
+/// Largest distance of a particle from its rest position carried by `pose`.
+pub fn max_distance_from_rest(strands: &Strands, rest: &RestShape, pose: Pose) -> f32 {
+    strands
+        .positions()
+        .iter()
+        .zip(&rest.positions)
+        .map(|(&p, &r)| (p - pose.transform_point(r)).length())
+        .fold(0.0f32, f32::max)
+}
