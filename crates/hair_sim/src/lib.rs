@@ -29,7 +29,8 @@
 //! assert!(strands.max_stretch() < 1e-3);
 //! ```
 //!
-//! Layout: [`mesh`] (the head and its validation), [`groom`] (roots and guides),
+//! Layout: [`mesh`] (the head and its validation), [`groom`] (roots, guides, child
+//! strands and Bézier tessellation),
 //! [`solver`] (state, settings, the step), [`collide`] (BVH + distance grid, spheres,
 //! capsules). All public vectors are glam 0.33 ([`math`]), the version parry3d uses.
 
@@ -44,7 +45,10 @@ pub mod solver;
 /// The types most users need.
 pub mod prelude {
     pub use crate::collide::{DEFAULT_GRID_RESOLUTION, ExtraCollider, HeadCollider};
-    pub use crate::groom::{GroomError, GuideParams, RootBinding, grow_guides, sample_roots, settle};
+    pub use crate::groom::{
+        ChildParams, CurvePoint, GroomError, GuideParams, RootBinding, Spiral, child_curve, child_curves, grow_guides,
+        sample_roots, sample_roots_poisson, settle, tessellate, transport_frames,
+    };
     pub use crate::math::{Pose, Quat, Vec3};
     pub use crate::mesh::{HeadMesh, MeshError, test_head};
     pub use crate::solver::{LengthMode, RestShape, SimParams, StepInput, StepReport, Strands, Wind};

@@ -71,6 +71,9 @@ pub(super) struct CandidateGrid {
     /// Per cell: `[start, len]` in `entries`, or `[NONE, 0]` for "use the BVH".
     ranges: Vec<[u32; 2]>,
     entries: Vec<Candidate>,
+    /// Every triangle's corners, flat: the near query reads them without the mesh's
+    /// index indirection.
+    corners: Vec<[Vec3; 3]>,
 }
 
 impl CandidateGrid {
@@ -84,6 +87,7 @@ impl CandidateGrid {
             cells,
             ranges: Vec::with_capacity(cells[0] * cells[1] * cells[2]),
             entries: Vec::new(),
+            corners: mesh.triangles().map(|t| [t.a, t.b, t.c]).collect(),
         };
         for z in 0..cells[2] {
             for y in 0..cells[1] {
@@ -141,8 +145,8 @@ impl CandidateGrid {
         if !inside {
             return None;
         }
-        // `g` is non-negative here, so truncation is the floor.
-        let cell = g.to_array().map(|v| v as usize);
+        // `g` is non-negative here, so truncation is the floor (through i32: one instruction).
+        let cell = g.to_array().map(|v| v as i32 as usize);
         let [start, len] = self.ranges[(cell[2] * cy + cell[1]) * cx + cell[0]];
         if len == 0 {
             return None;
@@ -167,11 +171,12 @@ impl CandidateGrid {
             if candidate.centre_distance + candidate.gradient.dot(offset) - SLACK >= best_distance {
                 continue; // its tangent-plane bound already rules it out
             }
-            let (proj, location) = mesh.triangle(candidate.triangle).project_local_point_and_get_location(p, false);
-            let distance = (p - proj.point).length();
-            if distance < best_distance {
-                best_distance = distance;
-                best = Some((candidate.triangle, proj.point, location));
+            let (point, location) = project_on_triangle(&self.corners[candidate.triangle as usize], p);
+            // Most projections lose: compare squares and take the root only for a winner.
+            let squared = (p - point).length_squared();
+            if squared < best_distance * best_distance {
+                best_distance = squared.sqrt();
+                best = Some((candidate.triangle, point, location));
             }
         }
         match best {
@@ -191,6 +196,55 @@ pub(super) enum Near {
     Beyond,
     /// The exact closest point.
     Closest(Closest),
+}
+
+/// Parry's point–triangle projection (`Triangle::project_local_point_and_get_location`,
+/// not solid) on flat corners, step for step so the result is bit-identical; the rare
+/// collinear triangle is handed to parry itself.
+#[inline]
+fn project_on_triangle([a, b, c]: &[Vec3; 3], p: Vec3) -> (Vec3, TrianglePointLocation) {
+    let (a, b, c) = (*a, *b, *c);
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (ab_ap, ac_ap) = (ab.dot(ap), ac.dot(ap));
+    if ab_ap <= 0.0 && ac_ap <= 0.0 {
+        return (a, TrianglePointLocation::OnVertex(0));
+    }
+    let bp = p - b;
+    let (ab_bp, ac_bp) = (ab.dot(bp), ac.dot(bp));
+    if ab_bp >= 0.0 && ac_bp <= ab_bp {
+        return (b, TrianglePointLocation::OnVertex(1));
+    }
+    let cp = p - c;
+    let (ab_cp, ac_cp) = (ab.dot(cp), ac.dot(cp));
+    if ac_cp >= 0.0 && ab_cp <= ac_cp {
+        return (c, TrianglePointLocation::OnVertex(2));
+    }
+    let bc = c - b;
+    let n = ab.cross(ac);
+    let vc = n.dot(ab.cross(ap));
+    if vc < 0.0 && ab_ap >= 0.0 && ab_bp <= 0.0 {
+        let v = ab_ap / ab.length_squared();
+        return (a + ab * v, TrianglePointLocation::OnEdge(0, [1.0 - v, v]));
+    }
+    let vb = -n.dot(ac.cross(cp));
+    if vb < 0.0 && ac_ap >= 0.0 && ac_cp <= 0.0 {
+        let w = ac_ap / ac.length_squared();
+        return (a + ac * w, TrianglePointLocation::OnEdge(2, [1.0 - w, w]));
+    }
+    let va = n.dot(bc.cross(bp));
+    if va < 0.0 && ac_bp - ab_bp >= 0.0 && ab_cp - ac_cp >= 0.0 {
+        let w = bc.dot(bp) / bc.length_squared();
+        return (b + bc * w, TrianglePointLocation::OnEdge(1, [1.0 - w, w]));
+    }
+    let denom = va + vb + vc;
+    if denom == 0.0 {
+        let (proj, location) = parry3d::shape::Triangle::new(a, b, c).project_local_point_and_get_location(p, false);
+        return (proj.point, location);
+    }
+    let v = vb / denom;
+    let w = vc / denom;
+    let side = if n.dot(ap) >= 0.0 { 0 } else { 1 };
+    (a + ab * v + ac * w, TrianglePointLocation::OnFace(side, [1.0 - v - w, v, w]))
 }
 
 /// Parry's inside test for an oriented mesh: a point behind the pseudo-normal of the

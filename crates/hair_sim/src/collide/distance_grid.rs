@@ -60,15 +60,17 @@ impl DistanceGrid {
         if !inside {
             return None;
         }
-        // `g` is non-negative here, so truncation is the floor (and needs no libm call).
-        let [x, y, z] = g.to_array().map(|v| v as usize);
+        // `g` is non-negative and below the dims here, so truncation is the floor; through
+        // i32 it is one instruction (a direct f32 → usize cast is a slow saturating path).
+        let [x, y, z] = g.to_array().map(|v| v as i32 as usize);
         let t = g - Vec3::new(x as f32, y as f32, z as f32);
-        let at = |x: usize, y: usize, z: usize| self.values[(z * dy + y) * dx + x];
+        // The eight corners, in one bounds-checked slice starting at the lowest corner.
+        let plane = dx * dy;
+        let v = &self.values[(z * dy + y) * dx + x..][..plane + dx + 2];
         let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
-        let plane = |z: usize| {
-            lerp(lerp(at(x, y, z), at(x + 1, y, z), t.x), lerp(at(x, y + 1, z), at(x + 1, y + 1, z), t.x), t.y)
-        };
-        Some(lerp(plane(z), plane(z + 1), t.z))
+        let near = lerp(lerp(v[0], v[1], t.x), lerp(v[dx], v[dx + 1], t.x), t.y);
+        let far = lerp(lerp(v[plane], v[plane + 1], t.x), lerp(v[plane + dx], v[plane + dx + 1], t.x), t.y);
+        Some(lerp(near, far, t.z))
     }
 
     /// The grid's lowest corner.

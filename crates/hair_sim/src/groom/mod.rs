@@ -1,12 +1,23 @@
-//! Growing a groom: roots on the head surface, then guide strands from them.
+//! Growing a groom: roots on the head surface, guide strands from them, and the child
+//! strands and smooth curves a renderer draws around the guides.
 //!
 //! Pure functions of a [`HeadMesh`] and a seed: the same inputs always give the same
-//! groom, bit for bit.
+//! groom, bit for bit. The curve functions ([`tessellate`], [`transport_frames`]) and the
+//! child functions ([`child_curve`]) are the CPU reference the hair vertex shader mirrors.
 
+mod children;
+mod curve;
 mod labels;
+mod poisson;
 mod rng;
 
+pub use children::{
+    ChildParams, GOLDEN_ANGLE, MAX_CHILDREN_PER_GUIDE, Spiral, child_curve, child_curves, child_offset, hash_unit,
+    pcg_hash, spiral_offset,
+};
+pub use curve::{CurvePoint, bezier_controls, evaluate, frame_at, tessellate, transport_frames};
 pub use labels::{labels_from_colors, triangle_weights};
+pub use poisson::sample_roots_poisson;
 pub use rng::SplitMix64;
 
 use crate::collide::HeadCollider;
@@ -33,6 +44,15 @@ impl RootBinding {
     /// The interpolated surface normal at the root.
     pub fn normal(&self, mesh: &HeadMesh) -> Vec3 {
         mesh.normal_at(self.triangle as usize, self.barycentric)
+    }
+
+    /// A unit vector across the surface at the root, perpendicular to [`Self::normal`]: the
+    /// root triangle's first edge with its normal part removed (a fixed axis if the edge
+    /// is degenerate). It is the `root_u` of the guide's child frames
+    /// ([`transport_frames`]): tied to the mesh, so it turns with the head.
+    pub fn tangent(&self, mesh: &HeadMesh) -> Vec3 {
+        let [a, b, _] = mesh.corners(&mesh.triangles[self.triangle as usize]);
+        curve::perpendicular_unit(b - a, self.normal(mesh))
     }
 }
 
@@ -74,35 +94,61 @@ impl From<StrandsError> for GroomError {
 
 /// Samples `count` roots uniformly by area over the triangles, each triangle's area
 /// multiplied by its weight (0 = no hair, 1 = full density). Sampling by area, not per
-/// vertex, keeps density even where the mesh is finely tessellated.
+/// vertex, keeps density even where the mesh is finely tessellated. Independent random
+/// roots clump and leave gaps; [`sample_roots_poisson`] spaces them evenly.
 pub fn sample_roots(mesh: &HeadMesh, weights: &[f32], count: usize, seed: u64) -> Result<Vec<RootBinding>, GroomError> {
-    if weights.len() != mesh.triangles.len() {
-        return Err(GroomError::WeightCountMismatch { triangles: mesh.triangles.len(), weights: weights.len() });
-    }
-    let mut cumulative = Vec::with_capacity(weights.len());
-    let mut total = 0.0f64;
-    for (t, &w) in weights.iter().enumerate() {
-        let w = if w.is_finite() { w.clamp(0.0, 1.0) } else { 0.0 };
-        total += (mesh.triangle_area(t) * w) as f64;
-        cumulative.push(total);
-    }
-    if total <= 0.0 {
-        return Err(GroomError::NoScalp);
-    }
+    let sampler = AreaSampler::new(mesh, weights)?;
     let mut rng = SplitMix64::new(seed);
-    let roots = (0..count)
-        .map(|_| {
-            let target = rng.next_f64() * total;
-            let triangle = cumulative.partition_point(|&c| c <= target).min(weights.len() - 1);
-            // Uniform point in a triangle: fold the unit square onto it.
-            let (mut u, mut v) = (rng.next_f32(), rng.next_f32());
-            if u + v > 1.0 {
-                (u, v) = (1.0 - u, 1.0 - v);
-            }
-            RootBinding { triangle: triangle as u32, barycentric: [1.0 - u - v, u, v] }
-        })
-        .collect();
-    Ok(roots)
+    Ok((0..count).map(|_| sampler.sample(&mut rng)).collect())
+}
+
+/// Draws points uniformly over the weighted area of a mesh.
+struct AreaSampler {
+    /// Running sum of weighted triangle areas.
+    cumulative: Vec<f64>,
+    /// Each triangle's weight, made finite and clamped to 0..1.
+    weights: Vec<f32>,
+}
+
+impl AreaSampler {
+    fn new(mesh: &HeadMesh, weights: &[f32]) -> Result<Self, GroomError> {
+        if weights.len() != mesh.triangles.len() {
+            return Err(GroomError::WeightCountMismatch { triangles: mesh.triangles.len(), weights: weights.len() });
+        }
+        let weights: Vec<f32> = weights.iter().map(|&w| if w.is_finite() { w.clamp(0.0, 1.0) } else { 0.0 }).collect();
+        let mut cumulative = Vec::with_capacity(weights.len());
+        let mut total = 0.0f64;
+        for (t, &w) in weights.iter().enumerate() {
+            total += (mesh.triangle_area(t) * w) as f64;
+            cumulative.push(total);
+        }
+        // NaN: an area from a mesh that skipped validation.
+        if total.is_nan() || total <= 0.0 {
+            return Err(GroomError::NoScalp);
+        }
+        Ok(AreaSampler { cumulative, weights })
+    }
+
+    /// The summed weighted area, m².
+    fn weighted_area(&self) -> f64 {
+        self.cumulative.last().copied().unwrap_or(0.0)
+    }
+
+    /// The weight of triangle `t`, 0..1.
+    fn weight(&self, t: u32) -> f32 {
+        self.weights[t as usize]
+    }
+
+    fn sample(&self, rng: &mut SplitMix64) -> RootBinding {
+        let target = rng.next_f64() * self.weighted_area();
+        let triangle = self.cumulative.partition_point(|&c| c <= target).min(self.cumulative.len() - 1);
+        // Uniform point in a triangle: fold the unit square onto it.
+        let (mut u, mut v) = (rng.next_f32(), rng.next_f32());
+        if u + v > 1.0 {
+            (u, v) = (1.0 - u, 1.0 - v);
+        }
+        RootBinding { triangle: triangle as u32, barycentric: [1.0 - u - v, u, v] }
+    }
 }
 
 /// How guide strands grow from their roots.
@@ -227,6 +273,23 @@ mod tests {
         let zero = vec![0.0; mesh.triangles.len()];
         assert_eq!(sample_roots(&mesh, &zero, 10, 0), Err(GroomError::NoScalp));
         assert!(matches!(sample_roots(&mesh, &[1.0], 10, 0), Err(GroomError::WeightCountMismatch { .. })));
+    }
+
+    #[test]
+    fn the_root_tangent_lies_in_the_surface_along_the_first_edge() {
+        let flat = HeadMesh::from_triangles(vec![Vec3::ZERO, Vec3::X, Vec3::new(0.0, 0.0, -2.0)], vec![[0, 1, 2]]);
+        let flat = flat.unwrap();
+        let root = RootBinding { triangle: 0, barycentric: [0.2, 0.3, 0.5] };
+        assert!((root.normal(&flat) - Vec3::Y).length() < 1e-6);
+        assert!((root.tangent(&flat) - Vec3::X).length() < 1e-6);
+
+        let mesh = test_head(3);
+        for root in sample_roots(&mesh, &top_half(&mesh), 200, 4).unwrap() {
+            let (t, n) = (root.tangent(&mesh), root.normal(&mesh));
+            assert!((t.length() - 1.0).abs() < 1e-5 && t.dot(n).abs() < 1e-5, "{t} {n}");
+            let [a, b, _] = mesh.corners(&mesh.triangles[root.triangle as usize]);
+            assert!(t.dot((b - a).normalize()) > 0.9, "follows the first edge");
+        }
     }
 
     #[test]

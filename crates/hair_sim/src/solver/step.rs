@@ -104,7 +104,14 @@ impl Constants {
     }
 }
 
-/// Scratch buffers for one strand, reused across strands.
+/// Strands stepped together. Follow-the-leader and local shape walk each strand root →
+/// tip, every particle waiting on its parent (a square root and a division per link);
+/// walking several independent strands in lockstep lets the CPU overlap those chains.
+/// Each strand's arithmetic is unchanged, so results do not depend on the grouping.
+const LANES: usize = 4;
+
+/// Scratch buffers for one group of strands (lane `l`, particle `j` at `l * n + j`),
+/// allocated once per chunk and step.
 struct Scratch {
     start: Vec<Vec3>,
     force: Vec<Vec3>,
@@ -124,32 +131,81 @@ pub(super) fn step_chunk(
         return report;
     };
     let p = input.params;
-    let mut scratch =
-        Scratch { start: vec![Vec3::ZERO; n], force: vec![Vec3::ZERO; n], ftl_correction: vec![Vec3::ZERO; n] };
+    let size = LANES * n;
+    let mut scratch = Scratch {
+        start: vec![Vec3::ZERO; size],
+        force: vec![Vec3::ZERO; size],
+        ftl_correction: vec![Vec3::ZERO; size],
+    };
     let head_to = *c.poses.last().expect("at least one pose");
 
-    for (k, (xs, vs)) in positions.chunks_exact_mut(n).zip(velocities.chunks_exact_mut(n)).enumerate() {
+    // Chunk-local indices of the strands gathered for the next group.
+    let mut group = [0usize; LANES];
+    let mut lanes = 0;
+    let strands = positions.len() / n;
+    for k in 0..strands {
         let strand = first_strand + k;
         let rest_x = &rest.positions[strand * n..][..n];
+        let (xs, vs) = (&mut positions[k * n..][..n], &mut velocities[k * n..][..n]);
         let root_jump = (head_to.transform_point(rest_x[0]) - xs[0]).length();
         if root_jump.is_nan() || root_jump > p.teleport_distance {
             reset_strand(xs, vs, rest_x, &head_to);
             report.teleport_resets += 1;
-            continue;
+        } else {
+            group[lanes] = k;
+            lanes += 1;
         }
-        for s in 1..c.poses.len() {
-            let (pose_before, pose) = (&c.matrices[s - 1], &c.matrices[s]);
-            let frame = c.poses[s].rotation;
-            let time = input.time + c.h * s as f32;
-            let poses = SubstepPoses { before: pose_before, now: pose, frame };
-            substep(strand, rest, xs, vs, &mut scratch, &c, p, time, &poses, input, &mut report);
-        }
-        if !xs.iter().chain(vs.iter()).all(|v| v.is_finite()) {
-            reset_strand(xs, vs, rest_x, &head_to);
-            report.nan_resets += 1;
+        if lanes == LANES || (k + 1 == strands && lanes > 0) {
+            let g = Group { first_strand, n, strands: &group[..lanes] };
+            step_group(&g, rest, positions, velocities, &mut scratch, &c, input, &mut report);
+            lanes = 0;
         }
     }
     report
+}
+
+/// Which strands of a chunk a group steps.
+struct Group<'a> {
+    first_strand: usize,
+    n: usize,
+    /// Chunk-local strand indices, one per lane.
+    strands: &'a [usize],
+}
+
+impl Group<'_> {
+    /// Lane index, the strand's offset in the chunk's arrays, and in the whole groom's.
+    fn lanes(&self) -> impl Iterator<Item = (usize, usize, usize)> + '_ {
+        self.strands.iter().enumerate().map(|(l, &k)| (l, k * self.n, (self.first_strand + k) * self.n))
+    }
+}
+
+#[allow(clippy::too_many_arguments)] // one call site; the arguments are the step's context
+fn step_group(
+    g: &Group,
+    rest: &RestShape,
+    positions: &mut [Vec3],
+    velocities: &mut [Vec3],
+    scratch: &mut Scratch,
+    c: &Constants,
+    input: &StepInput,
+    report: &mut StepReport,
+) {
+    let n = g.n;
+    for s in 1..c.poses.len() {
+        let (pose_before, pose) = (&c.matrices[s - 1], &c.matrices[s]);
+        let frame = c.poses[s].rotation;
+        let time = input.time + c.h * s as f32;
+        let poses = SubstepPoses { before: pose_before, now: pose, frame };
+        substep(g, rest, positions, velocities, scratch, c, time, &poses, input, report);
+    }
+    let head_to = c.poses.last().expect("at least one pose");
+    for (_, at, rest_at) in g.lanes() {
+        let (xs, vs) = (&mut positions[at..][..n], &mut velocities[at..][..n]);
+        if !xs.iter().chain(vs.iter()).all(|v| v.is_finite()) {
+            reset_strand(xs, vs, &rest.positions[rest_at..][..n], head_to);
+            report.nan_resets += 1;
+        }
+    }
 }
 
 fn reset_strand(xs: &mut [Vec3], vs: &mut [Vec3], rest_x: &[Vec3], pose: &Pose) {
@@ -169,92 +225,109 @@ struct SubstepPoses<'a> {
 
 #[allow(clippy::too_many_arguments)] // one call site; the arguments are the step's context
 fn substep(
-    strand: usize,
+    g: &Group,
     rest: &RestShape,
-    xs: &mut [Vec3],
-    vs: &mut [Vec3],
+    positions: &mut [Vec3],
+    velocities: &mut [Vec3],
     scratch: &mut Scratch,
     c: &Constants,
-    p: &SimParams,
     time: f32,
     poses: &SubstepPoses,
     input: &StepInput,
     report: &mut StepReport,
 ) {
+    let p = input.params;
     let pose = poses.now;
-    let n = xs.len();
-    let base = strand * n;
+    let n = g.n;
     let h = c.h;
-    scratch.start.copy_from_slice(xs);
-
-    // 1. Forces and integration of the free particles.
-    let wind = wind_at(&p.wind, strand as u32, time);
-    scratch.force.fill(Vec3::ZERO);
-    if p.length_mode == LengthMode::Springs {
-        for j in 1..n {
-            let d = xs[j] - xs[j - 1];
-            let l = d.length();
-            if l > 1e-9 {
-                let dir = d / l;
-                let stretch = c.spring_k * (l - rest.lengths[base + j]);
-                let damping = c.spring_d * (vs[j] - vs[j - 1]).dot(dir);
-                let f = dir * (stretch + damping);
-                scratch.force[j] -= f;
-                scratch.force[j - 1] += f;
-            }
-        }
-    }
     let inv_mass = 1.0 / p.particle_mass;
     let gravity = Vec3::from_array(p.gravity);
-    for j in 1..n {
-        // Only the wind across the segment pushes; without wind, skip the normalize.
-        let wind_across = if wind == Vec3::ZERO {
-            Vec3::ZERO
-        } else {
-            let tangent = (xs[j] - xs[j - 1]).normalize_or_zero();
-            wind - tangent * wind.dot(tangent)
-        };
-        let a = gravity + wind_across + scratch.force[j] * inv_mass;
-        let v = (vs[j] + a * h) * c.drag_factor;
-        let step = (v * h).clamp_length_max(c.max_step_move);
-        xs[j] += step;
+
+    // 1. Forces and integration of the free particles; 2. the root follows the head.
+    for (l, at, base) in g.lanes() {
+        let (xs, vs) = (&mut positions[at..][..n], &velocities[at..][..n]);
+        let start = &mut scratch.start[l * n..][..n];
+        let force = &mut scratch.force[l * n..][..n];
+        start.copy_from_slice(xs);
+        let wind = wind_at(&p.wind, (base / n) as u32, time);
+        force.fill(Vec3::ZERO);
+        if p.length_mode == LengthMode::Springs {
+            for j in 1..n {
+                let d = xs[j] - xs[j - 1];
+                let l = d.length();
+                if l > 1e-9 {
+                    let dir = d / l;
+                    let stretch = c.spring_k * (l - rest.lengths[base + j]);
+                    let damping = c.spring_d * (vs[j] - vs[j - 1]).dot(dir);
+                    let f = dir * (stretch + damping);
+                    force[j] -= f;
+                    force[j - 1] += f;
+                }
+            }
+        }
+        for j in 1..n {
+            // Only the wind across the segment pushes; without wind, skip the normalize.
+            let wind_across = if wind == Vec3::ZERO {
+                Vec3::ZERO
+            } else {
+                let tangent = (xs[j] - xs[j - 1]).normalize_or_zero();
+                wind - tangent * wind.dot(tangent)
+            };
+            let a = gravity + wind_across + force[j] * inv_mass;
+            let v = (vs[j] + a * h) * c.drag_factor;
+            let step = (v * h).clamp_length_max(c.max_step_move);
+            xs[j] += step;
+        }
+        xs[0] = pose.world_point(rest.positions[base]);
     }
 
-    // 2. The root follows the head.
-    xs[0] = pose.world_point(rest.positions[base]);
-
     // 3. Shape and length.
-    scratch.ftl_correction.fill(Vec3::ZERO);
+    scratch.ftl_correction[..g.strands.len() * n].fill(Vec3::ZERO);
+    let root_frames: [Mat3A; LANES] = std::array::from_fn(|l| {
+        g.strands
+            .get(l)
+            .map_or(Mat3A::IDENTITY, |&k| Mat3A::from_quat(poses.frame * rest.root_frames[g.first_strand + k]))
+    });
     for _ in 0..p.iterations {
-        global_shape(&rest.positions[base..][..n], xs, &c.global_alpha, pose);
+        for (_, at, base) in g.lanes() {
+            global_shape(&rest.positions[base..][..n], &mut positions[at..][..n], &c.global_alpha, pose);
+        }
         if c.local_alpha > 0.0 {
-            local_shape(rest, base, xs, c.local_alpha, poses.frame * rest.root_frames[strand]);
+            local_shape(rest, g, positions, c.local_alpha, &root_frames);
         }
-        match p.length_mode {
-            LengthMode::Inextensible => follow_the_leader(&rest.lengths[base..][..n], xs, &mut scratch.ftl_correction),
-            LengthMode::Springs => clamp_lengths(&rest.lengths[base..][..n], xs, p.length_tolerance),
-        }
+        length_pass(rest, g, positions, &mut scratch.ftl_correction, p);
     }
 
     // 4. Collision, then one more length pass: pushing particles out of the head
     //    stretches segments, and FTL only moves each particle along its parent segment,
     //    which leaves it outside the surface it was just pushed to (to first order).
     if p.collision {
-        collide(xs, &scratch.start, p, poses, input, report);
-        // Both length models promise their bound after the step, whatever collision did.
-        match p.length_mode {
-            LengthMode::Inextensible => follow_the_leader(&rest.lengths[base..][..n], xs, &mut scratch.ftl_correction),
-            LengthMode::Springs => clamp_lengths(&rest.lengths[base..][..n], xs, p.length_tolerance),
+        for (l, at, _) in g.lanes() {
+            collide(&mut positions[at..][..n], &scratch.start[l * n..][..n], p, poses, input, report);
         }
+        // Both length models promise their bound after the step, whatever collision did.
+        length_pass(rest, g, positions, &mut scratch.ftl_correction, p);
     }
 
     // 5. Velocities.
-    // The root moves with the head; its speed feeds spring damping, so it gets the same limit.
-    vs[0] = ((xs[0] - scratch.start[0]) / h).clamp_length_max(p.max_speed);
-    for j in 1..n {
-        let next_correction = if j + 1 < n { scratch.ftl_correction[j + 1] } else { Vec3::ZERO };
-        let v = (xs[j] - scratch.start[j]) / h - next_correction * c.ftl_velocity;
-        vs[j] = v.clamp_length_max(p.max_speed);
+    for (l, at, _) in g.lanes() {
+        let (xs, vs) = (&positions[at..][..n], &mut velocities[at..][..n]);
+        let (start, correction) = (&scratch.start[l * n..][..n], &scratch.ftl_correction[l * n..][..n]);
+        // The root moves with the head; its speed feeds spring damping, so it gets the same limit.
+        vs[0] = ((xs[0] - start[0]) / h).clamp_length_max(p.max_speed);
+        for j in 1..n {
+            let next_correction = if j + 1 < n { correction[j + 1] } else { Vec3::ZERO };
+            let v = (xs[j] - start[j]) / h - next_correction * c.ftl_velocity;
+            vs[j] = v.clamp_length_max(p.max_speed);
+        }
+    }
+}
+
+/// The length constraint of `p.length_mode` on every strand of the group.
+fn length_pass(rest: &RestShape, g: &Group, positions: &mut [Vec3], corrections: &mut [Vec3], p: &SimParams) {
+    match p.length_mode {
+        LengthMode::Inextensible => follow_the_leader(&rest.lengths, g, positions, corrections),
+        LengthMode::Springs => clamp_lengths(&rest.lengths, g, positions, p.length_tolerance),
     }
 }
 
@@ -302,14 +375,20 @@ fn global_shape(rest_x: &[Vec3], xs: &mut [Vec3], alpha: &[f32], pose: &PoseMatr
 /// The frame starts as the head-carried root frame; each segment's deviation from where
 /// its parent expected it rotates the frame handed to its child, so a bent strand keeps
 /// its curl relative to the bend instead of snapping back to the head's orientation.
-fn local_shape(rest: &RestShape, base: usize, xs: &mut [Vec3], alpha: f32, root_frame: Quat) {
-    let mut frame = Mat3A::from_quat(root_frame);
-    for j in 1..xs.len() {
-        let expected = frame * Vec3A::from(rest.local_directions[base + j]);
-        let target = xs[j - 1] + Vec3::from(expected) * rest.lengths[base + j];
-        xs[j] += (target - xs[j]) * alpha;
-        let actual = Vec3A::from(xs[j] - xs[j - 1]).normalize_or(expected);
-        frame = rotation_arc(expected, actual) * frame;
+/// The group's strands walk root → tip in lockstep (see [`LANES`]).
+fn local_shape(rest: &RestShape, g: &Group, positions: &mut [Vec3], alpha: f32, root_frames: &[Mat3A; LANES]) {
+    let mut frames = *root_frames;
+    for j in 1..g.n {
+        for (l, at, base) in g.lanes() {
+            let frame = &mut frames[l];
+            let expected = *frame * Vec3A::from(rest.local_directions[base + j]);
+            let parent = positions[at + j - 1];
+            let target = parent + Vec3::from(expected) * rest.lengths[base + j];
+            let x = &mut positions[at + j];
+            *x += (target - *x) * alpha;
+            let actual = Vec3A::from(*x - parent).normalize_or(expected);
+            *frame = rotation_arc(expected, actual) * *frame;
+        }
     }
 }
 
@@ -334,25 +413,33 @@ fn rotation_arc(from: Vec3A, to: Vec3A) -> Mat3A {
 }
 
 /// Follow-The-Leader: walk root → tip, putting each particle at rest length from its
-/// parent. Records each particle's correction for Müller's velocity term.
-fn follow_the_leader(lengths: &[f32], xs: &mut [Vec3], corrections: &mut [Vec3]) {
-    for j in 1..xs.len() {
-        let d = xs[j] - xs[j - 1];
-        let placed = xs[j - 1] + d.normalize_or(Vec3::NEG_Y) * lengths[j];
-        corrections[j] += placed - xs[j];
-        xs[j] = placed;
+/// parent. Records each particle's correction (lane `l` at `l * n + j`) for Müller's
+/// velocity term. The group's strands walk in lockstep (see [`LANES`]).
+fn follow_the_leader(lengths: &[f32], g: &Group, positions: &mut [Vec3], corrections: &mut [Vec3]) {
+    for j in 1..g.n {
+        for (l, at, base) in g.lanes() {
+            let parent = positions[at + j - 1];
+            let d = positions[at + j] - parent;
+            let placed = parent + d.normalize_or(Vec3::NEG_Y) * lengths[base + j];
+            corrections[l * g.n + j] += placed - positions[at + j];
+            positions[at + j] = placed;
+        }
     }
 }
 
 /// The reference's length constraint: no segment longer or shorter than `tolerance` ×
 /// its rest length. Root → tip, so each fix rests on an already-fixed parent.
-fn clamp_lengths(lengths: &[f32], xs: &mut [Vec3], tolerance: f32) {
-    for j in 1..xs.len() {
-        let d = xs[j] - xs[j - 1];
-        let l = d.length();
-        let clamped = l.clamp(lengths[j] * (1.0 - tolerance), lengths[j] * (1.0 + tolerance));
-        if clamped != l {
-            xs[j] = xs[j - 1] + d.normalize_or(Vec3::NEG_Y) * clamped;
+fn clamp_lengths(lengths: &[f32], g: &Group, positions: &mut [Vec3], tolerance: f32) {
+    for j in 1..g.n {
+        for (_, at, base) in g.lanes() {
+            let parent = positions[at + j - 1];
+            let d = positions[at + j] - parent;
+            let l = d.length();
+            let rest = lengths[base + j];
+            let clamped = l.clamp(rest * (1.0 - tolerance), rest * (1.0 + tolerance));
+            if clamped != l {
+                positions[at + j] = parent + d.normalize_or(Vec3::NEG_Y) * clamped;
+            }
         }
     }
 }
@@ -370,12 +457,21 @@ fn with_friction(contact: Contact, start: Vec3, friction: f32) -> Vec3 {
 mod tests {
     use super::*;
 
+    /// One strand of `n` particles as a group.
+    fn one(n: usize) -> Group<'static> {
+        Group { first_strand: 0, n, strands: &[0] }
+    }
+
+    fn frames(root: Quat) -> [Mat3A; LANES] {
+        std::array::from_fn(|l| if l == 0 { Mat3A::from_quat(root) } else { Mat3A::IDENTITY })
+    }
+
     #[test]
     fn ftl_restores_rest_lengths_and_records_corrections() {
         let lengths = [0.0, 1.0, 1.0];
         let mut xs = [Vec3::ZERO, Vec3::new(0.0, -2.0, 0.0), Vec3::new(0.0, -2.5, 0.0)];
         let mut corr = [Vec3::ZERO; 3];
-        follow_the_leader(&lengths, &mut xs, &mut corr);
+        follow_the_leader(&lengths, &one(3), &mut xs, &mut corr);
         assert_eq!(xs[1], Vec3::new(0.0, -1.0, 0.0));
         assert_eq!(xs[2], Vec3::new(0.0, -2.0, 0.0));
         assert_eq!(corr[1], Vec3::new(0.0, 1.0, 0.0));
@@ -386,11 +482,11 @@ mod tests {
     fn clamp_keeps_lengths_within_tolerance() {
         let lengths = [0.0, 1.0, 1.0];
         let mut xs = [Vec3::ZERO, Vec3::new(0.0, -1.5, 0.0), Vec3::new(0.0, -1.55, 0.0)];
-        clamp_lengths(&lengths, &mut xs, 0.1);
+        clamp_lengths(&lengths, &one(3), &mut xs, 0.1);
         assert!((xs[1].y + 1.1).abs() < 1e-6);
         assert!(((xs[2] - xs[1]).length() - 0.9).abs() < 1e-6);
         let mut within = [Vec3::ZERO, Vec3::new(0.0, -1.05, 0.0), Vec3::new(0.0, -2.0, 0.0)];
-        clamp_lengths(&lengths, &mut within, 0.1);
+        clamp_lengths(&lengths, &one(3), &mut within, 0.1);
         assert_eq!(within[1].y, -1.05, "inside the tolerance nothing moves");
     }
 
@@ -403,7 +499,7 @@ mod tests {
         // must carry the bend along the strand, not just the first segment.
         let turn = Quat::from_rotation_z(std::f32::consts::FRAC_PI_2);
         let mut xs = [Vec3::ZERO, Vec3::new(0.3, -0.2, 0.0), Vec3::new(5.0, 5.0, 0.0)];
-        local_shape(&rest, 0, &mut xs, 1.0, turn * rest.root_frames[0]);
+        local_shape(&rest, &one(3), &mut xs, 1.0, &frames(turn * rest.root_frames[0]));
         assert!((xs[1] - turn * Vec3::NEG_Y).length() < 1e-5, "first {:?}", xs[1]);
         let second = xs[2] - xs[1];
         assert!((second - turn * Vec3::X).length() < 1e-5, "second segment {second:?}");
@@ -411,7 +507,7 @@ mod tests {
         // actual direction, so the L stays an L (angle between segments stays 90°).
         let mut bent = [Vec3::ZERO, Vec3::new(1.0, -1.0, 0.0).normalize(), Vec3::new(9.0, 0.0, 0.0)];
         for _ in 0..60 {
-            local_shape(&rest, 0, &mut bent, 0.5, rest.root_frames[0]);
+            local_shape(&rest, &one(3), &mut bent, 0.5, &frames(rest.root_frames[0]));
         }
         let (a, b) = ((bent[1] - bent[0]).normalize(), (bent[2] - bent[1]).normalize());
         assert!(a.dot(b).abs() < 1e-3, "right angle kept: {}", a.dot(b));
