@@ -27,3 +27,9 @@ pub(crate) fn pose_and_scale(transform: &GlobalTransform) -> (sim::Pose, Vec3) {
     let (scale, rotation, translation) = transform.to_scale_rotation_translation();
     (sim::Pose::new(quat_to_sim(rotation.normalize()), to_sim(translation)), scale)
 }
+
+/// Solver rotation → Bevy rotation.
+#[inline]
+pub(crate) fn quat_from_sim(q: sim::Quat) -> Quat {
+    Quat::from_array(q.to_array())
+}

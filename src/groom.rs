@@ -9,7 +9,7 @@ use bevy::asset::LoadState;
 use bevy::prelude::*;
 use bevy::tasks::{AsyncComputeTaskPool, Task, block_on, futures_lite::future};
 use hair_sim::collide::{DEFAULT_GRID_RESOLUTION, HeadCollider};
-use hair_sim::groom::{GuideParams, grow_guides, sample_roots, settle};
+use hair_sim::groom::{ChildParams, GuideParams, grow_guides, sample_roots, sample_roots_poisson, settle};
 use hair_sim::math::Pose;
 use hair_sim::mesh::HeadMesh;
 use hair_sim::solver::{RestShape, SimParams, Strands};
@@ -39,6 +39,17 @@ impl Default for ScalpSource {
     }
 }
 
+/// How roots are spread over the scalp.
+#[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum RootDistribution {
+    /// Independent samples, uniform by area (the reference): some clump, some gaps.
+    Uniform,
+    /// Poisson-disk: uniform by area, but no two roots closer than about 0.7 of the mean
+    /// spacing, so coverage is even.
+    #[default]
+    Poisson,
+}
+
 /// A user rule for [`ScalpSource::Predicate`]: `true` for head-local vertex positions
 /// (in the mesh's own units, before the entity's scale) that are scalp.
 #[derive(Component, Clone, Copy)]
@@ -65,6 +76,11 @@ pub struct HairGroom {
     pub seed: u64,
     /// Which part of the mesh is scalp.
     pub scalp: ScalpSource,
+    /// How roots are spread over the scalp.
+    pub distribution: RootDistribution,
+    /// Child strands drawn around each guide (the Archimedean spiral, clumping, tip
+    /// spread). Changing only this does not regrow the guides.
+    pub children: ChildParams,
     /// Steps of the settle ("comb") pass that lets freshly grown hair fall onto the head
     /// before it becomes the rest shape; 0 keeps the strands standing along the normals.
     pub settle_steps: u32,
@@ -80,8 +96,18 @@ impl Default for HairGroom {
             curl: 0.0,
             seed: 1,
             scalp: ScalpSource::default(),
+            distribution: RootDistribution::default(),
+            children: ChildParams::default(),
             settle_steps: 180,
         }
+    }
+}
+
+impl HairGroom {
+    /// Whether `other` grows the same guides: equal in everything but the children,
+    /// which are placed at draw time.
+    pub fn grows_like(&self, other: &HairGroom) -> bool {
+        HairGroom { children: other.children, ..self.clone() } == *other
     }
 }
 
@@ -113,18 +139,27 @@ pub(crate) struct Grown {
     pub head: Arc<HeadMesh>,
     pub roots: Vec<hair_sim::groom::RootBinding>,
     pub scale: Vec3,
+    pub groom: HairGroom,
 }
 
 #[derive(Component)]
 pub(crate) struct GrowthTask(Task<Result<Grown, String>>);
 
-/// A new or changed groom (or a new mesh) starts over: waiting for its mesh.
+/// A new or changed groom (or a new mesh) starts over: waiting for its mesh. A change
+/// that only touches the children keeps the grown guides.
 #[allow(clippy::type_complexity)] // a query's filter list
 pub(crate) fn request_growth(
     mut commands: Commands,
-    changed: Query<Entity, Or<(Changed<HairGroom>, Changed<Mesh3d>)>>,
+    changed: Query<(Entity, &HairGroom, Option<&HairState>, Ref<Mesh3d>), Or<(Changed<HairGroom>, Changed<Mesh3d>)>>,
+    changed_without_mesh: Query<Entity, (Changed<HairGroom>, Without<Mesh3d>)>,
 ) {
-    for entity in &changed {
+    for (entity, groom, state, mesh) in &changed {
+        if !mesh.is_changed() && state.is_some_and(|s| s.grown_from().grows_like(groom)) {
+            continue;
+        }
+        commands.entity(entity).remove::<(HairState, GrowthTask)>().insert(GroomStatus::WaitingForMesh);
+    }
+    for entity in &changed_without_mesh {
         commands.entity(entity).remove::<(HairState, GrowthTask)>().insert(GroomStatus::WaitingForMesh);
     }
 }
@@ -219,7 +254,11 @@ fn grow(
     pose: Pose,
     scale: Vec3,
 ) -> Result<Grown, String> {
-    let roots = sample_roots(&head, &weights, groom.guides, groom.seed).map_err(|e| e.to_string())?;
+    let roots = match groom.distribution {
+        RootDistribution::Uniform => sample_roots(&head, &weights, groom.guides, groom.seed),
+        RootDistribution::Poisson => sample_roots_poisson(&head, &weights, groom.guides, groom.seed),
+    }
+    .map_err(|e| e.to_string())?;
     let guide_params = GuideParams {
         segments: groom.segments,
         length: groom.length,
@@ -230,7 +269,8 @@ fn grow(
         .map_err(|e| e.to_string())?;
     let collider = HeadCollider::new(&head, DEFAULT_GRID_RESOLUTION).map_err(|e| e.to_string())?;
     let rest = settle(rest, Some(&collider), &params, groom.settle_steps as usize).map_err(|e| e.to_string())?;
-    Ok(Grown { strands: Strands::new(rest, pose), collider: Arc::new(collider), head: Arc::new(head), roots, scale })
+    let strands = Strands::new(rest, pose);
+    Ok(Grown { strands, collider: Arc::new(collider), head: Arc::new(head), roots, scale, groom })
 }
 
 /// Collects finished growth tasks: the groom starts simulating, or reports why not.

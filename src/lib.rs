@@ -32,20 +32,28 @@
 
 mod colliders;
 mod convert;
+mod diagnostics;
 mod groom;
 mod head_mesh;
+#[cfg(feature = "render")]
+pub mod render;
 mod settings;
 mod simulation;
 
 pub use colliders::HairCollider;
-pub use groom::{GroomStatus, HairGroom, ScalpPredicate, ScalpSource};
+pub use diagnostics::HairDiagnostics;
+pub use groom::{GroomStatus, HairGroom, RootDistribution, ScalpPredicate, ScalpSource};
 pub use hair_sim;
+pub use hair_sim::groom::{ChildParams, Spiral};
 pub use hair_sim::solver::{LengthMode, SimParams, StepReport, Wind};
 pub use head_mesh::{ATTRIBUTE_SCALP, is_procedural_scalp, procedural_head_mesh};
+#[cfg(feature = "render")]
+pub use render::{HairLook, HairRenderStats, SpecularLobe};
 pub use settings::{HairSettings, HairSettingsOverride};
 pub use simulation::HairState;
 
 use bevy::app::FixedPostUpdate;
+use bevy::diagnostic::{Diagnostic, RegisterDiagnostic};
 use bevy::ecs::intern::Interned;
 use bevy::ecs::schedule::ScheduleLabel;
 use bevy::prelude::*;
@@ -55,14 +63,19 @@ use std::time::Duration;
 /// Everything needed to add hair to an app.
 pub mod prelude {
     pub use crate::{
-        GroomStatus, HairCollider, HairError, HairGroom, HairPlugin, HairSettings, HairSettingsOverride, HairState,
-        HairSystems, LengthMode, ScalpPredicate, ScalpSource, SimParams, Wind,
+        ChildParams, GroomStatus, HairCollider, HairDiagnostics, HairError, HairGroom, HairPlugin, HairSettings,
+        HairSettingsOverride, HairState, HairSystems, LengthMode, RootDistribution, ScalpPredicate, ScalpSource,
+        SimParams, Spiral, Wind,
     };
+    #[cfg(feature = "render")]
+    pub use crate::{HairLook, HairRenderStats, SpecularLobe};
 }
 
-/// Adds hair growth and simulation. Needs `TransformPlugin`, an asset plugin with
-/// `Assets<Mesh>` (`MeshPlugin`) and a task pool: `DefaultPlugins` has them all, and so do
-/// `MinimalPlugins` + `TransformPlugin` + `AssetPlugin` + `MeshPlugin` for headless apps.
+/// Adds hair growth and simulation, and drawing (feature `render`) when the app renders.
+/// Needs `TransformPlugin`, an asset plugin with `Assets<Mesh>` (`MeshPlugin`) and a task
+/// pool: `DefaultPlugins` has them all, and so do `MinimalPlugins` + `TransformPlugin` +
+/// `AssetPlugin` + `MeshPlugin` for headless apps. Add it after `DefaultPlugins`: it draws
+/// only if Bevy's `RenderPlugin` is already there.
 pub struct HairPlugin {
     /// The schedule the simulation steps in: `FixedPostUpdate` by default.
     pub schedule: Interned<dyn ScheduleLabel>,
@@ -95,6 +108,9 @@ pub enum HairSystems {
     Simulate,
     /// Publishes the new positions (previous and current, for interpolation).
     Writeback,
+    /// Uploads interpolated guide positions for drawing (`PostUpdate`, after `Grow`;
+    /// feature `render`).
+    Draw,
 }
 
 /// Something is wrong with a groom: its head, its mesh, its description or its settings.
@@ -150,5 +166,12 @@ impl Plugin for HairPlugin {
                     .in_set(HairSystems::Grow)
                     .after(TransformSystems::Propagate),
             );
+        for path in HairDiagnostics::ALL {
+            app.register_diagnostic(Diagnostic::new(path));
+        }
+        #[cfg(feature = "render")]
+        if app.is_plugin_added::<bevy::render::RenderPlugin>() {
+            app.add_plugins(render::HairRenderPlugin);
+        }
     }
 }

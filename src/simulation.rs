@@ -3,8 +3,11 @@
 use crate::HairError;
 use crate::colliders::HairCollider;
 use crate::convert::{from_sim, pose_and_scale};
-use crate::groom::{GroomStatus, Grown};
+use crate::diagnostics::HairDiagnostics;
+use crate::groom::{GroomStatus, Grown, HairGroom};
 use crate::settings::{HairSettings, HairSettingsOverride, effective};
+use bevy::diagnostic::Diagnostics;
+use bevy::platform::time::Instant;
 use bevy::prelude::*;
 use bevy::tasks::{ComputeTaskPool, TaskPool};
 use hair_sim::collide::{ExtraCollider, HeadCollider};
@@ -25,6 +28,8 @@ pub struct HairState {
     collider: Arc<HeadCollider>,
     head: Arc<HeadMesh>,
     roots: Vec<RootBinding>,
+    /// The description these strands were grown from.
+    grown_from: HairGroom,
     /// The head scale baked into `head` and `collider`.
     baked_scale: Vec3,
     pose_from: Pose,
@@ -39,7 +44,7 @@ pub struct HairState {
 
 impl HairState {
     pub(crate) fn new(grown: Grown, pose: Pose) -> Self {
-        let Grown { mut strands, collider, head, roots, scale } = grown;
+        let Grown { mut strands, collider, head, roots, scale, groom } = grown;
         strands.reset(pose);
         let current: Vec<Vec3> = strands.positions().iter().map(|&p| from_sim(p)).collect();
         HairState {
@@ -47,6 +52,7 @@ impl HairState {
             collider,
             head,
             roots,
+            grown_from: groom,
             baked_scale: scale,
             pose_from: pose,
             pose_to: pose,
@@ -71,6 +77,11 @@ impl HairState {
     /// The head collider.
     pub fn collider(&self) -> &HeadCollider {
         &self.collider
+    }
+
+    /// The description the strands were grown from.
+    pub fn grown_from(&self) -> &HairGroom {
+        &self.grown_from
     }
 
     /// Where each guide is rooted on the head mesh.
@@ -143,7 +154,10 @@ pub(crate) fn simulate(
     colliders: Query<(&HairCollider, &GlobalTransform)>,
     mut grooms: Query<(Entity, &mut HairState, Option<&HairSettingsOverride>)>,
     mut errors: MessageWriter<HairError>,
+    mut diagnostics: Diagnostics,
 ) {
+    let started = Instant::now();
+    let (mut guides, mut particles) = (0, 0);
     let dt = time.delta_secs();
     let extra: Vec<ExtraCollider> = colliders.iter().map(|(c, t)| c.to_world(t)).collect();
     let pool = ComputeTaskPool::get_or_init(TaskPool::default);
@@ -183,7 +197,13 @@ pub(crate) fn simulate(
         }
         state.last_report = report;
         state.time += dt;
+        guides += state.strands.strand_count();
+        particles += state.strands.positions().len();
     }
+    let elapsed_ms = started.elapsed().as_secs_f64() * 1e3;
+    diagnostics.add_measurement(&HairDiagnostics::STEP_TIME, || elapsed_ms);
+    diagnostics.add_measurement(&HairDiagnostics::GUIDES, || guides as f64);
+    diagnostics.add_measurement(&HairDiagnostics::PARTICLES, || particles as f64);
 }
 
 /// [`HairSystems::Writeback`](crate::HairSystems): keeps the last two steps' positions

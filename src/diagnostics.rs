@@ -1,0 +1,32 @@
+//! Bevy diagnostics the plugin publishes: read them from `DiagnosticsStore` (a UI, a log).
+
+use bevy::diagnostic::DiagnosticPath;
+
+/// Paths of the hair diagnostics. The simulation ones are always published; the drawing
+/// ones with the `render` feature.
+pub struct HairDiagnostics;
+
+impl HairDiagnostics {
+    /// Wall time of the last fixed step's solver work, milliseconds, all grooms.
+    pub const STEP_TIME: DiagnosticPath = DiagnosticPath::const_new("hair/step_ms");
+    /// Guide strands simulated.
+    pub const GUIDES: DiagnosticPath = DiagnosticPath::const_new("hair/guides");
+    /// Particles simulated.
+    pub const PARTICLES: DiagnosticPath = DiagnosticPath::const_new("hair/particles");
+    /// Strands drawn (guides and children).
+    pub const RENDERED_STRANDS: DiagnosticPath = DiagnosticPath::const_new("hair/rendered_strands");
+    /// Vertices of the strand meshes drawn.
+    pub const RENDERED_VERTICES: DiagnosticPath = DiagnosticPath::const_new("hair/rendered_vertices");
+    /// Bytes of guide data written to the GPU in the last frame.
+    pub const UPLOADED_BYTES: DiagnosticPath = DiagnosticPath::const_new("hair/uploaded_bytes");
+
+    /// Every path above, for registration.
+    pub const ALL: [DiagnosticPath; 6] = [
+        Self::STEP_TIME,
+        Self::GUIDES,
+        Self::PARTICLES,
+        Self::RENDERED_STRANDS,
+        Self::RENDERED_VERTICES,
+        Self::UPLOADED_BYTES,
+    ];
+}

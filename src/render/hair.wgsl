@@ -1,0 +1,283 @@
+// Strand hair: GPU tessellation of guide strands into rendered strands, Kajiya-Kay shading.
+//
+// Only guide particles travel to the GPU (`guides`, one vec4 per particle, then one root
+// frame vector per guide). Every vertex of the static strand mesh knows its rendered
+// strand and curve sample (`HairVertex`); from those the vertex shader evaluates the
+// Bézier curve through the guide, offsets children along the Archimedean spiral in the
+// guide's transported frame, and widens the curve into a camera-facing ribbon.
+//
+// Every function below mirrors a Rust function in `hair_sim::groom` (named in its
+// comment): those are the unit-tested reference, and `tests/render.rs` renders the result.
+
+#import bevy_pbr::{
+    mesh_view_bindings::{view, lights},
+    mesh_view_types::DIRECTIONAL_LIGHT_FLAGS_SHADOWS_ENABLED_BIT,
+    shadows::fetch_directional_shadow,
+    view_transformations::position_world_to_clip,
+}
+#ifdef TONEMAP_IN_SHADER
+#import bevy_core_pipeline::tonemapping::tone_mapping
+#endif
+
+struct HairUniform {
+    root_color: vec4<f32>,
+    tip_color: vec4<f32>,
+    primary_color: vec4<f32>,
+    secondary_color: vec4<f32>,
+    // primary exponent, primary shift, secondary exponent, secondary shift
+    specular: vec4<f32>,
+    // a, b, angle step (rad), scale (m per spiral unit)
+    spiral: vec4<f32>,
+    // clumping, tip spread (m), root width (m), tip width (m)
+    shape: vec4<f32>,
+    // tint variation, receive shadows (0/1), diffuse strength, unused
+    shading: vec4<f32>,
+    // guides, particles per guide, rendered strands per guide (guide + children), subdivisions
+    counts: vec4<u32>,
+}
+
+@group(#{MATERIAL_BIND_GROUP}) @binding(0) var<storage, read> guides: array<vec4<f32>>;
+@group(#{MATERIAL_BIND_GROUP}) @binding(1) var<uniform> hair: HairUniform;
+
+const PI: f32 = 3.14159265;
+
+struct Vertex {
+    // x: rendered strand, y: curve sample * 2 + ribbon side
+    @location(0) hair_vertex: vec2<u32>,
+};
+
+struct VertexOutput {
+    @builtin(position) clip_position: vec4<f32>,
+    @location(0) world_position: vec4<f32>,
+    @location(1) tangent: vec3<f32>,
+    // root → tip parameter
+    @location(2) t: f32,
+    @location(3) @interpolate(flat) strand: u32,
+    // ribbon normal (faces the camera)
+    @location(4) normal: vec3<f32>,
+};
+
+fn particle(guide: u32, i: u32) -> vec3<f32> {
+    return guides[guide * hair.counts.y + i].xyz;
+}
+
+fn root_u(guide: u32) -> vec3<f32> {
+    return guides[hair.counts.x * hair.counts.y + guide].xyz;
+}
+
+// Mirrors `hair_sim::groom::curve::unit_or`.
+fn unit_or(v: vec3<f32>, fallback: vec3<f32>) -> vec3<f32> {
+    let len2 = dot(v, v);
+    if len2 > 1e-20 && len2 < 3.4e38 {
+        return v * inverseSqrt(len2);
+    }
+    return fallback;
+}
+
+// Mirrors `hair_sim::groom::curve::fallback_axis`.
+fn fallback_axis(axis: vec3<f32>) -> vec3<f32> {
+    var world = vec3(0.0, 1.0, 0.0);
+    if abs(axis.x) < 0.9 {
+        world = vec3(1.0, 0.0, 0.0);
+    }
+    return unit_or(world - axis * dot(axis, world), vec3(0.0, 0.0, 1.0));
+}
+
+// Mirrors `hair_sim::groom::curve::perpendicular_unit`.
+fn perpendicular_unit(v: vec3<f32>, axis: vec3<f32>) -> vec3<f32> {
+    return unit_or(v - axis * dot(axis, v), fallback_axis(axis));
+}
+
+// Mirrors `hair_sim::groom::curve::particle`: neighbours past either end mirrored.
+fn neighbour(guide: u32, i: i32) -> vec3<f32> {
+    let n = i32(hair.counts.y);
+    if i < 0 {
+        return 2.0 * particle(guide, 0u) - particle(guide, 1u);
+    }
+    if i >= n {
+        return 2.0 * particle(guide, u32(n - 1)) - particle(guide, u32(n - 2));
+    }
+    return particle(guide, u32(i));
+}
+
+struct CurvePoint {
+    position: vec3<f32>,
+    tangent: vec3<f32>,
+}
+
+// Mirrors `hair_sim::groom::curve::evaluate` (with `bezier_controls` inlined): the C1
+// Catmull-Rom Bézier through the guide particles at `s` in particle units, [0, n - 1].
+fn evaluate(guide: u32, s_in: f32) -> CurvePoint {
+    let last = f32(hair.counts.y - 1u);
+    let s = clamp(s_in, 0.0, last);
+    let i = i32(min(floor(s), last - 1.0));
+    let t = s - f32(i);
+    let prev = neighbour(guide, i - 1);
+    let p0 = neighbour(guide, i);
+    let p1 = neighbour(guide, i + 1);
+    let next = neighbour(guide, i + 2);
+    let c0 = p0;
+    let c1 = p0 + (p1 - prev) / 6.0;
+    let c2 = p1 - (next - p0) / 6.0;
+    let c3 = p1;
+    let r = 1.0 - t;
+    var out: CurvePoint;
+    out.position = c0 * (r * r * r) + c1 * (3.0 * r * r * t) + c2 * (3.0 * r * t * t) + c3 * (t * t * t);
+    let derivative = (c1 - c0) * (3.0 * r * r) + (c2 - c1) * (6.0 * r * t) + (c3 - c2) * (3.0 * t * t);
+    out.tangent = unit_or(derivative, unit_or(c3 - c0, vec3(0.0, 1.0, 0.0)));
+    return out;
+}
+
+// Mirrors `hair_sim::groom::curve::transport`: `v` turned by the minimal rotation taking
+// `a` onto `b` (kept as is for a full reversal), made perpendicular to `b`.
+fn transport(v: vec3<f32>, a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
+    let k = cross(a, b);
+    let c = dot(a, b);
+    var rotated = v;
+    if 1.0 + c > 1e-4 {
+        rotated = v * c + cross(k, v) + k * (dot(k, v) / (1.0 + c));
+    }
+    return perpendicular_unit(rotated, b);
+}
+
+// Mirrors `hair_sim::groom::curve::transport_frames` up to particle `i + 1`: the root
+// frame vector carried along the particle tangents; returns the `u` of particles i, i + 1.
+fn transport_frames(guide: u32, i: u32) -> mat2x3<f32> {
+    var tangent = evaluate(guide, 0.0).tangent;
+    var u = perpendicular_unit(root_u(guide), tangent);
+    var previous = u;
+    for (var j = 1u; j <= i + 1u; j++) {
+        let next = evaluate(guide, f32(j)).tangent;
+        previous = u;
+        u = transport(u, tangent, next);
+        tangent = next;
+    }
+    return mat2x3<f32>(previous, u);
+}
+
+// Mirrors `hair_sim::groom::curve::frame_at`: the frame (u, v) at `s`.
+fn frame_at(guide: u32, s_in: f32, tangent: vec3<f32>) -> mat2x3<f32> {
+    let last = f32(hair.counts.y - 1u);
+    let s = clamp(s_in, 0.0, last);
+    let j = u32(min(floor(s), last - 1.0));
+    let frames = transport_frames(guide, j);
+    let u = perpendicular_unit(mix(frames[0], frames[1], s - f32(j)), tangent);
+    return mat2x3<f32>(u, cross(tangent, u));
+}
+
+// Mirrors `hair_sim::groom::children::pcg_hash`.
+fn pcg_hash(x: u32) -> u32 {
+    let state = x * 747796405u + 2891336453u;
+    let word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+    return (word >> 22u) ^ word;
+}
+
+// Mirrors `hair_sim::groom::children::hash_unit`.
+fn hash_unit(x: u32) -> f32 {
+    return f32(pcg_hash(x) >> 8u) / 16777216.0;
+}
+
+// Mirrors `hair_sim::groom::children::spiral_offset`: x = (a + bθ) cos θ, y = (a + bθ) sin θ.
+fn spiral_offset(child: u32) -> vec2<f32> {
+    let theta = f32(child + 1u) * hair.spiral.z;
+    let radius = hair.spiral.w * (hair.spiral.x + hair.spiral.y * theta);
+    return radius * vec2(cos(theta), sin(theta));
+}
+
+// Mirrors `hair_sim::groom::children::child_offset`: the spiral offset pulled toward the
+// guide (clumping) and pushed out in a random direction (tip spread) toward the tip.
+fn child_offset(guide: u32, child: u32, t: f32) -> vec2<f32> {
+    let clumping = hair.shape.x;
+    let spread = hair.shape.y;
+    let phi = 2.0 * PI * hash_unit(guide * 65536u + child);
+    return spiral_offset(child) * (1.0 - clumping * t) + spread * t * t * vec2(cos(phi), sin(phi));
+}
+
+@vertex
+fn vertex(in: Vertex) -> VertexOutput {
+    let strand = in.hair_vertex.x;
+    let sample_index = in.hair_vertex.y >> 1u;
+    let side = f32(in.hair_vertex.y & 1u) * 2.0 - 1.0;
+    let per_guide = hair.counts.z;
+    let guide = strand / per_guide;
+    let child = strand % per_guide; // 0 is the guide itself
+    let s = f32(sample_index) / f32(hair.counts.w);
+    let t = s / f32(hair.counts.y - 1u);
+
+    let curve = evaluate(guide, s);
+    var position = curve.position;
+    if child > 0u {
+        let frame = frame_at(guide, s, curve.tangent);
+        let offset = child_offset(guide, child - 1u, t);
+        position += offset.x * frame[0] + offset.y * frame[1];
+    }
+
+    // A ribbon across the strand, facing the camera, tapering root → tip.
+    let to_camera = unit_or(view.world_position - position, vec3(0.0, 0.0, 1.0));
+    let across = perpendicular_unit(cross(curve.tangent, to_camera), curve.tangent);
+    let width = mix(hair.shape.z, hair.shape.w, t);
+    position += across * side * 0.5 * width;
+
+    var out: VertexOutput;
+    out.clip_position = position_world_to_clip(position);
+    out.world_position = vec4(position, 1.0);
+    out.tangent = curve.tangent;
+    out.t = t;
+    out.strand = strand;
+    out.normal = normalize(cross(across, curve.tangent));
+    return out;
+}
+
+// Kajiya-Kay diffuse: proportional to sin(T, L), zero when the light runs along the strand.
+fn kajiya_diffuse(tangent: vec3<f32>, to_light: vec3<f32>) -> f32 {
+    let c = dot(tangent, to_light);
+    return sqrt(max(1.0 - c * c, 0.0));
+}
+
+// Kajiya-Kay specular in Scheuermann's form: sin(T, H)^exponent, faded when the light is
+// behind the strand.
+fn kajiya_specular(tangent: vec3<f32>, half_vector: vec3<f32>, exponent: f32) -> f32 {
+    let c = dot(tangent, half_vector);
+    let sin_th = sqrt(max(1.0 - c * c, 0.0));
+    return smoothstep(-1.0, 0.0, c) * pow(sin_th, exponent);
+}
+
+// Scheuermann's shifted tangent: moves the highlight toward the root or the tip.
+fn shifted_tangent(tangent: vec3<f32>, normal: vec3<f32>, shift: f32) -> vec3<f32> {
+    return normalize(tangent + shift * normal);
+}
+
+@fragment
+fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
+    let tangent = normalize(in.tangent);
+    let to_view = normalize(view.world_position - in.world_position.xyz);
+    let normal = normalize(in.normal);
+    let tint = 1.0 + hair.shading.x * (hash_unit(in.strand) * 2.0 - 1.0);
+    let albedo = mix(hair.root_color.rgb, hair.tip_color.rgb, in.t) * tint;
+
+    let view_z = dot(vec4(view.view_from_world[0].z, view.view_from_world[1].z, view.view_from_world[2].z,
+        view.view_from_world[3].z), in.world_position);
+
+    var light = albedo * lights.ambient_color.rgb;
+    for (var i = 0u; i < lights.n_directional_lights; i++) {
+        let directional = &lights.directional_lights[i];
+        let to_light = (*directional).direction_to_light;
+        var shadow = 1.0;
+        if hair.shading.y > 0.5 && ((*directional).flags & DIRECTIONAL_LIGHT_FLAGS_SHADOWS_ENABLED_BIT) != 0u {
+            shadow = fetch_directional_shadow(i, in.world_position, normal, view_z, in.clip_position.xy);
+        }
+        let half_vector = normalize(to_light + to_view);
+        let diffuse = hair.shading.z * albedo * kajiya_diffuse(tangent, to_light) / PI;
+        let primary = hair.primary_color.rgb
+            * kajiya_specular(shifted_tangent(tangent, normal, hair.specular.y), half_vector, hair.specular.x);
+        let secondary = hair.secondary_color.rgb * albedo
+            * kajiya_specular(shifted_tangent(tangent, normal, hair.specular.w), half_vector, hair.specular.z);
+        light += (diffuse + primary + secondary) * (*directional).color.rgb * shadow;
+    }
+
+    var color = vec4(light * view.exposure, 1.0);
+#ifdef TONEMAP_IN_SHADER
+    color = tone_mapping(color, view.color_grading);
+#endif
+    return color;
+}

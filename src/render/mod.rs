@@ -1,0 +1,321 @@
+//! Drawing grooms: GPU-tessellated strands with a Kajiya-Kay material (feature `render`).
+//!
+//! Each groom gets a drawing entity of its own (world space, so its transform is the
+//! identity) with a static [`StrandLayout`] mesh and a [`HairMaterial`]. Every frame only
+//! the guide particles, interpolated between the last two fixed steps, and one root frame
+//! vector per guide are written into the material's storage buffer; the vertex shader
+//! tessellates the guides with Bézier curves and places the children around them.
+
+mod layout;
+mod material;
+
+pub use layout::{ATTRIBUTE_HAIR_VERTEX, StrandLayout};
+pub use material::{HairMaterial, HairUniform};
+
+use crate::convert::{from_sim, quat_from_sim};
+use crate::diagnostics::HairDiagnostics;
+use crate::{HairGroom, HairState, HairSystems};
+use bevy::asset::embedded_asset;
+use bevy::camera::primitives::Aabb;
+use bevy::camera::visibility::{NoAutoAabb, VisibilitySystems};
+use bevy::diagnostic::Diagnostics;
+use bevy::light::NotShadowCaster;
+use bevy::prelude::*;
+use bevy::render::storage::ShaderBuffer;
+use hair_sim::groom::ChildParams;
+
+/// Draws every groom: added by [`HairPlugin`](crate::HairPlugin) when the `render`
+/// feature is on and the app renders.
+pub struct HairRenderPlugin;
+
+impl Plugin for HairRenderPlugin {
+    fn build(&self, app: &mut App) {
+        embedded_asset!(app, "hair.wgsl");
+        app.add_plugins(MaterialPlugin::<HairMaterial>::default())
+            .register_type::<HairLook>()
+            .register_required_components::<HairGroom, HairLook>()
+            .init_resource::<HairRenderStats>()
+            .add_systems(
+                PostUpdate,
+                (sync_drawing, upload_guides, update_materials)
+                    .chain()
+                    .in_set(HairSystems::Draw)
+                    .after(HairSystems::Grow)
+                    .before(VisibilitySystems::CheckVisibility),
+            );
+    }
+}
+
+/// A specular highlight of Scheuermann's two-lobe hair model.
+#[derive(Reflect, Clone, Copy, Debug, PartialEq)]
+pub struct SpecularLobe {
+    /// Highlight colour (the secondary lobe is also tinted by the hair colour).
+    pub color: Color,
+    /// Sharpness: larger is a narrower highlight.
+    pub exponent: f32,
+    /// Shifts the highlight along the strand: positive toward the tip, negative toward
+    /// the root.
+    pub shift: f32,
+}
+
+/// How a groom looks. On the head entity next to [`HairGroom`] (inserted with defaults
+/// when missing); edit it at any time.
+#[derive(Component, Reflect, Clone, Debug, PartialEq)]
+#[reflect(Component, Default)]
+pub struct HairLook {
+    /// Colour at the root.
+    pub root_color: Color,
+    /// Colour at the tip.
+    pub tip_color: Color,
+    /// Random per-strand brightness variation, 0..1.
+    pub tint_variation: f32,
+    /// Ribbon width at the root, metres.
+    pub root_width: f32,
+    /// Ribbon width at the tip, metres.
+    pub tip_width: f32,
+    /// Kajiya-Kay diffuse strength.
+    pub diffuse: f32,
+    /// The light-coloured highlight, shifted toward the tip.
+    pub primary: SpecularLobe,
+    /// The hair-tinted highlight, shifted toward the root.
+    pub secondary: SpecularLobe,
+    /// Curve samples per segment (Bézier tessellation), at least 1.
+    pub subdivisions: u32,
+    /// Sample directional-light shadows (from the head and other casters).
+    pub receive_shadows: bool,
+    /// Draw the simulated guides only, without children.
+    pub guides_only: bool,
+}
+
+impl Default for HairLook {
+    fn default() -> Self {
+        HairLook {
+            root_color: Color::srgb(0.09, 0.055, 0.03),
+            tip_color: Color::srgb(0.32, 0.2, 0.11),
+            tint_variation: 0.2,
+            root_width: 0.0009,
+            tip_width: 0.0003,
+            diffuse: 1.0,
+            primary: SpecularLobe { color: Color::srgb(0.3, 0.28, 0.25), exponent: 90.0, shift: 0.08 },
+            secondary: SpecularLobe { color: Color::srgb(0.6, 0.5, 0.4), exponent: 24.0, shift: -0.12 },
+            subdivisions: 4,
+            receive_shadows: true,
+            guides_only: false,
+        }
+    }
+}
+
+/// What the hair drawing cost this frame, summed over grooms. Also published as Bevy
+/// diagnostics ([`HairDiagnostics`]).
+#[derive(Resource, Clone, Copy, Debug, Default, PartialEq)]
+pub struct HairRenderStats {
+    /// Strands drawn (guides and children).
+    pub rendered_strands: u64,
+    /// Vertices of the strand meshes.
+    pub rendered_vertices: u64,
+    /// Bytes written to the GPU for hair this frame.
+    pub uploaded_bytes: u64,
+}
+
+/// On a groom's drawing entity: which head it draws and with what.
+#[derive(Component, Debug)]
+pub struct HairDrawing {
+    /// The head entity (with [`HairGroom`] and [`HairState`]).
+    pub head: Entity,
+    /// The storage buffer of guide particles.
+    pub guides: Handle<ShaderBuffer>,
+    /// The strand material.
+    pub material: Handle<HairMaterial>,
+    /// The mesh layout drawn.
+    pub layout: StrandLayout,
+    /// Each guide's root frame `u` in head space (rotated by the head each frame).
+    root_u: Vec<Vec3>,
+}
+
+/// On a head: the entity that draws its hair.
+#[derive(Component, Debug)]
+pub struct HairDrawnBy(pub Entity);
+
+fn layout_of(state: &HairState, groom: &HairGroom, look: &HairLook) -> StrandLayout {
+    StrandLayout {
+        guides: state.roots().len() as u32,
+        particles: state.particles_per_strand() as u32,
+        strands_per_guide: if look.guides_only { 1 } else { groom.children.sanitized().0.per_guide + 1 },
+        subdivisions: look.subdivisions.clamp(1, 16),
+    }
+}
+
+/// Spawns (or rebuilds) the drawing entity of each grown groom, hides it while the groom
+/// regrows, and despawns it with its head.
+#[allow(clippy::type_complexity)] // a query's component list
+fn sync_drawing(
+    mut commands: Commands,
+    heads: Query<(Entity, Option<&HairState>, &HairGroom, &HairLook, Option<&HairDrawnBy>)>,
+    mut drawings: Query<(Entity, &mut HairDrawing, &mut Visibility)>,
+    mut meshes: ResMut<Assets<Mesh>>,
+    mut buffers: ResMut<Assets<ShaderBuffer>>,
+    mut materials: ResMut<Assets<HairMaterial>>,
+) {
+    for (drawing_entity, drawing, _) in &drawings {
+        if !heads.contains(drawing.head) {
+            commands.entity(drawing_entity).despawn();
+        }
+    }
+    for (head, state, groom, look, drawn_by) in &heads {
+        let existing = drawn_by.and_then(|d| drawings.get_mut(d.0).ok());
+        let Some(state) = state else {
+            if let Some((_, _, mut visibility)) = existing {
+                *visibility = Visibility::Hidden;
+            }
+            continue;
+        };
+        let layout = layout_of(state, groom, look);
+        if let Some((_, drawing, mut visibility)) = existing
+            && drawing.layout == layout
+            && drawing.root_u.len() == state.roots().len()
+        {
+            visibility.set_if_neq(Visibility::Inherited);
+            continue;
+        }
+        let root_u: Vec<Vec3> = state.roots().iter().map(|r| from_sim(r.tangent(state.head_mesh()))).collect();
+        let bytes = guide_buffer_len(&layout) * size_of::<Vec4>();
+        let guides = buffers.add(ShaderBuffer::with_size(bytes, default()));
+        let material = materials.add(HairMaterial { guides: guides.clone(), uniform: uniform(&layout, groom, look) });
+        let drawing = HairDrawing { head, guides, material: material.clone(), layout, root_u };
+        let bundle = (Mesh3d(meshes.add(layout.mesh())), MeshMaterial3d(material), drawing, Visibility::Inherited);
+        match drawn_by {
+            Some(d) if drawings.contains(d.0) => {
+                commands.entity(d.0).insert(bundle);
+            }
+            _ => {
+                let entity =
+                    commands.spawn((Name::new("hair"), bundle, Transform::IDENTITY, NotShadowCaster, NoAutoAabb)).id();
+                commands.entity(head).insert(HairDrawnBy(entity));
+            }
+        }
+    }
+}
+
+/// One `vec4` per guide particle, then one per guide (its root frame vector).
+fn guide_buffer_len(layout: &StrandLayout) -> usize {
+    (layout.guides * layout.particles + layout.guides) as usize
+}
+
+/// Writes this frame's guide particles (interpolated between the last two fixed steps)
+/// and root frames into each drawing's storage buffer, and fits its bounding box.
+fn upload_guides(
+    fixed: Res<Time<Fixed>>,
+    heads: Query<(&HairState, &HairGroom, &HairLook)>,
+    mut drawings: Query<(&HairDrawing, &mut Aabb, &Visibility)>,
+    mut drawings_without_aabb: Query<(Entity, &HairDrawing), Without<Aabb>>,
+    mut commands: Commands,
+    mut buffers: ResMut<Assets<ShaderBuffer>>,
+    mut stats: ResMut<HairRenderStats>,
+    mut diagnostics: Diagnostics,
+) {
+    let mut frame = HairRenderStats::default();
+    let overstep = fixed.overstep_fraction();
+    let mut write = |drawing: &HairDrawing, frame: &mut HairRenderStats| -> Option<Aabb> {
+        let (state, groom, look) = heads.get(drawing.head).ok()?;
+        if state.roots().len() != drawing.root_u.len() {
+            return None; // regrown with another guide count; sync_drawing rebuilds next frame
+        }
+        let rotation = quat_from_sim(state.head_pose().rotation);
+        let mut data: Vec<Vec4> = Vec::with_capacity(guide_buffer_len(&drawing.layout));
+        let (mut min, mut max) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+        for p in state.interpolated_positions(overstep) {
+            min = min.min(p);
+            max = max.max(p);
+            data.push(p.extend(1.0));
+        }
+        data.extend(drawing.root_u.iter().map(|&u| (rotation * u).extend(0.0)));
+        frame.uploaded_bytes += (data.len() * size_of::<Vec4>()) as u64;
+        frame.rendered_strands += drawing.layout.strands() as u64;
+        frame.rendered_vertices += drawing.layout.vertices() as u64;
+        buffers.get_mut(&drawing.guides)?.set_data(data);
+        // Children sit at most the spiral's outer radius plus the tip spread from their
+        // guide, and ribbons add half their width.
+        let reach = child_reach(&groom.children.sanitized().0) + look.root_width.max(look.tip_width);
+        (min.is_finite() && max.is_finite())
+            .then(|| Aabb::from_min_max(min - Vec3::splat(reach), max + Vec3::splat(reach)))
+    };
+    for (drawing, mut aabb, visibility) in &mut drawings {
+        if *visibility == Visibility::Hidden {
+            continue;
+        }
+        if let Some(fitted) = write(drawing, &mut frame) {
+            *aabb = fitted;
+        }
+    }
+    for (entity, drawing) in &mut drawings_without_aabb {
+        if let Some(fitted) = write(drawing, &mut frame) {
+            commands.entity(entity).insert(fitted);
+        }
+    }
+    *stats = frame;
+    diagnostics.add_measurement(&HairDiagnostics::UPLOADED_BYTES, || frame.uploaded_bytes as f64);
+    diagnostics.add_measurement(&HairDiagnostics::RENDERED_STRANDS, || frame.rendered_strands as f64);
+    diagnostics.add_measurement(&HairDiagnostics::RENDERED_VERTICES, || frame.rendered_vertices as f64);
+}
+
+/// How far a child can stray from its guide: the outermost spiral radius (clumping only
+/// shrinks it) plus the tip spread.
+fn child_reach(children: &ChildParams) -> f32 {
+    match children.per_guide {
+        0 => 0.0,
+        n => children.spiral.radius(n - 1) + children.tip_spread,
+    }
+}
+
+/// Rewrites a drawing's uniform when its look or child placement changed.
+fn update_materials(
+    heads: Query<(&HairGroom, &HairLook)>,
+    drawings: Query<&HairDrawing>,
+    mut materials: ResMut<Assets<HairMaterial>>,
+) {
+    for drawing in &drawings {
+        let Ok((groom, look)) = heads.get(drawing.head) else { continue };
+        let wanted = uniform(&drawing.layout, groom, look);
+        if materials.get(&drawing.material).is_some_and(|m| m.uniform != wanted)
+            && let Some(mut material) = materials.get_mut(&drawing.material)
+        {
+            material.uniform = wanted;
+        }
+    }
+}
+
+/// The shader's uniform block from the look and the child placement. Values are
+/// sanitised here, so NaN or negative widths never reach the GPU.
+fn uniform(layout: &StrandLayout, groom: &HairGroom, look: &HairLook) -> HairUniform {
+    let (children, _) = groom.children.sanitized();
+    let finite = |x: f32, fallback: f32| if x.is_finite() { x } else { fallback };
+    let non_negative = |x: f32, fallback: f32| finite(x, fallback).max(0.0);
+    let linear = |c: Color| Vec4::from_array(c.to_linear().to_f32_array());
+    let defaults = HairLook::default();
+    HairUniform {
+        root_color: linear(look.root_color),
+        tip_color: linear(look.tip_color),
+        primary_color: linear(look.primary.color),
+        secondary_color: linear(look.secondary.color),
+        specular: Vec4::new(
+            non_negative(look.primary.exponent, defaults.primary.exponent).max(1.0),
+            finite(look.primary.shift, 0.0).clamp(-1.0, 1.0),
+            non_negative(look.secondary.exponent, defaults.secondary.exponent).max(1.0),
+            finite(look.secondary.shift, 0.0).clamp(-1.0, 1.0),
+        ),
+        spiral: Vec4::new(children.spiral.a, children.spiral.b, children.spiral.angle_step, children.spiral.scale),
+        shape: Vec4::new(
+            children.clumping,
+            children.tip_spread,
+            non_negative(look.root_width, defaults.root_width),
+            non_negative(look.tip_width, defaults.tip_width),
+        ),
+        shading: Vec4::new(
+            non_negative(look.tint_variation, 0.0).min(1.0),
+            if look.receive_shadows { 1.0 } else { 0.0 },
+            non_negative(look.diffuse, defaults.diffuse),
+            0.0,
+        ),
+        counts: UVec4::new(layout.guides, layout.particles, layout.strands_per_guide, layout.subdivisions),
+    }
+}

@@ -1,0 +1,125 @@
+//! Headless ECS tests of growth on the shipped head (`assets/head.glb`, the MakeHuman head
+//! painted by `crates/head_asset`): where the plugin puts roots, how many, and whether the
+//! same seed grows the same hair.
+
+mod common;
+
+use bevy::asset::RenderAssetUsages;
+use bevy::mesh::{Indices, PrimitiveTopology};
+use bevy::prelude::*;
+use bevy_hair::hair_sim::groom::{labels_from_colors, triangle_weights};
+use bevy_hair::prelude::*;
+use common::*;
+use head_asset::HeadAsset;
+use head_asset::paint::{SKIN_COLOR, in_ear};
+
+/// `assets/head.glb`, parsed by the converter's own reader (the demo loads the same file
+/// through Bevy's glTF loader).
+fn shipped_head() -> HeadAsset {
+    let bytes = std::fs::read(head_asset::default_output_path()).expect("assets/head.glb is committed");
+    head_asset::glb::read(&bytes).expect("assets/head.glb parses")
+}
+
+/// The head as the Bevy mesh the glTF loader makes of it: positions, normals, COLOR_0, indices.
+fn bevy_mesh(head: &HeadAsset) -> Mesh {
+    Mesh::new(PrimitiveTopology::TriangleList, RenderAssetUsages::default())
+        .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, head.positions.clone())
+        .with_inserted_attribute(Mesh::ATTRIBUTE_NORMAL, head.normals.clone())
+        .with_inserted_attribute(Mesh::ATTRIBUTE_COLOR, head.colors.clone())
+        .with_inserted_indices(Indices::U32(head.triangles.iter().flatten().copied().collect()))
+}
+
+fn grow_on(mesh: Mesh, groom: HairGroom) -> (App, Entity) {
+    let mut app = app();
+    let mesh = app.world_mut().resource_mut::<Assets<Mesh>>().add(mesh);
+    let head = app.world_mut().spawn((Mesh3d(mesh), groom)).id();
+    (app, head)
+}
+
+fn shipped_groom(seed: u64) -> HairGroom {
+    HairGroom { guides: 1500, seed, settle_steps: 30, ..default() }
+}
+
+#[test]
+fn roots_grow_only_on_the_painted_scalp_of_the_shipped_head() {
+    let asset = shipped_head();
+    let (mut app, head) = grow_on(bevy_mesh(&asset), shipped_groom(3));
+    wait_until_ready(&mut app, head);
+    let state = state(&app, head);
+    let mesh = state.head_mesh();
+    assert_eq!(state.roots().len(), 1500, "exactly the asked number of roots");
+    assert_eq!(state.strands().strand_count(), 1500);
+
+    // The labelled scalp, as the plugin reads it, has the area of a real scalp.
+    let weights = triangle_weights(mesh, &labels_from_colors(&asset.colors, 0.5));
+    let scalp_area: f32 = (0..weights.len()).map(|t| weights[t] * mesh.triangle_area(t)).sum();
+    let total_area: f32 = (0..weights.len()).map(|t| mesh.triangle_area(t)).sum();
+    println!(
+        "labelled scalp {:.0} cm² of {:.0} cm² ({:.0}%), {} of {} triangles",
+        scalp_area * 1e4,
+        total_area * 1e4,
+        100.0 * scalp_area / total_area,
+        weights.iter().filter(|&&w| w > 0.0).count(),
+        weights.len()
+    );
+    assert!((0.055..0.075).contains(&scalp_area), "scalp area {scalp_area} m²");
+
+    let (mut on_face, mut in_ears, mut per_region) = (0, 0, [0usize; 3]);
+    for root in state.roots() {
+        assert!(weights[root.triangle as usize] > 0.0, "root on unlabelled triangle {}", root.triangle);
+        assert!(root.barycentric.iter().all(|&b| (-1e-6..=1.0 + 1e-6).contains(&b)), "{:?}", root.barycentric);
+        let p = root.position(mesh);
+        // The face: in front of the temples and below 3 cm over the brows (y ≈ 0.148).
+        on_face += usize::from(p.z > 0.07 && p.y < 0.178);
+        in_ears += usize::from(in_ear([p.x as f64, p.y as f64, p.z as f64]) || p.x.abs() > 0.077);
+        // Top, sides and back all get hair.
+        per_region[if p.y > 0.2 {
+            0
+        } else if p.z < -0.02 {
+            1
+        } else {
+            2
+        }] += 1;
+    }
+    println!("roots on top / back / sides: {per_region:?}");
+    assert_eq!((on_face, in_ears), (0, 0), "roots on the face or in the ears");
+    assert!(per_region.iter().all(|&n| n > 100), "a region without hair: {per_region:?}");
+}
+
+#[test]
+fn the_same_seed_grows_the_same_groom_and_another_seed_does_not() {
+    let asset = shipped_head();
+    let grow = |seed| {
+        let (mut app, head) = grow_on(bevy_mesh(&asset), HairGroom { guides: 400, ..shipped_groom(seed) });
+        wait_until_ready(&mut app, head);
+        let state = state(&app, head);
+        (state.roots().to_vec(), state.current_positions().to_vec())
+    };
+    let (roots_a, positions_a) = grow(11);
+    let (roots_b, positions_b) = grow(11);
+    let (roots_c, _) = grow(12);
+    assert_eq!(roots_a, roots_b);
+    assert_eq!(positions_a, positions_b, "same seed, same strands, bit for bit");
+    let shared = roots_a.iter().filter(|r| roots_c.contains(r)).count();
+    assert_eq!(shared, 0, "seeds 11 and 12 share {shared} roots");
+}
+
+#[test]
+fn the_shipped_head_without_paint_reports_the_missing_scalp() {
+    let mut asset = shipped_head();
+    asset.colors.fill(SKIN_COLOR);
+    let (mut app, head) = grow_on(bevy_mesh(&asset), shipped_groom(1));
+    let mut status = GroomStatus::WaitingForMesh;
+    for _ in 0..50 {
+        app.update();
+        status = app.world().get::<GroomStatus>(head).unwrap().clone();
+        if matches!(status, GroomStatus::Failed(_)) {
+            break;
+        }
+    }
+    let GroomStatus::Failed(reason) = status else { panic!("no failure: {status:?}") };
+    println!("{reason}");
+    assert!(reason.contains("COLOR_0") && reason.contains("scalp"), "{reason}");
+    run(&mut app, 5);
+    assert!(app.world().get::<HairState>(head).is_none(), "no strands on an unpainted head");
+}

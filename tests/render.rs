@@ -1,0 +1,489 @@
+//! Renders hair for real (Vulkan; lavapipe on machines without a GPU) into an offscreen
+//! image and checks pixels. Without a Vulkan adapter each test prints why it skipped.
+//! The PNGs land in `target/tmp/hair-renders/` for people to look at.
+
+use bevy::app::PluginsState;
+use bevy::camera::RenderTarget;
+use bevy::core_pipeline::tonemapping::Tonemapping;
+use bevy::image::Image;
+use bevy::log::LogPlugin;
+use bevy::prelude::*;
+use bevy::render::RenderPlugin;
+use bevy::render::render_resource::{TextureFormat, TextureUsages};
+use bevy::render::settings::{RenderCreation, WgpuSettings};
+use bevy::render::storage::ShaderBuffer;
+use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured};
+use bevy::window::ExitCondition;
+use bevy::winit::WinitPlugin;
+use bevy_hair::hair_sim::groom::{child_curve, tessellate};
+use bevy_hair::hair_sim::math::Vec3 as SimVec3;
+use bevy_hair::prelude::*;
+use bevy_hair::render::{HairMaterial, HairUniform, StrandLayout};
+use bevy_hair::{is_procedural_scalp, procedural_head_mesh};
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+const SIZE: u32 = 256;
+const BACKGROUND: Color = Color::srgb(0.05, 0.05, 0.4);
+
+/// Why rendering cannot run here, if it cannot.
+fn no_adapter() -> Option<String> {
+    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+    match bevy::tasks::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions::default())) {
+        Ok(_) => None,
+        Err(e) => Some(format!("no GPU adapter ({e}); install mesa-vulkan-drivers and libvulkan1 for lavapipe")),
+    }
+}
+
+macro_rules! require_adapter {
+    () => {
+        if let Some(reason) = no_adapter() {
+            eprintln!("SKIPPED {}: {reason}", module_path!());
+            return;
+        }
+    };
+}
+
+/// Rendering serialises: each test builds its own renderer, one at a time.
+static GPU: Mutex<()> = Mutex::new(());
+
+struct Scene {
+    app: App,
+    target: Handle<Image>,
+    camera: Entity,
+    light: Entity,
+}
+
+impl Scene {
+    fn new() -> Scene {
+        let mut app = App::new();
+        app.add_plugins(
+            DefaultPlugins
+                .build()
+                .disable::<WinitPlugin>()
+                // Each test builds an app; only the first could install the global logger.
+                .disable::<LogPlugin>()
+                .set(WindowPlugin { primary_window: None, exit_condition: ExitCondition::DontExit, ..default() })
+                .set(RenderPlugin {
+                    render_creation: RenderCreation::Automatic(Box::new(WgpuSettings::default())),
+                    synchronous_pipeline_compilation: true,
+                    ..default()
+                }),
+        )
+        .add_plugins(HairPlugin::default())
+        .insert_resource(ClearColor(BACKGROUND));
+        // What `App::run` does before the first update: the renderer starts asynchronously.
+        while app.plugins_state() == PluginsState::Adding {
+            bevy::tasks::tick_global_task_pools_on_main_thread();
+        }
+        app.finish();
+        app.cleanup();
+        let mut image = Image::new_target_texture(SIZE, SIZE, TextureFormat::Rgba8UnormSrgb, None);
+        image.texture_descriptor.usage |= TextureUsages::COPY_SRC;
+        let target = app.world_mut().resource_mut::<Assets<Image>>().add(image);
+        let camera = app
+            .world_mut()
+            .spawn((
+                Camera3d::default(),
+                RenderTarget::Image(target.clone().into()),
+                Tonemapping::None,
+                Transform::from_xyz(0.0, -0.02, 0.55).looking_at(Vec3::new(0.0, -0.02, 0.0), Vec3::Y),
+            ))
+            .id();
+        let light = app
+            .world_mut()
+            .spawn((
+                DirectionalLight { illuminance: 4000.0, shadow_maps_enabled: true, ..default() },
+                Transform::from_xyz(0.3, 1.0, 1.0).looking_at(Vec3::ZERO, Vec3::Y),
+            ))
+            .id();
+        Scene { app, target, camera, light }
+    }
+
+    /// The procedural head with a short groom, red skin, green hair (for telling them apart).
+    fn spawn_head(&mut self, groom: HairGroom) -> Entity {
+        let world = self.app.world_mut();
+        let mesh = world.resource_mut::<Assets<Mesh>>().add(procedural_head_mesh(4));
+        let skin = world.resource_mut::<Assets<StandardMaterial>>().add(Color::srgb(0.8, 0.25, 0.2));
+        let look = HairLook {
+            root_color: Color::srgb(0.05, 0.5, 0.05),
+            tip_color: Color::srgb(0.1, 0.7, 0.1),
+            primary: SpecularLobe { color: Color::srgb(0.05, 0.3, 0.05), ..HairLook::default().primary },
+            ..default()
+        };
+        world.spawn((Mesh3d(mesh), MeshMaterial3d(skin), Transform::default(), groom, look)).id()
+    }
+
+    fn wait_until_ready(&mut self, head: Entity) {
+        for _ in 0..3000 {
+            self.app.update();
+            match self.app.world().get::<GroomStatus>(head) {
+                Some(GroomStatus::Ready { .. }) => {
+                    // A few frames for the drawing entity and its pipeline.
+                    self.frames(5);
+                    return;
+                }
+                Some(GroomStatus::Failed(reason)) => panic!("growth failed: {reason}"),
+                _ => std::thread::sleep(Duration::from_millis(5)),
+            }
+        }
+        panic!("the groom did not grow");
+    }
+
+    fn frames(&mut self, n: usize) {
+        for _ in 0..n {
+            self.app.update();
+        }
+    }
+
+    fn look_from(&mut self, eye: Vec3) {
+        let target = Vec3::new(0.0, -0.02, 0.0);
+        *self.app.world_mut().get_mut::<Transform>(self.camera).unwrap() =
+            Transform::from_translation(eye).looking_at(target, Vec3::Y);
+    }
+
+    fn light_from(&mut self, direction_to_light: Vec3) {
+        *self.app.world_mut().get_mut::<Transform>(self.light).unwrap() =
+            Transform::from_translation(direction_to_light).looking_at(Vec3::ZERO, Vec3::Y);
+    }
+
+    /// Renders a frame, saves it as `name.png`, and returns it.
+    fn capture(&mut self, name: &str) -> Picture {
+        let slot: Arc<Mutex<Option<Image>>> = Arc::default();
+        let sink = slot.clone();
+        self.app
+            .world_mut()
+            .spawn(Screenshot::image(self.target.clone()))
+            .observe(move |captured: On<ScreenshotCaptured>| *sink.lock().unwrap() = Some(captured.image.clone()));
+        for _ in 0..30 {
+            self.app.update();
+            if let Some(image) = slot.lock().unwrap().take() {
+                let picture = Picture::from_image(&image);
+                picture.save(&image, name);
+                return picture;
+            }
+        }
+        panic!("no screenshot arrived");
+    }
+
+    /// Where a world point lands in the picture.
+    fn project(&self, point: Vec3) -> Option<(u32, u32)> {
+        let world = self.app.world();
+        let camera = world.get::<Camera>(self.camera)?;
+        let transform = world.get::<GlobalTransform>(self.camera)?;
+        let p = camera.world_to_viewport(transform, point).ok()?;
+        (p.x >= 0.0 && p.y >= 0.0 && p.x < SIZE as f32 && p.y < SIZE as f32).then(|| (p.x as u32, p.y as u32))
+    }
+}
+
+/// A captured frame as linear-ish sRGB bytes, with the classification the tests use.
+struct Picture {
+    pixels: Vec<[f32; 3]>,
+}
+
+impl Picture {
+    fn from_image(image: &Image) -> Picture {
+        let mut pixels = Vec::with_capacity((SIZE * SIZE) as usize);
+        for y in 0..SIZE {
+            for x in 0..SIZE {
+                let c = image.get_color_at(x, y).expect("readable screenshot").to_srgba();
+                pixels.push([c.red, c.green, c.blue]);
+            }
+        }
+        Picture { pixels }
+    }
+
+    fn save(&self, image: &Image, name: &str) {
+        let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("hair-renders");
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join(format!("{name}.png"));
+        image.clone().try_into_dynamic().expect("convertible screenshot").to_rgb8().save(&path).unwrap();
+        println!("wrote {}", path.display());
+    }
+
+    fn at(&self, (x, y): (u32, u32)) -> [f32; 3] {
+        self.pixels[(y * SIZE + x) as usize]
+    }
+
+    /// Hair is green-dominant (the test look), skin red-dominant, background blue.
+    fn is_hair(c: [f32; 3]) -> bool {
+        c[1] > 1.2 * c[0] && c[1] > 1.2 * c[2] && c[1] > 0.02
+    }
+
+    fn is_background(c: [f32; 3]) -> bool {
+        let bg = BACKGROUND.to_srgba();
+        (c[0] - bg.red).abs() < 0.02 && (c[1] - bg.green).abs() < 0.02 && (c[2] - bg.blue).abs() < 0.02
+    }
+
+    /// Hair within one pixel of `p`.
+    fn hair_near(&self, (x, y): (u32, u32)) -> bool {
+        let xs = x.saturating_sub(1)..=(x + 1).min(SIZE - 1);
+        xs.flat_map(|x| (y.saturating_sub(1)..=(y + 1).min(SIZE - 1)).map(move |y| (x, y)))
+            .any(|p| Self::is_hair(self.at(p)))
+    }
+
+    fn hair_pixels(&self) -> usize {
+        self.pixels.iter().filter(|&&c| Self::is_hair(c)).count()
+    }
+
+    /// Mean position of the brightest 3% of hair pixels.
+    fn highlight_centroid(&self) -> Vec2 {
+        let mut hair: Vec<(f32, u32)> = (0..SIZE * SIZE)
+            .filter(|&i| Self::is_hair(self.pixels[i as usize]))
+            .map(|i| (luminance(self.pixels[i as usize]), i))
+            .collect();
+        hair.sort_by(|a, b| b.0.total_cmp(&a.0));
+        let top = &hair[..(hair.len() * 3 / 100).max(1)];
+        top.iter().map(|&(_, i)| Vec2::new((i % SIZE) as f32, (i / SIZE) as f32)).sum::<Vec2>() / top.len() as f32
+    }
+}
+
+fn luminance(c: [f32; 3]) -> f32 {
+    0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
+}
+
+fn short_groom() -> HairGroom {
+    HairGroom { guides: 600, length: 0.07, settle_steps: 120, ..default() }
+}
+
+/// Scalp roots facing the camera (head-space normal toward `view_dir`) and their pixels.
+fn visible_roots(scene: &Scene, head: Entity, toward_camera: Vec3) -> Vec<(u32, u32)> {
+    let state = scene.app.world().get::<HairState>(head).unwrap();
+    state
+        .roots()
+        .iter()
+        .filter(|r| {
+            let n = r.normal(state.head_mesh());
+            Vec3::new(n.x, n.y, n.z).dot(toward_camera) > 0.5
+        })
+        .filter_map(|r| {
+            let p = r.position(state.head_mesh());
+            scene.project(Vec3::new(p.x, p.y, p.z))
+        })
+        .collect()
+}
+
+#[test]
+fn hair_covers_the_scalp_front_and_back_and_leaves_face_and_background() {
+    require_adapter!();
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let mut scene = Scene::new();
+    let head = scene.spawn_head(short_groom());
+    scene.wait_until_ready(head);
+
+    for (name, eye) in [("front", Vec3::new(0.0, 0.05, 0.55)), ("back", Vec3::new(0.0, 0.05, -0.55))] {
+        scene.look_from(eye);
+        let picture = scene.capture(name);
+        let roots = visible_roots(&scene, head, eye.normalize());
+        let covered = roots.iter().filter(|&&p| picture.hair_near(p)).count();
+        let fraction = covered as f32 / roots.len() as f32;
+        println!("{name}: {covered} of {} visible roots under hair ({:.0}%)", roots.len(), fraction * 100.0);
+        assert!(roots.len() > 20, "{name}: only {} roots face the camera", roots.len());
+        assert!(fraction > 0.9, "{name}: hair covers only {:.0}% of the visible scalp", fraction * 100.0);
+
+        let corners = [(2, 2), (SIZE - 3, 2), (2, SIZE - 3), (SIZE - 3, SIZE - 3)];
+        assert!(corners.iter().all(|&p| Picture::is_background(picture.at(p))), "{name}: a corner is not background");
+    }
+
+    // The lower face (mouth and chin of the procedural head) is skin, not hair.
+    scene.look_from(Vec3::new(0.0, 0.05, 0.55));
+    let picture = scene.capture("face");
+    let head_mesh = procedural_head_mesh(4);
+    let positions = head_mesh.attribute(Mesh::ATTRIBUTE_POSITION).unwrap().as_float3().unwrap();
+    let face: Vec<(u32, u32)> = positions
+        .iter()
+        .map(|&p| Vec3::from_array(p))
+        .filter(|p| p.z > 0.06 && p.x.abs() < 0.03 && (-0.07..-0.02).contains(&p.y) && !is_procedural_scalp(*p))
+        .filter_map(|p| scene.project(p))
+        .collect();
+    let hair_on_face = face.iter().filter(|&&p| Picture::is_hair(picture.at(p))).count();
+    println!("face: {hair_on_face} of {} lower-face points under hair", face.len());
+    assert!(face.len() > 5);
+    assert!(hair_on_face * 10 <= face.len(), "hair covers {hair_on_face} of {} lower-face points", face.len());
+}
+
+#[test]
+fn turning_the_light_moves_the_highlight_and_children_cover_more() {
+    require_adapter!();
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let mut scene = Scene::new();
+    let head = scene.spawn_head(short_groom());
+    scene.wait_until_ready(head);
+    scene.look_from(Vec3::new(0.0, 0.05, 0.55));
+
+    scene.light_from(Vec3::new(-1.0, 0.6, 0.6));
+    let left = scene.capture("light-left").highlight_centroid();
+    scene.light_from(Vec3::new(1.0, 0.6, 0.6));
+    let right = scene.capture("light-right").highlight_centroid();
+    println!("brightest hair: light from the left at x = {:.0}, from the right at x = {:.0}", left.x, right.x);
+    assert!(right.x - left.x > 15.0, "the highlight moved from {left} to {right}");
+
+    let mut coverage = Vec::new();
+    for per_guide in [0, 4, 16] {
+        scene.app.world_mut().get_mut::<HairGroom>(head).unwrap().children.per_guide = per_guide;
+        scene.frames(3);
+        let hair = scene.capture(&format!("children-{per_guide}")).hair_pixels();
+        let stats = *scene.app.world().resource::<HairRenderStats>();
+        println!("{per_guide} children per guide: {hair} hair pixels, {stats:?}");
+        coverage.push(hair);
+        // Only guide particles and one root frame vector per guide travel, whatever the
+        // children: 600 guides × (11 particles + 1) × 16 bytes.
+        assert_eq!(stats.uploaded_bytes, 600 * 12 * 16);
+        assert_eq!(stats.rendered_strands, 600 * (per_guide as u64 + 1));
+    }
+    assert!(coverage[0] < coverage[1] && coverage[1] < coverage[2], "coverage {coverage:?} does not grow");
+    assert!(coverage[2] as f32 > 1.3 * coverage[0] as f32, "coverage {coverage:?}");
+}
+
+/// Two straight strands drawn with the hair material directly: one along the light, one
+/// across it. Kajiya-Kay diffuse is sin(T, L): the first is dark, the second bright.
+#[test]
+fn a_strand_along_the_light_is_darker_than_one_across_it() {
+    require_adapter!();
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let mut scene = Scene::new();
+    scene.look_from(Vec3::new(0.0, 0.0, 0.55));
+    // Light from +x (and a little from the camera so both ribbons face it equally).
+    scene.light_from(Vec3::new(1.0, 0.0, 0.15));
+    let particles = 11u32;
+    let mut guides = Vec::new();
+    // Guide 0: vertical, left half. Guide 1: horizontal, right half.
+    for i in 0..particles {
+        guides.push(Vec4::new(-0.08, 0.1 - 0.02 * i as f32, 0.0, 1.0));
+    }
+    for i in 0..particles {
+        guides.push(Vec4::new(0.01 + 0.016 * i as f32, 0.0, 0.0, 1.0));
+    }
+    guides.push(Vec4::new(0.0, 0.0, 1.0, 0.0));
+    guides.push(Vec4::new(0.0, 0.0, 1.0, 0.0));
+    let layout = StrandLayout { guides: 2, particles, strands_per_guide: 1, subdivisions: 2 };
+    let world = scene.app.world_mut();
+    let buffer = world.resource_mut::<Assets<ShaderBuffer>>().add(ShaderBuffer::from(guides));
+    let white = Vec4::new(0.6, 0.6, 0.6, 1.0);
+    let uniform = HairUniform {
+        root_color: white,
+        tip_color: white,
+        specular: Vec4::new(80.0, 0.0, 20.0, 0.0),
+        shape: Vec4::new(0.0, 0.0, 0.01, 0.01),
+        shading: Vec4::new(0.0, 0.0, 1.0, 0.0),
+        counts: UVec4::new(layout.guides, layout.particles, layout.strands_per_guide, layout.subdivisions),
+        ..default()
+    };
+    let material = world.resource_mut::<Assets<HairMaterial>>().add(HairMaterial { guides: buffer, uniform });
+    let mesh = world.resource_mut::<Assets<Mesh>>().add(layout.mesh());
+    world.spawn((Mesh3d(mesh), MeshMaterial3d(material), bevy::camera::visibility::NoFrustumCulling));
+    scene.frames(5);
+    let picture = scene.capture("kajiya-kay");
+
+    let mean_brightness = |xs: std::ops::Range<u32>| {
+        let lit: Vec<f32> = xs
+            .flat_map(|x| (0..SIZE).map(move |y| (x, y)))
+            .map(|p| picture.at(p))
+            .filter(|&c| !Picture::is_background(c))
+            .map(luminance)
+            .collect();
+        assert!(lit.len() > 50, "strand not drawn ({} pixels)", lit.len());
+        lit.iter().sum::<f32>() / lit.len() as f32
+    };
+    let across = mean_brightness(0..SIZE / 2);
+    let along = mean_brightness(SIZE / 2 + 8..SIZE);
+    println!("mean luminance: strand across the light {across:.3}, along the light {along:.3}");
+    assert!(across > 2.0 * along, "across {across} is not clearly brighter than along {along}");
+}
+
+/// One guide with four children drawn by the shader, checked against the CPU reference
+/// (`hair_sim::groom::{tessellate, child_curve}`) that `hair.wgsl` mirrors: every reference
+/// point must land on a drawn strand, and the reference points mirrored through the guide
+/// (where a flipped frame or sign would put the children) that lie away from every strand
+/// must stay background.
+#[test]
+fn the_shader_draws_guide_and_children_where_the_cpu_reference_puts_them() {
+    require_adapter!();
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let mut scene = Scene::new();
+    scene.look_from(Vec3::new(0.0, 0.0, 0.55));
+    scene.light_from(Vec3::new(0.2, 0.3, 1.0));
+    let particles = 11u32;
+    let subdivisions = 4;
+    // A bent strand in the view plane, root at the top.
+    let guide: Vec<SimVec3> = (0..particles)
+        .map(|j| {
+            let j = j as f32;
+            SimVec3::new(-0.04 + 0.006 * j + 0.012 * (j * 0.6).sin(), 0.09 - 0.018 * j, 0.0)
+        })
+        .collect();
+    let root_u = SimVec3::X;
+    let children =
+        ChildParams { per_guide: 4, spiral: Spiral { scale: 3e-3, ..default() }, clumping: 0.3, tip_spread: 0.01 };
+    let width = 0.003;
+
+    let mut data: Vec<Vec4> = guide.iter().map(|p| Vec4::new(p.x, p.y, p.z, 1.0)).collect();
+    data.push(Vec4::new(root_u.x, root_u.y, root_u.z, 0.0));
+    let layout = StrandLayout { guides: 1, particles, strands_per_guide: children.per_guide + 1, subdivisions };
+    let white = Vec4::new(0.8, 0.8, 0.8, 1.0);
+    let spiral = children.spiral;
+    let uniform = HairUniform {
+        root_color: white,
+        tip_color: white,
+        specular: Vec4::new(80.0, 0.0, 20.0, 0.0),
+        spiral: Vec4::new(spiral.a, spiral.b, spiral.angle_step, spiral.scale),
+        shape: Vec4::new(children.clumping, children.tip_spread, width, width),
+        shading: Vec4::new(0.0, 0.0, 1.0, 0.0),
+        counts: UVec4::new(layout.guides, layout.particles, layout.strands_per_guide, layout.subdivisions),
+        ..default()
+    };
+    let world = scene.app.world_mut();
+    let buffer = world.resource_mut::<Assets<ShaderBuffer>>().add(ShaderBuffer::from(data));
+    let material = world.resource_mut::<Assets<HairMaterial>>().add(HairMaterial { guides: buffer, uniform });
+    let mesh = world.resource_mut::<Assets<Mesh>>().add(layout.mesh());
+    world.spawn((Mesh3d(mesh), MeshMaterial3d(material), bevy::camera::visibility::NoFrustumCulling));
+    scene.frames(5);
+    let picture = scene.capture("reference-children");
+
+    let to_bevy = |p: SimVec3| Vec3::new(p.x, p.y, p.z);
+    let guide_curve: Vec<Vec3> = tessellate(&guide, subdivisions).iter().map(|c| to_bevy(c.position)).collect();
+    let mut reference = guide_curve.clone();
+    let mut mirrored = Vec::new();
+    for child in 0..children.per_guide {
+        let curve = child_curve(&guide, root_u, &children, 0, child, subdivisions);
+        for (point, on_guide) in curve.iter().zip(&guide_curve) {
+            let point = to_bevy(point.position);
+            reference.push(point);
+            mirrored.push(2.0 * *on_guide - point);
+        }
+    }
+    let pixels = |points: &[Vec3]| -> Vec<(u32, u32)> {
+        let pixels: Vec<(u32, u32)> = points.iter().filter_map(|&p| scene.project(p)).collect();
+        assert_eq!(pixels.len(), points.len(), "a reference point is outside the picture");
+        pixels
+    };
+    let reference = pixels(&reference);
+    // Mirrored points more than 4 px from every reference point: no strand belongs there.
+    let empty: Vec<(u32, u32)> = pixels(&mirrored)
+        .into_iter()
+        .filter(|&(x, y)| reference.iter().all(|&(rx, ry)| x.abs_diff(rx).max(y.abs_diff(ry)) > 4))
+        .collect();
+    assert!(empty.len() > 30, "only {} mirrored points are away from every strand", empty.len());
+    let drawn = |pixels: &[(u32, u32)]| {
+        let hit = pixels
+            .iter()
+            .filter(|&&(x, y)| {
+                let near = (x.saturating_sub(1)..=(x + 1).min(SIZE - 1))
+                    .flat_map(|x| (y.saturating_sub(1)..=(y + 1).min(SIZE - 1)).map(move |y| (x, y)));
+                near.into_iter().any(|p| !Picture::is_background(picture.at(p)))
+            })
+            .count();
+        hit as f32 / pixels.len() as f32
+    };
+    let (on_reference, on_mirror) = (drawn(&reference), drawn(&empty));
+    println!(
+        "{:.1}% of {} reference points drawn; {:.1}% of {} mirrored points",
+        on_reference * 100.0,
+        reference.len(),
+        on_mirror * 100.0,
+        empty.len()
+    );
+    assert!(on_reference > 0.97, "only {:.1}% of the CPU reference points are drawn", on_reference * 100.0);
+    assert!(on_mirror < 0.05, "{:.1}% of the points away from the reference are drawn", on_mirror * 100.0);
+}
