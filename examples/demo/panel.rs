@@ -1,0 +1,233 @@
+//! The egui control panel: simulation settings, the groom, the look, the animation, and
+//! what it all costs. Presets change many of them at once.
+//!
+//! Settings and the look apply as you drag. Groom sliders regrow the hair (on a background
+//! task), so they apply when a drag ends, not on every frame of it.
+
+use crate::motion::{CLIP_SECONDS, Motion};
+use crate::presets::{self, Preset};
+use crate::scene::Head;
+use bevy::diagnostic::{DiagnosticPath, DiagnosticsStore, FrameTimeDiagnosticsPlugin};
+use bevy::prelude::*;
+use bevy_egui::{EguiContexts, EguiPrimaryContextPass, egui};
+use bevy_hair::prelude::*;
+use std::ops::RangeInclusive;
+
+pub fn plugin(app: &mut App) {
+    app.add_systems(EguiPrimaryContextPass, panel);
+}
+
+#[allow(clippy::too_many_arguments)] // one system that draws the whole panel
+fn panel(
+    mut contexts: EguiContexts,
+    mut settings: ResMut<HairSettings>,
+    mut motion: ResMut<Motion>,
+    diagnostics: Res<DiagnosticsStore>,
+    stats: Res<HairRenderStats>,
+    mut head: Single<(&mut HairGroom, &mut HairLook, &GroomStatus, Option<&mut HairState>), With<Head>>,
+    // The groom being edited: applied to the head (which regrows) when an edit is finished.
+    mut draft: Local<Option<HairGroom>>,
+) -> Result {
+    let (groom, look, status, state) = &mut *head;
+    let ctx = contexts.ctx_mut()?;
+    egui::Window::new("Hair").default_width(300.0).default_pos([12.0, 12.0]).show(ctx, |ui| {
+        egui::ScrollArea::vertical().max_height(680.0).show(ui, |ui| {
+            stats_section(ui, &diagnostics, &stats, status);
+            ui.horizontal_wrapped(|ui| {
+                ui.label("Presets:");
+                for preset in presets::all() {
+                    if ui.button(preset.name).clicked() {
+                        apply_preset(preset, groom, look, &mut settings);
+                        *draft = None;
+                    }
+                }
+            });
+            ui.separator();
+            egui::CollapsingHeader::new("Simulation").default_open(true).show(ui, |ui| {
+                simulation_section(ui, &mut settings.0);
+                if ui.button("Reset hair to rest (R)").clicked()
+                    && let Some(state) = state
+                {
+                    state.reset();
+                }
+            });
+            egui::CollapsingHeader::new("Groom").default_open(false).show(ui, |ui| {
+                let edited = draft.get_or_insert_with(|| groom.clone());
+                if groom_section(ui, edited) && **groom != *edited {
+                    **groom = edited.clone();
+                }
+                if **groom != *edited && !ui.ctx().egui_is_using_pointer() {
+                    // Keep the draft in step with changes made elsewhere (a preset, a script).
+                    *edited = groom.clone();
+                }
+            });
+            egui::CollapsingHeader::new("Look").default_open(false).show(ui, |ui| look_section(ui, look));
+            egui::CollapsingHeader::new("Animation").default_open(true).show(ui, |ui| motion_section(ui, &mut motion));
+        });
+    });
+    Ok(())
+}
+
+fn apply_preset(preset: Preset, groom: &mut HairGroom, look: &mut HairLook, settings: &mut HairSettings) {
+    *groom = preset.groom;
+    *look = preset.look;
+    settings.0 = preset.params;
+}
+
+fn stats_section(ui: &mut egui::Ui, diagnostics: &DiagnosticsStore, stats: &HairRenderStats, status: &GroomStatus) {
+    let smoothed = |path: &DiagnosticPath| diagnostics.get(path).and_then(|d| d.smoothed()).unwrap_or(f64::NAN);
+    let status = match status {
+        GroomStatus::WaitingForMesh => "loading the head…".to_owned(),
+        GroomStatus::Growing => "growing hair…".to_owned(),
+        GroomStatus::Ready { guides, particles_per_strand } => {
+            format!("{guides} guides × {particles_per_strand} particles")
+        }
+        GroomStatus::Failed(reason) => format!("failed: {reason}"),
+    };
+    egui::Grid::new("stats").num_columns(2).show(ui, |ui| {
+        let mut row = |name: &str, value: String| {
+            ui.label(name);
+            ui.label(value);
+            ui.end_row();
+        };
+        row("groom", status);
+        row("fps", format!("{:.0}", smoothed(&FrameTimeDiagnosticsPlugin::FPS)));
+        row("simulation", format!("{:.2} ms / step", smoothed(&HairDiagnostics::STEP_TIME)));
+        row("particles", format!("{:.0}", smoothed(&HairDiagnostics::PARTICLES)));
+        row("rendered strands", stats.rendered_strands.to_string());
+        row("rendered vertices", stats.rendered_vertices.to_string());
+        row("uploaded", format!("{:.1} KiB / frame", stats.uploaded_bytes as f64 / 1024.0));
+    });
+}
+
+/// A labelled slider.
+fn slider<T: egui::emath::Numeric>(
+    ui: &mut egui::Ui,
+    value: &mut T,
+    range: RangeInclusive<T>,
+    text: &str,
+) -> egui::Response {
+    ui.add(egui::Slider::new(value, range).text(text))
+}
+
+fn simulation_section(ui: &mut egui::Ui, p: &mut SimParams) {
+    slider(ui, &mut p.gravity[1], -30.0..=0.0, "gravity (m/s²)");
+    slider(ui, &mut p.substeps, 1..=8, "substeps");
+    slider(ui, &mut p.iterations, 1..=8, "iterations");
+    slider(ui, &mut p.drag, 0.0..=10.0, "air drag (1/s)");
+    ui.horizontal(|ui| {
+        ui.label("length");
+        ui.selectable_value(&mut p.length_mode, LengthMode::Inextensible, "inextensible (FTL)");
+        ui.selectable_value(&mut p.length_mode, LengthMode::Springs, "springs");
+    });
+    match p.length_mode {
+        LengthMode::Inextensible => {
+            slider(ui, &mut p.ftl_damping, 0.0..=1.0, "FTL velocity correction");
+        }
+        LengthMode::Springs => {
+            ui.add(
+                egui::Slider::new(&mut p.spring_stiffness, 0.1..=1000.0).logarithmic(true).text("stiffness k_s (N/m)"),
+            );
+            ui.add(egui::Slider::new(&mut p.spring_damping, 0.0..=1.0).text("damping k_d (N·s/m)"));
+            slider(ui, &mut p.length_tolerance, 0.0..=0.5, "length tolerance");
+        }
+    }
+    slider(ui, &mut p.local_stiffness, 0.0..=1.0, "local shape");
+    slider(ui, &mut p.global_stiffness_root, 0.0..=1.0, "global shape, root");
+    slider(ui, &mut p.global_stiffness_tip, 0.0..=1.0, "global shape, tip");
+    ui.label("wind");
+    ui.horizontal(|ui| {
+        for (axis, value) in ["x", "y", "z"].iter().zip(p.wind.direction.iter_mut()) {
+            ui.add(egui::DragValue::new(value).speed(0.02).range(-1.0..=1.0).prefix(format!("{axis} ")));
+        }
+    });
+    slider(ui, &mut p.wind.strength, 0.0..=30.0, "wind strength (m/s²)");
+    slider(ui, &mut p.wind.gust_strength, 0.0..=1.0, "gusts");
+    slider(ui, &mut p.wind.gust_frequency, 0.0..=5.0, "gusts per second");
+    ui.checkbox(&mut p.collision, "collide with the head");
+    ui.add_enabled_ui(p.collision, |ui| {
+        ui.add(egui::Slider::new(&mut p.collision_thickness, 0.0..=0.02).text("thickness (m)").fixed_decimals(3));
+        slider(ui, &mut p.friction, 0.0..=1.0, "friction");
+    });
+}
+
+/// Returns whether an edit was finished this frame (a drag released, a click, a typed value).
+fn groom_section(ui: &mut egui::Ui, g: &mut HairGroom) -> bool {
+    let mut finished = false;
+    let mut track = |response: egui::Response| {
+        finished |= response.drag_stopped() || (response.changed() && !response.dragged());
+    };
+    ui.label("Regrows when a slider is released.");
+    track(slider(ui, &mut g.guides, 16..=4096, "guides"));
+    track(slider(ui, &mut g.segments, 2..=24, "segments"));
+    track(slider(ui, &mut g.length, 0.02..=0.6, "length (m)"));
+    track(slider(ui, &mut g.length_variation, 0.0..=0.8, "length variation"));
+    track(slider(ui, &mut g.curl, 0.0..=1.5, "curl (rad / segment)"));
+    track(slider(ui, &mut g.settle_steps, 0..=600, "settle steps"));
+    track(ui.add(egui::DragValue::new(&mut g.seed).prefix("seed ")));
+    ui.horizontal(|ui| {
+        track(ui.selectable_value(&mut g.distribution, RootDistribution::Poisson, "Poisson-disk roots"));
+        track(ui.selectable_value(&mut g.distribution, RootDistribution::Uniform, "uniform roots"));
+    });
+    ui.separator();
+    ui.label("Children (drawn on the GPU; no regrowth)");
+    let c = &mut g.children;
+    track(slider(ui, &mut c.per_guide, 0..=32, "children per guide"));
+    track(slider(ui, &mut c.spiral.a, 0.0..=10.0, "spiral a"));
+    track(slider(ui, &mut c.spiral.b, 0.0..=10.0, "spiral b"));
+    track(
+        ui.add(egui::Slider::new(&mut c.spiral.scale, 1e-5..=1e-3).logarithmic(true).text("spiral scale (m / unit)")),
+    );
+    track(slider(ui, &mut c.spiral.angle_step, 0.0..=std::f32::consts::TAU, "spiral angle step (rad)"));
+    track(slider(ui, &mut c.clumping, 0.0..=1.0, "clumping"));
+    track(ui.add(egui::Slider::new(&mut c.tip_spread, 0.0..=0.02).text("tip spread (m)").fixed_decimals(3)));
+    finished
+}
+
+fn color_edit(ui: &mut egui::Ui, color: &mut Color, text: &str) {
+    let linear = color.to_linear();
+    let mut rgb = [linear.red, linear.green, linear.blue];
+    ui.horizontal(|ui| {
+        if ui.color_edit_button_rgb(&mut rgb).changed() {
+            *color = LinearRgba::rgb(rgb[0], rgb[1], rgb[2]).into();
+        }
+        ui.label(text);
+    });
+}
+
+fn look_section(ui: &mut egui::Ui, look: &mut HairLook) {
+    color_edit(ui, &mut look.root_color, "root colour");
+    color_edit(ui, &mut look.tip_color, "tip colour");
+    slider(ui, &mut look.tint_variation, 0.0..=1.0, "tint variation");
+    ui.add(egui::Slider::new(&mut look.root_width, 0.0001..=0.004).text("root width (m)").fixed_decimals(4));
+    ui.add(egui::Slider::new(&mut look.tip_width, 0.0..=0.004).text("tip width (m)").fixed_decimals(4));
+    slider(ui, &mut look.diffuse, 0.0..=2.0, "diffuse");
+    for (name, lobe) in [("primary highlight", &mut look.primary), ("secondary highlight", &mut look.secondary)] {
+        color_edit(ui, &mut lobe.color, name);
+        ui.add(egui::Slider::new(&mut lobe.exponent, 1.0..=500.0).logarithmic(true).text("exponent"));
+        slider(ui, &mut lobe.shift, -0.5..=0.5, "shift (− root, + tip)");
+    }
+    slider(ui, &mut look.subdivisions, 1..=8, "curve samples per segment");
+    ui.checkbox(&mut look.receive_shadows, "shadows on hair");
+    ui.checkbox(&mut look.guides_only, "show guides only");
+}
+
+fn motion_section(ui: &mut egui::Ui, motion: &mut Motion) {
+    ui.horizontal(|ui| {
+        ui.checkbox(&mut motion.paused, "pause (Space)");
+        ui.checkbox(&mut motion.drag_head, "drag the head (D)");
+    });
+    ui.add_enabled_ui(!motion.drag_head, |ui| {
+        slider(ui, &mut motion.speed, 0.0..=3.0, "speed");
+        let mut time = motion.time;
+        if slider(ui, &mut time, 0.0..=CLIP_SECONDS, "time (s)").changed() {
+            motion.seek = Some(time);
+        }
+    });
+    if motion.drag_head {
+        ui.label("Left drag moves the head, Shift + left drag turns it, right drag orbits.");
+    }
+    if ui.button("Put the head back").clicked() {
+        motion.reset_pose = true;
+    }
+}

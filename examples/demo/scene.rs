@@ -1,0 +1,150 @@
+//! The stage: the head with its groom, a key light with shadows, fill and rim lights, a
+//! studio backdrop, and an orbit camera (drag to orbit, wheel to zoom).
+
+use crate::motion::Motion;
+use crate::presets;
+use bevy::input::mouse::{AccumulatedMouseMotion, AccumulatedMouseScroll, MouseScrollUnit};
+use bevy::light::{CascadeShadowConfigBuilder, DirectionalLightShadowMap, NotShadowCaster};
+use bevy::prelude::*;
+use bevy_egui::input::EguiWantsInput;
+use bevy_hair::prelude::*;
+
+/// The head: one entity with the mesh, the groom, and the animation target.
+#[derive(Component)]
+pub struct Head;
+
+/// Where the orbit camera looks: the middle of the head with its hair (the head's origin is
+/// the centre of the neck cut; the head is about 0.26 m tall and faces +Z).
+const FOCUS: Vec3 = Vec3::new(0.0, 0.12, 0.02);
+
+/// An orbit around `FOCUS`, angles in radians.
+#[derive(Component)]
+pub struct OrbitCamera {
+    pub yaw: f32,
+    pub pitch: f32,
+    pub distance: f32,
+}
+
+impl OrbitCamera {
+    fn transform(&self) -> Transform {
+        let rotation = Quat::from_euler(EulerRot::YXZ, self.yaw, -self.pitch, 0.0);
+        Transform::from_translation(FOCUS + rotation * Vec3::Z * self.distance).looking_at(FOCUS, Vec3::Y)
+    }
+}
+
+pub fn plugin(app: &mut App) {
+    app.insert_resource(ClearColor(Color::srgb(0.36, 0.38, 0.42)))
+        .insert_resource(GlobalAmbientLight { color: Color::srgb(0.85, 0.9, 1.0), brightness: 250.0, ..default() })
+        // The scene is small: a fine shadow map keeps the head's shadow on the hair crisp.
+        .insert_resource(DirectionalLightShadowMap { size: 4096 })
+        .add_systems(Startup, setup)
+        .add_systems(Update, orbit_camera);
+}
+
+pub fn setup(
+    mut commands: Commands,
+    asset_server: Res<AssetServer>,
+    mut meshes: ResMut<Assets<Mesh>>,
+    mut materials: ResMut<Assets<StandardMaterial>>,
+    mut settings: ResMut<HairSettings>,
+) {
+    let start = presets::shoulder();
+    settings.0 = start.params;
+    // The mesh directly, not the glTF scene: the demo owns the entity, so it can carry the
+    // groom and the animation target. Its COLOR_0 paints the skin and (black) the scalp;
+    // the white base colour shows those colours as painted.
+    let head_mesh = asset_server.load(GltfAssetLabel::Primitive { mesh: 0, primitive: 0 }.from_asset("head.glb"));
+    let skin = materials.add(StandardMaterial { base_color: Color::WHITE, perceptual_roughness: 0.55, ..default() });
+    commands.spawn((Head, Name::new("head"), Mesh3d(head_mesh), MeshMaterial3d(skin), start.groom, start.look));
+
+    // Key light: warm, from the front left and above, casting the head's shadow on the
+    // hair and the backdrop. One short cascade covers the whole set.
+    commands.spawn((
+        DirectionalLight {
+            illuminance: 9_000.0,
+            color: Color::srgb(1.0, 0.95, 0.88),
+            shadow_maps_enabled: true,
+            ..default()
+        },
+        Transform::from_xyz(-1.0, 1.6, 1.3).looking_at(Vec3::ZERO, Vec3::Y),
+        CascadeShadowConfigBuilder {
+            num_cascades: 1,
+            minimum_distance: 0.05,
+            maximum_distance: 4.0,
+            first_cascade_far_bound: 4.0,
+            overlap_proportion: 0.2,
+        }
+        .build(),
+    ));
+    // Fill from the right, cool and soft, so the shadow side stays readable.
+    commands.spawn((
+        DirectionalLight { illuminance: 2_500.0, color: Color::srgb(0.8, 0.87, 1.0), ..default() },
+        Transform::from_xyz(1.5, 0.4, 0.8).looking_at(Vec3::ZERO, Vec3::Y),
+    ));
+    // Rim light from behind and above: the highlight that separates hair from the backdrop.
+    commands.spawn((
+        DirectionalLight { illuminance: 4_000.0, ..default() },
+        Transform::from_xyz(0.3, 1.0, -1.5).looking_at(Vec3::ZERO, Vec3::Y),
+    ));
+
+    // A studio backdrop: a floor below the longest hair and a wall behind, one matte grey-blue.
+    let backdrop = materials.add(StandardMaterial {
+        base_color: Color::srgb(0.42, 0.45, 0.5),
+        perceptual_roughness: 0.95,
+        reflectance: 0.1,
+        ..default()
+    });
+    commands.spawn((
+        Mesh3d(meshes.add(Plane3d::default().mesh().size(6.0, 6.0))),
+        MeshMaterial3d(backdrop.clone()),
+        Transform::from_xyz(0.0, -0.55, 0.0),
+        NotShadowCaster,
+    ));
+    commands.spawn((
+        Mesh3d(meshes.add(Plane3d::new(Vec3::Z, Vec2::splat(3.0)).mesh())),
+        MeshMaterial3d(backdrop),
+        Transform::from_xyz(0.0, 0.0, -1.2),
+        NotShadowCaster,
+    ));
+
+    let orbit = OrbitCamera { yaw: 0.45, pitch: 0.12, distance: 0.8 };
+    commands.spawn((Camera3d::default(), orbit.transform(), orbit));
+}
+
+/// Left drag (or right drag, which also works while the left button drags the head) orbits,
+/// the wheel zooms. A drag that starts over the egui panel belongs to the panel.
+fn orbit_camera(
+    mut cameras: Query<(&mut OrbitCamera, &mut Transform)>,
+    buttons: Res<ButtonInput<MouseButton>>,
+    mouse_motion: Res<AccumulatedMouseMotion>,
+    scroll: Res<AccumulatedMouseScroll>,
+    egui: Res<EguiWantsInput>,
+    motion: Res<Motion>,
+    mut dragging: Local<bool>,
+) {
+    let orbit_button = |b| b == MouseButton::Right || (b == MouseButton::Left && !motion.drag_head);
+    if buttons.get_just_pressed().any(|&b| orbit_button(b)) && !egui.wants_any_pointer_input() {
+        *dragging = true;
+    }
+    if !buttons.get_pressed().any(|&b| orbit_button(b)) {
+        *dragging = false;
+    }
+    let Ok((mut orbit, mut transform)) = cameras.single_mut() else { return };
+    let mut changed = false;
+    if *dragging && mouse_motion.delta != Vec2::ZERO {
+        orbit.yaw -= mouse_motion.delta.x * 0.006;
+        orbit.pitch = (orbit.pitch + mouse_motion.delta.y * 0.006).clamp(-1.2, 1.4);
+        changed = true;
+    }
+    if scroll.delta.y != 0.0 && !egui.is_pointer_over_area() {
+        let lines = match scroll.unit {
+            MouseScrollUnit::Line => scroll.delta.y,
+            MouseScrollUnit::Pixel => scroll.delta.y / 40.0,
+        };
+        orbit.distance = (orbit.distance * 0.9f32.powf(lines)).clamp(0.25, 3.0);
+        changed = true;
+    }
+    if changed {
+        *transform = orbit.transform();
+    }
+}
