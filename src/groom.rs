@@ -1,7 +1,7 @@
 //! Growing a groom on a head entity: description, status, and the growth task.
 
 use crate::HairError;
-use crate::convert::pose_and_scale;
+use crate::convert::{pose_and_scale, to_sim};
 use crate::head_mesh::{read_head_mesh, scalp_weights};
 use crate::settings::{HairSettings, HairSettingsOverride, effective};
 use crate::simulation::HairState;
@@ -72,6 +72,11 @@ pub struct HairGroom {
     pub length_variation: f32,
     /// Curl, radians per segment.
     pub curl: f32,
+    /// Combing, in the head mesh's frame: strands start along the surface normal tilted
+    /// toward this direction (length 1 tilts by 45°; zero grows straight out, as the
+    /// reference does). `Vec3::new(0.0, 0.0, -1.5)` on a +Z-facing head sweeps the hair
+    /// back, out of the face.
+    pub comb: Vec3,
     /// Seed: the same seed grows the same groom.
     pub seed: u64,
     /// Which part of the mesh is scalp.
@@ -94,6 +99,7 @@ impl Default for HairGroom {
             length: 0.25,
             length_variation: 0.2,
             curl: 0.0,
+            comb: Vec3::ZERO,
             seed: 1,
             scalp: ScalpSource::default(),
             distribution: RootDistribution::default(),
@@ -242,6 +248,9 @@ fn check_groom(groom: &HairGroom) -> Result<(), String> {
     if !groom.curl.is_finite() {
         return Err(format!("the groom curl {} is not a number", groom.curl));
     }
+    if !groom.comb.is_finite() {
+        return Err(format!("the groom comb direction {} is not finite", groom.comb));
+    }
     Ok(())
 }
 
@@ -264,6 +273,7 @@ fn grow(
         length: groom.length,
         length_variation: groom.length_variation,
         curl: groom.curl,
+        comb: to_sim(groom.comb),
     };
     let rest = RestShape::new(grow_guides(&head, &roots, &guide_params, groom.seed), groom.segments + 1)
         .map_err(|e| e.to_string())?;

@@ -10,12 +10,11 @@ use bevy::log::LogPlugin;
 use bevy::prelude::*;
 use bevy::render::RenderPlugin;
 use bevy::render::render_resource::{TextureFormat, TextureUsages};
-use bevy::render::settings::{RenderCreation, WgpuSettings};
 use bevy::render::storage::ShaderBuffer;
 use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured};
 use bevy::window::ExitCondition;
 use bevy::winit::WinitPlugin;
-use bevy_hair::hair_sim::groom::{child_curve, tessellate};
+use bevy_hair::hair_sim::groom::{child_curve, tessellate, transport_frames};
 use bevy_hair::hair_sim::math::Vec3 as SimVec3;
 use bevy_hair::prelude::*;
 use bevy_hair::render::{HairMaterial, HairUniform, StrandLayout};
@@ -65,11 +64,7 @@ impl Scene {
                 // Each test builds an app; only the first could install the global logger.
                 .disable::<LogPlugin>()
                 .set(WindowPlugin { primary_window: None, exit_condition: ExitCondition::DontExit, ..default() })
-                .set(RenderPlugin {
-                    render_creation: RenderCreation::Automatic(Box::new(WgpuSettings::default())),
-                    synchronous_pipeline_compilation: true,
-                    ..default()
-                }),
+                .set(RenderPlugin { synchronous_pipeline_compilation: true, ..default() }),
         )
         .add_plugins(HairPlugin::default())
         .insert_resource(ClearColor(BACKGROUND));
@@ -173,7 +168,7 @@ impl Scene {
         let camera = world.get::<Camera>(self.camera)?;
         let transform = world.get::<GlobalTransform>(self.camera)?;
         let p = camera.world_to_viewport(transform, point).ok()?;
-        (p.x >= 0.0 && p.y >= 0.0 && p.x < SIZE as f32 && p.y < SIZE as f32).then(|| (p.x as u32, p.y as u32))
+        (p.x >= 0.0 && p.y >= 0.0 && p.x < SIZE as f32 && p.y < SIZE as f32).then_some((p.x as u32, p.y as u32))
     }
 }
 
@@ -327,9 +322,9 @@ fn turning_the_light_moves_the_highlight_and_children_cover_more() {
         let stats = *scene.app.world().resource::<HairRenderStats>();
         println!("{per_guide} children per guide: {hair} hair pixels, {stats:?}");
         coverage.push(hair);
-        // Only guide particles and one root frame vector per guide travel, whatever the
-        // children: 600 guides × (11 particles + 1) × 16 bytes.
-        assert_eq!(stats.uploaded_bytes, 600 * 12 * 16);
+        // Only guide particles and their frame vectors travel, whatever the children:
+        // 600 guides × 11 particles × 2 × 16 bytes.
+        assert_eq!(stats.uploaded_bytes, 600 * 11 * 2 * 16);
         assert_eq!(stats.rendered_strands, 600 * (per_guide as u64 + 1));
     }
     assert!(coverage[0] < coverage[1] && coverage[1] < coverage[2], "coverage {coverage:?} does not grow");
@@ -355,8 +350,8 @@ fn a_strand_along_the_light_is_darker_than_one_across_it() {
     for i in 0..particles {
         guides.push(Vec4::new(0.01 + 0.016 * i as f32, 0.0, 0.0, 1.0));
     }
-    guides.push(Vec4::new(0.0, 0.0, 1.0, 0.0));
-    guides.push(Vec4::new(0.0, 0.0, 1.0, 0.0));
+    // Each particle's frame vector: +z is perpendicular to both strands.
+    guides.extend([Vec4::new(0.0, 0.0, 1.0, 0.0); 22]);
     let layout = StrandLayout { guides: 2, particles, strands_per_guide: 1, subdivisions: 2 };
     let world = scene.app.world_mut();
     let buffer = world.resource_mut::<Assets<ShaderBuffer>>().add(ShaderBuffer::from(guides));
@@ -419,7 +414,7 @@ fn the_shader_draws_guide_and_children_where_the_cpu_reference_puts_them() {
     let width = 0.003;
 
     let mut data: Vec<Vec4> = guide.iter().map(|p| Vec4::new(p.x, p.y, p.z, 1.0)).collect();
-    data.push(Vec4::new(root_u.x, root_u.y, root_u.z, 0.0));
+    data.extend(transport_frames(&guide, root_u).iter().map(|u| Vec4::new(u.x, u.y, u.z, 0.0)));
     let layout = StrandLayout { guides: 1, particles, strands_per_guide: children.per_guide + 1, subdivisions };
     let white = Vec4::new(0.8, 0.8, 0.8, 1.0);
     let spiral = children.spiral;

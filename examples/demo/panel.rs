@@ -163,6 +163,12 @@ fn groom_section(ui: &mut egui::Ui, g: &mut HairGroom) -> bool {
     track(slider(ui, &mut g.length, 0.02..=0.6, "length (m)"));
     track(slider(ui, &mut g.length_variation, 0.0..=0.8, "length variation"));
     track(slider(ui, &mut g.curl, 0.0..=1.5, "curl (rad / segment)"));
+    ui.horizontal(|ui| {
+        for (axis, value) in ["x", "y", "z"].iter().zip(g.comb.as_mut()) {
+            track(ui.add(egui::DragValue::new(value).speed(0.02).range(-3.0..=3.0).prefix(format!("{axis} "))));
+        }
+        ui.label("comb (head space)");
+    });
     track(slider(ui, &mut g.settle_steps, 0..=600, "settle steps"));
     track(ui.add(egui::DragValue::new(&mut g.seed).prefix("seed ")));
     ui.horizontal(|ui| {

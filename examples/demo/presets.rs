@@ -6,6 +6,10 @@
 use bevy::prelude::*;
 use bevy_hair::prelude::*;
 
+/// Combing toward the back of the head (it faces +Z): the front hairline grows up and
+/// over the crown instead of falling into the face.
+const SWEPT_BACK: Vec3 = Vec3::new(0.0, 0.0, -1.5);
+
 /// One hairstyle.
 pub struct Preset {
     pub name: &'static str,
@@ -27,6 +31,7 @@ pub fn shoulder() -> Preset {
             guides: 1200,
             segments: 10,
             length: 0.22,
+            comb: SWEPT_BACK,
             children: ChildParams { per_guide: 12, ..default() },
             ..default()
         },
@@ -43,6 +48,7 @@ fn short() -> Preset {
             segments: 6,
             length: 0.07,
             length_variation: 0.15,
+            comb: SWEPT_BACK,
             children: ChildParams { per_guide: 8, clumping: 0.1, tip_spread: 0.001, ..default() },
             ..default()
         },
@@ -64,6 +70,7 @@ fn long() -> Preset {
             segments: 16,
             length: 0.42,
             length_variation: 0.15,
+            comb: SWEPT_BACK,
             children: ChildParams { per_guide: 12, clumping: 0.45, tip_spread: 0.004, ..default() },
             ..default()
         },
@@ -85,6 +92,7 @@ fn curly() -> Preset {
             segments: 20,
             length: 0.24,
             curl: 0.6,
+            comb: SWEPT_BACK * 0.7,
             settle_steps: 60,
             children: ChildParams { per_guide: 10, clumping: 0.6, tip_spread: 0.002, ..default() },
             ..default()

@@ -107,7 +107,7 @@ pub fn setup(
         NotShadowCaster,
     ));
 
-    let orbit = OrbitCamera { yaw: 0.45, pitch: 0.12, distance: 0.8 };
+    let orbit = OrbitCamera { yaw: 0.45, pitch: 0.12, distance: 0.62 };
     commands.spawn((Camera3d::default(), orbit.transform(), orbit));
 }
 

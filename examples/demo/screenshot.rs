@@ -111,7 +111,12 @@ fn drive(
             _ if shot.started.elapsed() > GROWTH_TIMEOUT => fail(format!("no groom after {GROWTH_TIMEOUT:?}")),
             _ => {}
         },
-        Stage::Playing if shot.frames_left > 0 => shot.frames_left -= 1,
+        Stage::Playing if shot.frames_left > 0 => {
+            shot.frames_left -= 1;
+            if shot.frames_left.is_multiple_of(10) {
+                info!("screenshot: {} frames to go ({:.1?} since start)", shot.frames_left, shot.started.elapsed());
+            }
+        }
         Stage::Playing => {
             let Some(state) = state else { return fail("the groom disappeared".into()) };
             time.pause();

@@ -1,10 +1,12 @@
 // Strand hair: GPU tessellation of guide strands into rendered strands, Kajiya-Kay shading.
 //
-// Only guide particles travel to the GPU (`guides`, one vec4 per particle, then one root
-// frame vector per guide). Every vertex of the static strand mesh knows its rendered
-// strand and curve sample (`HairVertex`); from those the vertex shader evaluates the
-// Bézier curve through the guide, offsets children along the Archimedean spiral in the
-// guide's transported frame, and widens the curve into a camera-facing ribbon.
+// Only guide particles travel to the GPU (`guides`: one vec4 per particle, then one vec4
+// per particle holding its parallel-transport frame vector `u`, which the CPU computes in
+// one pass per guide instead of every vertex walking its strand from the root). Every
+// vertex of the static strand mesh knows its rendered strand and curve sample
+// (`HairVertex`); from those the vertex shader evaluates the Bézier curve through the
+// guide, offsets children along the Archimedean spiral in the guide's frame, and widens
+// the curve into a camera-facing ribbon.
 //
 // Every function below mirrors a Rust function in `hair_sim::groom` (named in its
 // comment): those are the unit-tested reference, and `tests/render.rs` renders the result.
@@ -61,8 +63,9 @@ fn particle(guide: u32, i: u32) -> vec3<f32> {
     return guides[guide * hair.counts.y + i].xyz;
 }
 
-fn root_u(guide: u32) -> vec3<f32> {
-    return guides[hair.counts.x * hair.counts.y + guide].xyz;
+// The transport frame vector `u` of particle `i` (`hair_sim::groom::transport_frames`).
+fn frame_u(guide: u32, i: u32) -> vec3<f32> {
+    return guides[(hair.counts.x + guide) * hair.counts.y + i].xyz;
 }
 
 // Mirrors `hair_sim::groom::curve::unit_or`.
@@ -128,40 +131,12 @@ fn evaluate(guide: u32, s_in: f32) -> CurvePoint {
     return out;
 }
 
-// Mirrors `hair_sim::groom::curve::transport`: `v` turned by the minimal rotation taking
-// `a` onto `b` (kept as is for a full reversal), made perpendicular to `b`.
-fn transport(v: vec3<f32>, a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
-    let k = cross(a, b);
-    let c = dot(a, b);
-    var rotated = v;
-    if 1.0 + c > 1e-4 {
-        rotated = v * c + cross(k, v) + k * (dot(k, v) / (1.0 + c));
-    }
-    return perpendicular_unit(rotated, b);
-}
-
-// Mirrors `hair_sim::groom::curve::transport_frames` up to particle `i + 1`: the root
-// frame vector carried along the particle tangents; returns the `u` of particles i, i + 1.
-fn transport_frames(guide: u32, i: u32) -> mat2x3<f32> {
-    var tangent = evaluate(guide, 0.0).tangent;
-    var u = perpendicular_unit(root_u(guide), tangent);
-    var previous = u;
-    for (var j = 1u; j <= i + 1u; j++) {
-        let next = evaluate(guide, f32(j)).tangent;
-        previous = u;
-        u = transport(u, tangent, next);
-        tangent = next;
-    }
-    return mat2x3<f32>(previous, u);
-}
-
 // Mirrors `hair_sim::groom::curve::frame_at`: the frame (u, v) at `s`.
 fn frame_at(guide: u32, s_in: f32, tangent: vec3<f32>) -> mat2x3<f32> {
     let last = f32(hair.counts.y - 1u);
     let s = clamp(s_in, 0.0, last);
     let j = u32(min(floor(s), last - 1.0));
-    let frames = transport_frames(guide, j);
-    let u = perpendicular_unit(mix(frames[0], frames[1], s - f32(j)), tangent);
+    let u = perpendicular_unit(mix(frame_u(guide, j), frame_u(guide, j + 1u), s - f32(j)), tangent);
     return mat2x3<f32>(u, cross(tangent, u));
 }
 

@@ -16,8 +16,9 @@ pub(crate) const SHADER_PATH: &str = "embedded://bevy_hair/render/hair.wgsl";
 /// [`HairLook`](super::HairLook) and layout; users edit the look, not this.
 #[derive(Asset, TypePath, AsBindGroup, Clone, Debug)]
 pub struct HairMaterial {
-    /// Guide particle positions (one `vec4` each, strand-major), then one root frame
-    /// vector per guide; rewritten every frame at the same size.
+    /// Guide particle positions (one `vec4` each, strand-major), then each particle's
+    /// transport frame vector `u` (same order, `w` = 0); rewritten every frame at the same
+    /// size.
     #[storage(0, read_only)]
     pub guides: Handle<ShaderBuffer>,
     /// Colours, widths, specular lobes, child placement and counts.

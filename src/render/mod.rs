@@ -2,9 +2,10 @@
 //!
 //! Each groom gets a drawing entity of its own (world space, so its transform is the
 //! identity) with a static [`StrandLayout`] mesh and a [`HairMaterial`]. Every frame only
-//! the guide particles, interpolated between the last two fixed steps, and one root frame
-//! vector per guide are written into the material's storage buffer; the vertex shader
-//! tessellates the guides with Bézier curves and places the children around them.
+//! the guide particles, interpolated between the last two fixed steps, and each particle's
+//! parallel-transport frame vector are written into the material's storage buffer; the
+//! vertex shader tessellates the guides with Bézier curves and places the children around
+//! them.
 
 mod layout;
 mod material;
@@ -12,7 +13,7 @@ mod material;
 pub use layout::{ATTRIBUTE_HAIR_VERTEX, StrandLayout};
 pub use material::{HairMaterial, HairUniform};
 
-use crate::convert::{from_sim, quat_from_sim};
+use crate::convert::{from_sim, quat_from_sim, to_sim};
 use crate::diagnostics::HairDiagnostics;
 use crate::{HairGroom, HairState, HairSystems};
 use bevy::asset::embedded_asset;
@@ -22,7 +23,7 @@ use bevy::diagnostic::Diagnostics;
 use bevy::light::NotShadowCaster;
 use bevy::prelude::*;
 use bevy::render::storage::ShaderBuffer;
-use hair_sim::groom::ChildParams;
+use hair_sim::groom::{ChildParams, transport_frames};
 
 /// Draws every groom: added by [`HairPlugin`](crate::HairPlugin) when the `render`
 /// feature is on and the app renders.
@@ -188,27 +189,34 @@ fn sync_drawing(
                 commands.entity(d.0).insert(bundle);
             }
             _ => {
-                let entity =
-                    commands.spawn((Name::new("hair"), bundle, Transform::IDENTITY, NotShadowCaster, NoAutoAabb)).id();
+                // The box is fitted to the moving strands every frame ([`upload_guides`]).
+                let entity = commands
+                    .spawn((
+                        Name::new("hair"),
+                        bundle,
+                        Transform::IDENTITY,
+                        NotShadowCaster,
+                        NoAutoAabb,
+                        Aabb::default(),
+                    ))
+                    .id();
                 commands.entity(head).insert(HairDrawnBy(entity));
             }
         }
     }
 }
 
-/// One `vec4` per guide particle, then one per guide (its root frame vector).
+/// One `vec4` per guide particle for its position, then one per particle for its frame.
 fn guide_buffer_len(layout: &StrandLayout) -> usize {
-    (layout.guides * layout.particles + layout.guides) as usize
+    2 * (layout.guides * layout.particles) as usize
 }
 
 /// Writes this frame's guide particles (interpolated between the last two fixed steps)
-/// and root frames into each drawing's storage buffer, and fits its bounding box.
+/// and their transport frames into each drawing's storage buffer, and fits its bounding box.
 fn upload_guides(
     fixed: Res<Time<Fixed>>,
     heads: Query<(&HairState, &HairGroom, &HairLook)>,
     mut drawings: Query<(&HairDrawing, &mut Aabb, &Visibility)>,
-    mut drawings_without_aabb: Query<(Entity, &HairDrawing), Without<Aabb>>,
-    mut commands: Commands,
     mut buffers: ResMut<Assets<ShaderBuffer>>,
     mut stats: ResMut<HairRenderStats>,
     mut diagnostics: Diagnostics,
@@ -221,14 +229,22 @@ fn upload_guides(
             return None; // regrown with another guide count; sync_drawing rebuilds next frame
         }
         let rotation = quat_from_sim(state.head_pose().rotation);
+        let positions: Vec<Vec3> = state.interpolated_positions(overstep).collect();
         let mut data: Vec<Vec4> = Vec::with_capacity(guide_buffer_len(&drawing.layout));
         let (mut min, mut max) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-        for p in state.interpolated_positions(overstep) {
+        for &p in &positions {
             min = min.min(p);
             max = max.max(p);
             data.push(p.extend(1.0));
         }
-        data.extend(drawing.root_u.iter().map(|&u| (rotation * u).extend(0.0)));
+        // The frames are one root → tip pass per guide here, instead of a walk from the
+        // root in every vertex of every child.
+        let n = state.particles_per_strand();
+        for (guide, &root_u) in positions.chunks_exact(n).zip(&drawing.root_u) {
+            let guide: Vec<_> = guide.iter().map(|&p| to_sim(p)).collect();
+            let frames = transport_frames(&guide, to_sim(rotation * root_u));
+            data.extend(frames.into_iter().map(|u| from_sim(u).extend(0.0)));
+        }
         frame.uploaded_bytes += (data.len() * size_of::<Vec4>()) as u64;
         frame.rendered_strands += drawing.layout.strands() as u64;
         frame.rendered_vertices += drawing.layout.vertices() as u64;
@@ -245,11 +261,6 @@ fn upload_guides(
         }
         if let Some(fitted) = write(drawing, &mut frame) {
             *aabb = fitted;
-        }
-    }
-    for (entity, drawing) in &mut drawings_without_aabb {
-        if let Some(fitted) = write(drawing, &mut frame) {
-            commands.entity(entity).insert(fitted);
         }
     }
     *stats = frame;

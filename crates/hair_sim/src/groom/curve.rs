@@ -133,7 +133,6 @@ pub fn tessellate(points: &[Vec3], subdivisions: u32) -> Vec<CurvePoint> {
 /// length. For a full reversal (`c ≈ −1`, no unique minimal rotation) it turns by π about
 /// `v` itself, i.e. keeps `v`.
 ///
-/// Mirrored in `src/render/hair.wgsl` (`fn transport`).
 #[inline]
 fn transport(v: Vec3, a: Vec3, b: Vec3) -> Vec3 {
     let k = a.cross(b);
@@ -149,8 +148,8 @@ fn transport(v: Vec3, a: Vec3, b: Vec3) -> Vec3 {
 /// previous one turned by the minimal rotation between the two tangents, so the frame
 /// does not twist around the strand.
 ///
-/// Mirrored in `src/render/hair.wgsl` (`fn transport_frames`, as a loop up to the vertex's
-/// particle).
+/// The renderer computes these on the CPU each frame and uploads them with the particles
+/// (`src/render/hair.wgsl` reads them in `fn frame_u`).
 pub fn transport_frames(points: &[Vec3], root_u: Vec3) -> Vec<Vec3> {
     if points.is_empty() {
         return Vec::new();

@@ -163,27 +163,33 @@ pub struct GuideParams {
     /// Curl: radians the growth direction turns per segment, around an axis across the
     /// strand (0 = straight).
     pub curl: f32,
+    /// Combing, head-local: strands start along the surface normal tilted toward this
+    /// direction (its part along the surface; length 1 tilts by 45°, zero keeps the
+    /// normal). Combing the front hairline back keeps it out of the face once it settles.
+    pub comb: Vec3,
 }
 
 impl Default for GuideParams {
     fn default() -> Self {
-        GuideParams { segments: 10, length: 0.2, length_variation: 0.2, curl: 0.0 }
+        GuideParams { segments: 10, length: 0.2, length_variation: 0.2, curl: 0.0, comb: Vec3::ZERO }
     }
 }
 
 /// Grows one guide per root along the interpolated surface normal (the reference's
-/// initial direction), bending by `curl` per segment. Returns head-local rest positions,
-/// strand-major, `segments + 1` per strand.
+/// initial direction), tilted by `comb` and bending by `curl` per segment. Returns
+/// head-local rest positions, strand-major, `segments + 1` per strand. Non-finite `comb`
+/// components count as zero.
 pub fn grow_guides(mesh: &HeadMesh, roots: &[RootBinding], params: &GuideParams, seed: u64) -> Vec<Vec3> {
     let segments = params.segments.max(1);
     let mut rng = SplitMix64::new(seed ^ 0x6775_6964_6573);
+    let comb = Vec3::from_array(params.comb.to_array().map(|c| if c.is_finite() { c } else { 0.0 }));
     let mut positions = Vec::with_capacity(roots.len() * (segments + 1));
     for root in roots {
         let variation = 1.0 + params.length_variation * (2.0 * rng.next_f32() - 1.0);
         let segment_length = (params.length * variation).max(1e-4) / segments as f32;
         let normal = root.normal(mesh);
-        let across = normal.any_orthonormal_vector();
-        let mut direction = normal;
+        let mut direction = (normal + comb - normal * normal.dot(comb)).normalize_or(normal);
+        let across = direction.any_orthonormal_vector();
         let mut p = root.position(mesh);
         positions.push(p);
         for _ in 0..segments {
@@ -296,7 +302,7 @@ mod tests {
     fn guides_start_along_the_normal_with_the_asked_length() {
         let mesh = test_head(3);
         let roots = sample_roots(&mesh, &top_half(&mesh), 50, 3).unwrap();
-        let params = GuideParams { segments: 10, length: 0.2, length_variation: 0.0, curl: 0.0 };
+        let params = GuideParams { segments: 10, length: 0.2, length_variation: 0.0, ..GuideParams::default() };
         let guides = grow_guides(&mesh, &roots, &params, 3);
         assert_eq!(guides.len(), 50 * 11);
         for (strand, root) in guides.chunks_exact(11).zip(&roots) {
@@ -304,6 +310,30 @@ mod tests {
             let dir = (strand[1] - strand[0]).normalize();
             assert!(dir.dot(root.normal(&mesh)) > 0.9999);
             assert!(((strand[10] - strand[0]).length() - 0.2).abs() < 1e-4);
+        }
+    }
+
+    #[test]
+    fn combing_tilts_the_start_along_the_surface_toward_the_comb() {
+        let mesh = test_head(3);
+        let roots = sample_roots(&mesh, &top_half(&mesh), 50, 3).unwrap();
+        let back = Vec3::new(0.0, 0.0, -1.0);
+        let combed = GuideParams { length_variation: 0.0, comb: back, ..GuideParams::default() };
+        let bad = GuideParams { comb: Vec3::new(f32::NAN, f32::INFINITY, 0.0), ..combed };
+        let guides = grow_guides(&mesh, &roots, &combed, 3);
+        let unharmed = grow_guides(&mesh, &roots, &bad, 3);
+        for ((strand, bad), root) in guides.chunks_exact(11).zip(unharmed.chunks_exact(11)).zip(&roots) {
+            let n = root.normal(&mesh);
+            let dir = (strand[1] - strand[0]).normalize();
+            let along_surface = back - n * n.dot(back);
+            if along_surface.length() > 0.5 {
+                // Tilted by atan(|comb along the surface|) toward the back, still off the surface.
+                let expected = along_surface.length().atan();
+                assert!((dir.dot(n).acos() - expected).abs() < 1e-3, "tilt {} vs {expected}", dir.dot(n).acos());
+                assert!(dir.dot(along_surface) > 0.0 && dir.dot(n) > 0.0);
+            }
+            assert!(bad.iter().all(|p| p.is_finite()), "a NaN comb grows finite strands");
+            assert!(((strand[10] - strand[0]).length() - 0.2).abs() < 1e-4, "combing keeps the length");
         }
     }
 

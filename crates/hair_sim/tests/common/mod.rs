@@ -28,7 +28,13 @@ pub fn groom_on_upper_half(spec: GroomSpec) -> Groom {
     let scalp: Vec<f32> =
         head.triangles.iter().map(|t| if head.corners(t).iter().all(|p| p.y > 0.0) { 1.0 } else { 0.0 }).collect();
     let roots = sample_roots(&head, &scalp, spec.strands, spec.seed).expect("scalp");
-    let guide = GuideParams { segments: spec.particles - 1, length: 0.2, length_variation: 0.2, curl: spec.curl };
+    let guide = GuideParams {
+        segments: spec.particles - 1,
+        length: 0.2,
+        length_variation: 0.2,
+        curl: spec.curl,
+        ..GuideParams::default()
+    };
     let rest = RestShape::new(grow_guides(&head, &roots, &guide, spec.seed), spec.particles).expect("guides");
     Groom { collider, rest }
 }
