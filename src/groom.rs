@@ -73,9 +73,10 @@ pub struct HairGroom {
     /// Curl, radians per segment.
     pub curl: f32,
     /// Combing, in the head mesh's frame: strands start along the surface normal tilted
-    /// toward this direction (length 1 tilts by 45°; zero grows straight out, as the
-    /// reference does). `Vec3::new(0.0, 0.0, -1.5)` on a +Z-facing head sweeps the hair
-    /// back, out of the face.
+    /// toward this direction (length 1 tilts by 45°), and the settle pass brushes them
+    /// that way (`|g|·comb` added to gravity) before taking the rest shape. Zero grows
+    /// straight out and lets the hair fall where gravity puts it, as the reference does.
+    /// `Vec3::new(0.0, 0.0, -1.5)` on a +Z-facing head sweeps the hair back, out of the face.
     pub comb: Vec3,
     /// Seed: the same seed grows the same groom.
     pub seed: u64,
@@ -278,7 +279,8 @@ fn grow(
     let rest = RestShape::new(grow_guides(&head, &roots, &guide_params, groom.seed), groom.segments + 1)
         .map_err(|e| e.to_string())?;
     let collider = HeadCollider::new(&head, DEFAULT_GRID_RESOLUTION).map_err(|e| e.to_string())?;
-    let rest = settle(rest, Some(&collider), &params, groom.settle_steps as usize).map_err(|e| e.to_string())?;
+    let rest = settle(rest, Some(&collider), &params, groom.settle_steps as usize, guide_params.comb)
+        .map_err(|e| e.to_string())?;
     let strands = Strands::new(rest, pose);
     Ok(Grown { strands, collider: Arc::new(collider), head: Arc::new(head), roots, scale, groom })
 }

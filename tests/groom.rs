@@ -123,3 +123,26 @@ fn the_shipped_head_without_paint_reports_the_missing_scalp() {
     run(&mut app, 5);
     assert!(app.world().get::<HairState>(head).is_none(), "no strands on an unpainted head");
 }
+
+/// Strand particles hanging in front of the face: forward of the brow and below the
+/// forehead hairline (head frame: +Z forward, eyebrows at y ≈ 0.148).
+fn particles_over_the_face(state: &HairState) -> usize {
+    state.current_positions().iter().filter(|p| p.z > 0.06 && p.y < 0.17 && p.x.abs() < 0.05).count()
+}
+
+#[test]
+fn combing_back_keeps_the_front_hair_out_of_the_face() {
+    let asset = shipped_head();
+    let hanging = |comb: Vec3| {
+        let groom = HairGroom { guides: 800, length: 0.22, comb, settle_steps: 180, ..shipped_groom(5) };
+        let (mut app, head) = grow_on(bevy_mesh(&asset), groom);
+        wait_until_ready(&mut app, head);
+        run(&mut app, 120); // two seconds of simulation after growth
+        particles_over_the_face(state(&app, head))
+    };
+    let straight = hanging(Vec3::ZERO);
+    let combed = hanging(Vec3::new(0.0, 0.0, -1.5));
+    println!("particles over the face: {straight} grown along the normals, {combed} combed back");
+    assert!(straight > 100, "the test should see hair fall into the face uncombed ({straight})");
+    assert!(combed * 10 < straight, "combing back left {combed} particles over the face (uncombed {straight})");
+}

@@ -70,7 +70,7 @@ fn strand_step(c: &mut Criterion) {
     let roots = sample_roots(&head, &scalp(&head), 512, 1).unwrap();
     let guide = GuideParams { segments: 15, length: 0.25, ..GuideParams::default() };
     let rest = RestShape::new(grow_guides(&head, &roots, &guide, 1), 16).unwrap();
-    let rest = settle(rest, Some(&collider), &SimParams::default(), 120).unwrap();
+    let rest = settle(rest, Some(&collider), &SimParams::default(), 120, Vec3::ZERO).unwrap();
     let mut group = c.benchmark_group("Strands::step 512x16");
     group.throughput(Throughput::Elements(512 * 16));
     for collision in [true, false] {

@@ -63,7 +63,7 @@ fn main() {
     let guide_params = GuideParams { segments: particles - 1, length: 0.25, ..GuideParams::default() };
     let rest = RestShape::new(grow_guides(&head, &roots, &guide_params, 1), particles).expect("guides");
     let params = SimParams::default();
-    let rest = settle(rest, Some(&collider), &params, 120).expect("settle");
+    let rest = settle(rest, Some(&collider), &params, 120, Vec3::ZERO).expect("settle");
     // `--no-collision` measures the solver alone (the groom still settles on the head).
     let params = SimParams { collision: !std::env::args().any(|a| a == "--no-collision"), ..params };
     let mut strands = Strands::new(rest, head_pose(0.0));

@@ -165,7 +165,8 @@ pub struct GuideParams {
     pub curl: f32,
     /// Combing, head-local: strands start along the surface normal tilted toward this
     /// direction (its part along the surface; length 1 tilts by 45°, zero keeps the
-    /// normal). Combing the front hairline back keeps it out of the face once it settles.
+    /// normal). Pass the same vector to [`settle`] to brush the hair that way while it
+    /// settles: combed back, the front hairline stays out of the face.
     pub comb: Vec3,
 }
 
@@ -182,7 +183,7 @@ impl Default for GuideParams {
 pub fn grow_guides(mesh: &HeadMesh, roots: &[RootBinding], params: &GuideParams, seed: u64) -> Vec<Vec3> {
     let segments = params.segments.max(1);
     let mut rng = SplitMix64::new(seed ^ 0x6775_6964_6573);
-    let comb = Vec3::from_array(params.comb.to_array().map(|c| if c.is_finite() { c } else { 0.0 }));
+    let comb = finite_or_zero(params.comb);
     let mut positions = Vec::with_capacity(roots.len() * (segments + 1));
     for root in roots {
         let variation = 1.0 + params.length_variation * (2.0 * rng.next_f32() - 1.0);
@@ -201,14 +202,25 @@ pub fn grow_guides(mesh: &HeadMesh, roots: &[RootBinding], params: &GuideParams,
     positions
 }
 
+/// `v` with its non-finite components replaced by zero.
+fn finite_or_zero(v: Vec3) -> Vec3 {
+    Vec3::from_array(v.to_array().map(|c| if c.is_finite() { c } else { 0.0 }))
+}
+
 /// Lets freshly grown strands fall under gravity onto the head for `steps` steps of
 /// 1/60 s with no shape keeping, and returns where they came to rest: the "comb" pass
 /// that makes a default groom drape instead of standing out like a hedgehog.
+///
+/// `comb` (head-local, as in [`GuideParams::comb`]) brushes the hair while it settles: it
+/// adds `|gravity|·comb` to gravity, so hair combed back lies back over the crown instead of
+/// sliding down into the face. The result is the rest shape that shape keeping then holds.
+/// Non-finite components count as zero.
 pub fn settle(
     rest: RestShape,
     collider: Option<&HeadCollider>,
     params: &SimParams,
     steps: usize,
+    comb: Vec3,
 ) -> Result<RestShape, GroomError> {
     let n = rest.particles_per_strand;
     let (mut params, _) = params.sanitized();
@@ -217,6 +229,8 @@ pub fn settle(
     params.global_stiffness_tip = 0.0;
     params.wind.strength = 0.0;
     params.drag = params.drag.max(8.0); // overdamped: settle, do not swing
+    let gravity = Vec3::from_array(params.gravity);
+    params.gravity = (gravity + finite_or_zero(comb) * gravity.length()).to_array();
     let mut strands = Strands::new(rest, Pose::IDENTITY);
     for k in 0..steps {
         let input = StepInput {
@@ -346,10 +360,28 @@ mod tests {
         let rest = RestShape::new(grown, 11).unwrap();
         let mean_tip_y = |r: &RestShape| r.positions.chunks_exact(11).map(|s| s[10].y).sum::<f32>() / 40.0;
         let before = mean_tip_y(&rest);
-        let settled = settle(rest, Some(&collider), &SimParams::default(), 240).unwrap();
+        let settled = settle(rest, Some(&collider), &SimParams::default(), 240, Vec3::ZERO).unwrap();
         let after = mean_tip_y(&settled);
         assert!(after < before - 0.1, "tips fell from {before} to {after}");
         let deepest = settled.positions.iter().map(|&p| collider.signed_distance(p)).fold(f32::MAX, f32::min);
         assert!(deepest > -1e-3, "no particle inside the head: {deepest}");
+    }
+
+    #[test]
+    fn combing_while_settling_lays_the_hair_toward_the_comb() {
+        let mesh = test_head(3);
+        let collider = HeadCollider::new(&mesh, 32).unwrap();
+        let roots = sample_roots(&mesh, &top_half(&mesh), 40, 5).unwrap();
+        let mean_tip_z = |comb: Vec3| {
+            let grown = grow_guides(&mesh, &roots, &GuideParams { comb, ..GuideParams::default() }, 5);
+            let settled = settle(RestShape::new(grown, 11).unwrap(), Some(&collider), &SimParams::default(), 240, comb);
+            let settled = settled.unwrap();
+            let deepest = settled.positions.iter().map(|&p| collider.signed_distance(p)).fold(f32::MAX, f32::min);
+            assert!(deepest > -1e-3, "no particle inside the head: {deepest}");
+            settled.positions.chunks_exact(11).map(|s| s[10].z).sum::<f32>() / 40.0
+        };
+        let (plain, back) = (mean_tip_z(Vec3::ZERO), mean_tip_z(Vec3::new(0.0, 0.0, -1.5)));
+        assert!(back < plain - 0.05, "combed back, tips at z = {back}; uncombed {plain}");
+        assert!(mean_tip_z(Vec3::new(f32::NAN, 0.0, 0.0)).is_finite());
     }
 }
