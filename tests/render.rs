@@ -143,6 +143,17 @@ impl Scene {
             Transform::from_translation(direction_to_light).looking_at(Vec3::ZERO, Vec3::Y);
     }
 
+    /// Draws strands with the hair material directly, no groom: `data` is what the plugin
+    /// uploads (positions, then frame vectors), `uniform` the look and counts.
+    fn draw_strands(&mut self, data: Vec<Vec4>, layout: &StrandLayout, uniform: HairUniform) {
+        let world = self.app.world_mut();
+        let guides = world.resource_mut::<Assets<ShaderBuffer>>().add(ShaderBuffer::from(data));
+        let material = world.resource_mut::<Assets<HairMaterial>>().add(HairMaterial { guides, uniform });
+        let mesh = world.resource_mut::<Assets<Mesh>>().add(layout.mesh());
+        world.spawn((Mesh3d(mesh), MeshMaterial3d(material), bevy::camera::visibility::NoFrustumCulling));
+        self.frames(5);
+    }
+
     /// Renders a frame, saves it as `name.png`, and returns it.
     fn capture(&mut self, name: &str) -> Picture {
         let slot: Arc<Mutex<Option<Image>>> = Arc::default();
@@ -353,8 +364,6 @@ fn a_strand_along_the_light_is_darker_than_one_across_it() {
     // Each particle's frame vector: +z is perpendicular to both strands.
     guides.extend([Vec4::new(0.0, 0.0, 1.0, 0.0); 22]);
     let layout = StrandLayout { guides: 2, particles, strands_per_guide: 1, subdivisions: 2 };
-    let world = scene.app.world_mut();
-    let buffer = world.resource_mut::<Assets<ShaderBuffer>>().add(ShaderBuffer::from(guides));
     let white = Vec4::new(0.6, 0.6, 0.6, 1.0);
     let uniform = HairUniform {
         root_color: white,
@@ -365,10 +374,7 @@ fn a_strand_along_the_light_is_darker_than_one_across_it() {
         counts: UVec4::new(layout.guides, layout.particles, layout.strands_per_guide, layout.subdivisions),
         ..default()
     };
-    let material = world.resource_mut::<Assets<HairMaterial>>().add(HairMaterial { guides: buffer, uniform });
-    let mesh = world.resource_mut::<Assets<Mesh>>().add(layout.mesh());
-    world.spawn((Mesh3d(mesh), MeshMaterial3d(material), bevy::camera::visibility::NoFrustumCulling));
-    scene.frames(5);
+    scene.draw_strands(guides, &layout, uniform);
     let picture = scene.capture("kajiya-kay");
 
     let mean_brightness = |xs: std::ops::Range<u32>| {
@@ -428,12 +434,7 @@ fn the_shader_draws_guide_and_children_where_the_cpu_reference_puts_them() {
         counts: UVec4::new(layout.guides, layout.particles, layout.strands_per_guide, layout.subdivisions),
         ..default()
     };
-    let world = scene.app.world_mut();
-    let buffer = world.resource_mut::<Assets<ShaderBuffer>>().add(ShaderBuffer::from(data));
-    let material = world.resource_mut::<Assets<HairMaterial>>().add(HairMaterial { guides: buffer, uniform });
-    let mesh = world.resource_mut::<Assets<Mesh>>().add(layout.mesh());
-    world.spawn((Mesh3d(mesh), MeshMaterial3d(material), bevy::camera::visibility::NoFrustumCulling));
-    scene.frames(5);
+    scene.draw_strands(data, &layout, uniform);
     let picture = scene.capture("reference-children");
 
     let to_bevy = |p: SimVec3| Vec3::new(p.x, p.y, p.z);
