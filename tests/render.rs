@@ -4,8 +4,10 @@
 
 use bevy::app::PluginsState;
 use bevy::camera::RenderTarget;
+use bevy::camera::visibility::NoFrustumCulling;
 use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::image::Image;
+use bevy::light::{CascadeShadowConfigBuilder, DirectionalLightShadowMap, NotShadowCaster};
 use bevy::log::LogPlugin;
 use bevy::prelude::*;
 use bevy::render::RenderPlugin;
@@ -145,13 +147,14 @@ impl Scene {
 
     /// Draws strands with the hair material directly, no groom: `data` is what the plugin
     /// uploads (positions, then frame vectors), `uniform` the look and counts.
-    fn draw_strands(&mut self, data: Vec<Vec4>, layout: &StrandLayout, uniform: HairUniform) {
+    fn draw_strands(&mut self, data: Vec<Vec4>, layout: &StrandLayout, uniform: HairUniform) -> Entity {
         let world = self.app.world_mut();
         let guides = world.resource_mut::<Assets<ShaderBuffer>>().add(ShaderBuffer::from(data));
         let material = world.resource_mut::<Assets<HairMaterial>>().add(HairMaterial { guides, uniform });
         let mesh = world.resource_mut::<Assets<Mesh>>().add(layout.mesh());
-        world.spawn((Mesh3d(mesh), MeshMaterial3d(material), bevy::camera::visibility::NoFrustumCulling));
+        let entity = world.spawn((Mesh3d(mesh), MeshMaterial3d(material), NoFrustumCulling)).id();
         self.frames(5);
+        entity
     }
 
     /// Renders a frame, saves it as `name.png`, and returns it.
@@ -482,4 +485,74 @@ fn the_shader_draws_guide_and_children_where_the_cpu_reference_puts_them() {
     );
     assert!(on_reference > 0.97, "only {:.1}% of the CPU reference points are drawn", on_reference * 100.0);
     assert!(on_mirror < 0.05, "{:.1}% of the points away from the reference are drawn", on_mirror * 100.0);
+}
+
+/// Hair draws itself into the shadow maps: strands in front of a wall, lit from the front,
+/// darken the wall where their shadows fall, and only when they cast shadows.
+#[test]
+fn strands_cast_shadows() {
+    require_adapter!();
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let mut scene = Scene::new();
+    scene.look_from(Vec3::new(0.0, 0.0, 0.55));
+    // From the front, above and to the right: shadows fall below and left of the strands.
+    scene.light_from(Vec3::new(0.35, 0.35, 1.0));
+    // One cascade over the small scene, so shadow texels are finer than a strand is wide.
+    let cascades = CascadeShadowConfigBuilder {
+        num_cascades: 1,
+        minimum_distance: 0.05,
+        maximum_distance: 1.5,
+        first_cascade_far_bound: 1.5,
+        overlap_proportion: 0.2,
+    };
+    scene.app.world_mut().entity_mut(scene.light).insert(cascades.build());
+    scene.app.insert_resource(DirectionalLightShadowMap { size: 4096 });
+    let world = scene.app.world_mut();
+    let wall = world.resource_mut::<Assets<Mesh>>().add(Plane3d::new(Vec3::Z, Vec2::splat(0.3)).mesh());
+    let red = world.resource_mut::<Assets<StandardMaterial>>().add(Color::srgb(0.8, 0.25, 0.2));
+    world.spawn((Mesh3d(wall), MeshMaterial3d(red), Transform::from_xyz(0.0, 0.0, -0.03)));
+
+    // Twelve vertical strands, 1.5 cm apart, 4 mm wide.
+    let (guides, particles) = (12u32, 11u32);
+    let mut data = Vec::new();
+    for g in 0..guides {
+        data.extend((0..particles).map(|j| Vec4::new(-0.09 + 0.015 * g as f32, 0.1 - 0.02 * j as f32, 0.0, 1.0)));
+    }
+    data.extend(std::iter::repeat_n(Vec4::new(0.0, 0.0, 1.0, 0.0), (guides * particles) as usize));
+    let layout = StrandLayout { guides, particles, strands_per_guide: 1, subdivisions: 2 };
+    let green = Vec4::new(0.05, 0.6, 0.05, 1.0);
+    let uniform = HairUniform {
+        root_color: green,
+        tip_color: green,
+        specular: Vec4::new(80.0, 0.0, 20.0, 0.0),
+        shape: Vec4::new(0.0, 0.0, 0.004, 0.004),
+        shading: Vec4::new(0.0, 1.0, 1.0, 0.0),
+        counts: UVec4::new(layout.guides, layout.particles, layout.strands_per_guide, layout.subdivisions),
+        ..default()
+    };
+    let strands = scene.draw_strands(data, &layout, uniform);
+
+    let mut walls = Vec::new();
+    for cast in [false, true] {
+        let mut entity = scene.app.world_mut().entity_mut(strands);
+        if cast {
+            entity.remove::<NotShadowCaster>();
+        } else {
+            entity.insert(NotShadowCaster);
+        }
+        scene.frames(3);
+        walls.push(scene.capture(&format!("strand-shadows-{cast}")));
+    }
+    // Wall pixels (red-dominant) in both pictures, compared pixel by pixel.
+    let is_wall = |c: [f32; 3]| c[0] > 1.2 * c[1] && c[0] > 1.2 * c[2];
+    let (mut both, mut darker) = (0, 0);
+    for (&off, &on) in walls[0].pixels.iter().zip(&walls[1].pixels) {
+        if is_wall(off) && is_wall(on) {
+            both += 1;
+            darker += usize::from(luminance(on) < 0.7 * luminance(off));
+        }
+    }
+    println!("wall pixels: {both}; {darker} darker by > 30% when the strands cast shadows");
+    assert!(both > 5000, "only {both} wall pixels");
+    assert!(darker > 300, "the strands' shadows darken only {darker} of {both} wall pixels");
 }

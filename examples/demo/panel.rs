@@ -215,6 +215,7 @@ fn look_section(ui: &mut egui::Ui, look: &mut HairLook) {
     }
     slider(ui, &mut look.subdivisions, 1..=8, "curve samples per segment");
     ui.checkbox(&mut look.receive_shadows, "shadows on hair");
+    ui.checkbox(&mut look.cast_shadows, "hair casts shadows");
     ui.checkbox(&mut look.guides_only, "show guides only");
 }
 

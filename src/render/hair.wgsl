@@ -11,14 +11,22 @@
 // Every function below mirrors a Rust function in `hair_sim::groom` (named in its
 // comment): those are the unit-tested reference, and `tests/render.rs` renders the result.
 
+// The same file serves the shadow pass (`PREPASS_PIPELINE`): there only the strand's
+// position matters, and the lights, shadows and tonemapping are not bound.
+
 #import bevy_pbr::{
-    mesh_view_bindings::{view, lights},
+    mesh_view_bindings::view,
+    view_transformations::position_world_to_clip,
+}
+#ifndef PREPASS_PIPELINE
+#import bevy_pbr::{
+    mesh_view_bindings::lights,
     mesh_view_types::DIRECTIONAL_LIGHT_FLAGS_SHADOWS_ENABLED_BIT,
     shadows::fetch_directional_shadow,
-    view_transformations::position_world_to_clip,
 }
 #ifdef TONEMAP_IN_SHADER
 #import bevy_core_pipeline::tonemapping::tone_mapping
+#endif
 #endif
 
 struct HairUniform {
@@ -168,11 +176,21 @@ fn child_offset(guide: u32, child: u32, t: f32) -> vec2<f32> {
     return spiral_offset(child) * (1.0 - clumping * t) + spread * t * t * vec2(cos(phi), sin(phi));
 }
 
-@vertex
-fn vertex(in: Vertex) -> VertexOutput {
-    let strand = in.hair_vertex.x;
-    let sample_index = in.hair_vertex.y >> 1u;
-    let side = f32(in.hair_vertex.y & 1u) * 2.0 - 1.0;
+// A point of a rendered strand: on the curve (guide) or offset around it (child), moved
+// across the strand to one side of a ribbon that faces the view and tapers root → tip.
+struct StrandPoint {
+    position: vec3<f32>,
+    tangent: vec3<f32>,
+    // ribbon direction across the strand
+    across: vec3<f32>,
+    // root → tip parameter
+    t: f32,
+}
+
+fn strand_point(hair_vertex: vec2<u32>) -> StrandPoint {
+    let strand = hair_vertex.x;
+    let sample_index = hair_vertex.y >> 1u;
+    let side = f32(hair_vertex.y & 1u) * 2.0 - 1.0;
     let per_guide = hair.counts.z;
     let guide = strand / per_guide;
     let child = strand % per_guide; // 0 is the guide itself
@@ -187,19 +205,65 @@ fn vertex(in: Vertex) -> VertexOutput {
         position += offset.x * frame[0] + offset.y * frame[1];
     }
 
-    // A ribbon across the strand, facing the camera, tapering root → tip.
+    // In the shadow pass the "camera" is the light: the ribbon faces it and casts its width.
     let to_camera = unit_or(view.world_position - position, vec3(0.0, 0.0, 1.0));
     let across = perpendicular_unit(cross(curve.tangent, to_camera), curve.tangent);
     let width = mix(hair.shape.z, hair.shape.w, t);
-    position += across * side * 0.5 * width;
-
-    var out: VertexOutput;
-    out.clip_position = position_world_to_clip(position);
-    out.world_position = vec4(position, 1.0);
+    var out: StrandPoint;
+    out.position = position + across * side * 0.5 * width;
     out.tangent = curve.tangent;
+    out.across = across;
     out.t = t;
-    out.strand = strand;
-    out.normal = normalize(cross(across, curve.tangent));
+    return out;
+}
+
+#ifdef PREPASS_PIPELINE
+
+// The shadow pass: depth only.
+struct DepthOutput {
+    @builtin(position) clip_position: vec4<f32>,
+#ifdef UNCLIPPED_DEPTH_ORTHO_EMULATION
+    @location(0) unclipped_depth: f32,
+#endif
+};
+
+@vertex
+fn vertex(in: Vertex) -> DepthOutput {
+    var out: DepthOutput;
+    out.clip_position = position_world_to_clip(strand_point(in.hair_vertex).position);
+#ifdef UNCLIPPED_DEPTH_ORTHO_EMULATION
+    // As Bevy's prepass does where the GPU cannot disable depth clipping: keep casters
+    // behind the light's near plane, and write their true depth.
+    out.unclipped_depth = out.clip_position.z;
+    out.clip_position.z = min(out.clip_position.z, 1.0);
+#endif
+    return out;
+}
+
+#ifdef PREPASS_FRAGMENT
+#ifdef UNCLIPPED_DEPTH_ORTHO_EMULATION
+@fragment
+fn fragment(in: DepthOutput) -> @builtin(frag_depth) f32 {
+    return in.unclipped_depth;
+}
+#else
+@fragment
+fn fragment(in: DepthOutput) {}
+#endif
+#endif
+
+#else // PREPASS_PIPELINE
+
+@vertex
+fn vertex(in: Vertex) -> VertexOutput {
+    let point = strand_point(in.hair_vertex);
+    var out: VertexOutput;
+    out.clip_position = position_world_to_clip(point.position);
+    out.world_position = vec4(point.position, 1.0);
+    out.tangent = point.tangent;
+    out.t = point.t;
+    out.strand = in.hair_vertex.x;
+    out.normal = normalize(cross(point.across, point.tangent));
     return out;
 }
 
@@ -256,3 +320,5 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
 #endif
     return color;
 }
+
+#endif // PREPASS_PIPELINE

@@ -58,13 +58,18 @@ impl Material for HairMaterial {
         SHADER_PATH.into()
     }
 
-    // The shader has no depth-only variant: hair draws in the main pass only and does not
-    // cast shadows (it receives them).
-    fn enable_prepass() -> bool {
-        false
+    // The same shader has a depth-only variant for the shadow pass, so hair casts shadows
+    // (on the head and on itself). It stays out of the camera's prepasses, which would
+    // need normals and motion vectors it does not compute.
+    fn prepass_vertex_shader() -> ShaderRef {
+        SHADER_PATH.into()
     }
 
-    fn enable_shadows() -> bool {
+    fn prepass_fragment_shader() -> ShaderRef {
+        SHADER_PATH.into()
+    }
+
+    fn enable_prepass() -> bool {
         false
     }
 

@@ -82,8 +82,11 @@ pub struct HairLook {
     pub secondary: SpecularLobe,
     /// Curve samples per segment (Bézier tessellation), at least 1.
     pub subdivisions: u32,
-    /// Sample directional-light shadows (from the head and other casters).
+    /// Sample directional-light shadows (from the head, other casters and the hair itself).
     pub receive_shadows: bool,
+    /// Cast directional-light shadows on the head and on the hair itself. Drawing the
+    /// strands into each shadow map costs about as much as drawing them once more.
+    pub cast_shadows: bool,
     /// Draw the simulated guides only, without children.
     pub guides_only: bool,
 }
@@ -101,6 +104,7 @@ impl Default for HairLook {
             secondary: SpecularLobe { color: Color::srgb(0.6, 0.5, 0.4), exponent: 24.0, shift: -0.12 },
             subdivisions: 4,
             receive_shadows: true,
+            cast_shadows: true,
             guides_only: false,
         }
     }
@@ -190,16 +194,8 @@ fn sync_drawing(
             }
             _ => {
                 // The box is fitted to the moving strands every frame ([`upload_guides`]).
-                let entity = commands
-                    .spawn((
-                        Name::new("hair"),
-                        bundle,
-                        Transform::IDENTITY,
-                        NotShadowCaster,
-                        NoAutoAabb,
-                        Aabb::default(),
-                    ))
-                    .id();
+                let entity =
+                    commands.spawn((Name::new("hair"), bundle, Transform::IDENTITY, NoAutoAabb, Aabb::default())).id();
                 commands.entity(head).insert(HairDrawnBy(entity));
             }
         }
@@ -278,14 +274,21 @@ fn child_reach(children: &ChildParams) -> f32 {
     }
 }
 
-/// Rewrites a drawing's uniform when its look or child placement changed.
+/// Rewrites a drawing's uniform when its look or child placement changed, and makes it
+/// cast shadows or not as its look says.
 fn update_materials(
+    mut commands: Commands,
     heads: Query<(&HairGroom, &HairLook)>,
-    drawings: Query<&HairDrawing>,
+    drawings: Query<(Entity, &HairDrawing, Has<NotShadowCaster>)>,
     mut materials: ResMut<Assets<HairMaterial>>,
 ) {
-    for drawing in &drawings {
+    for (entity, drawing, not_caster) in &drawings {
         let Ok((groom, look)) = heads.get(drawing.head) else { continue };
+        match (look.cast_shadows, not_caster) {
+            (true, true) => _ = commands.entity(entity).remove::<NotShadowCaster>(),
+            (false, false) => _ = commands.entity(entity).insert(NotShadowCaster),
+            _ => {}
+        }
         let wanted = uniform(&drawing.layout, groom, look);
         if materials.get(&drawing.material).is_some_and(|m| m.uniform != wanted)
             && let Some(mut material) = materials.get_mut(&drawing.material)
