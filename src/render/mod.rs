@@ -333,3 +333,34 @@ fn uniform(layout: &StrandLayout, groom: &HairGroom, look: &HairLook) -> HairUni
         counts: UVec4::new(layout.guides, layout.particles, layout.strands_per_guide, layout.subdivisions),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bad_look_values_never_reach_the_gpu() {
+        let layout = StrandLayout { guides: 2, particles: 11, strands_per_guide: 5, subdivisions: 4 };
+        let bad = HairLook {
+            root_width: f32::NAN,
+            tip_width: -1.0,
+            tint_variation: f32::INFINITY,
+            diffuse: f32::NEG_INFINITY,
+            primary: SpecularLobe { exponent: f32::NAN, shift: 7.0, ..HairLook::default().primary },
+            secondary: SpecularLobe { exponent: -3.0, shift: f32::NAN, ..HairLook::default().secondary },
+            ..default()
+        };
+        let groom =
+            HairGroom { children: ChildParams { clumping: f32::NAN, tip_spread: -1.0, ..default() }, ..default() };
+        let u = uniform(&layout, &groom, &bad);
+        let values = [u.specular, u.spiral, u.shape, u.shading];
+        assert!(values.iter().all(|v| v.is_finite()), "{u:?}");
+        let defaults = HairLook::default();
+        assert_eq!((u.shape.z, u.shape.w), (defaults.root_width, 0.0), "NaN width → default, negative → 0");
+        assert_eq!((u.shading.x, u.shading.z), (0.0, defaults.diffuse), "non-finite variation → 0, diffuse → default");
+        assert_eq!((u.specular.x, u.specular.y), (defaults.primary.exponent, 1.0), "exponent default, shift clamped");
+        assert_eq!((u.specular.z, u.specular.w), (1.0, 0.0), "exponent at least 1, NaN shift → 0");
+        assert_eq!((u.shape.x, u.shape.y), (ChildParams::default().clumping, 0.0));
+        assert_eq!(u.counts, UVec4::new(2, 11, 5, 4));
+    }
+}
