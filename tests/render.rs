@@ -345,6 +345,21 @@ fn turning_the_light_moves_the_highlight_and_children_cover_more() {
     assert!(coverage[2] as f32 > 1.3 * coverage[0] as f32, "coverage {coverage:?}");
 }
 
+/// The uniform for strands drawn with the material directly: one colour root to tip,
+/// ribbons `width` wide, plain Kajiya-Kay shading (no tint variation, no shadows received),
+/// no children placement.
+fn plain_uniform(layout: &StrandLayout, color: Vec4, width: f32) -> HairUniform {
+    HairUniform {
+        root_color: color,
+        tip_color: color,
+        specular: Vec4::new(80.0, 0.0, 20.0, 0.0),
+        shape: Vec4::new(0.0, 0.0, width, width),
+        shading: Vec4::new(0.0, 0.0, 1.0, 0.0),
+        counts: layout.shader_counts(),
+        ..default()
+    }
+}
+
 /// Two straight strands drawn with the hair material directly: one along the light, one
 /// across it. Kajiya-Kay diffuse is sin(T, L): the first is dark, the second bright.
 #[test]
@@ -367,16 +382,7 @@ fn a_strand_along_the_light_is_darker_than_one_across_it() {
     // Each particle's frame vector: +z is perpendicular to both strands.
     guides.extend([Vec4::new(0.0, 0.0, 1.0, 0.0); 22]);
     let layout = StrandLayout { guides: 2, particles, strands_per_guide: 1, subdivisions: 2 };
-    let white = Vec4::new(0.6, 0.6, 0.6, 1.0);
-    let uniform = HairUniform {
-        root_color: white,
-        tip_color: white,
-        specular: Vec4::new(80.0, 0.0, 20.0, 0.0),
-        shape: Vec4::new(0.0, 0.0, 0.01, 0.01),
-        shading: Vec4::new(0.0, 0.0, 1.0, 0.0),
-        counts: UVec4::new(layout.guides, layout.particles, layout.strands_per_guide, layout.subdivisions),
-        ..default()
-    };
+    let uniform = plain_uniform(&layout, Vec4::new(0.6, 0.6, 0.6, 1.0), 0.01);
     scene.draw_strands(guides, &layout, uniform);
     let picture = scene.capture("kajiya-kay");
 
@@ -425,17 +431,11 @@ fn the_shader_draws_guide_and_children_where_the_cpu_reference_puts_them() {
     let mut data: Vec<Vec4> = guide.iter().map(|p| Vec4::new(p.x, p.y, p.z, 1.0)).collect();
     data.extend(transport_frames(&guide, root_u).iter().map(|u| Vec4::new(u.x, u.y, u.z, 0.0)));
     let layout = StrandLayout { guides: 1, particles, strands_per_guide: children.per_guide + 1, subdivisions };
-    let white = Vec4::new(0.8, 0.8, 0.8, 1.0);
     let spiral = children.spiral;
     let uniform = HairUniform {
-        root_color: white,
-        tip_color: white,
-        specular: Vec4::new(80.0, 0.0, 20.0, 0.0),
         spiral: Vec4::new(spiral.a, spiral.b, spiral.angle_step, spiral.scale),
         shape: Vec4::new(children.clumping, children.tip_spread, width, width),
-        shading: Vec4::new(0.0, 0.0, 1.0, 0.0),
-        counts: UVec4::new(layout.guides, layout.particles, layout.strands_per_guide, layout.subdivisions),
-        ..default()
+        ..plain_uniform(&layout, Vec4::new(0.8, 0.8, 0.8, 1.0), width)
     };
     scene.draw_strands(data, &layout, uniform);
     let picture = scene.capture("reference-children");
@@ -520,15 +520,10 @@ fn strands_cast_shadows() {
     }
     data.extend(std::iter::repeat_n(Vec4::new(0.0, 0.0, 1.0, 0.0), (guides * particles) as usize));
     let layout = StrandLayout { guides, particles, strands_per_guide: 1, subdivisions: 2 };
-    let green = Vec4::new(0.05, 0.6, 0.05, 1.0);
+    // Receiving shadows too, as the plugin's default look does.
     let uniform = HairUniform {
-        root_color: green,
-        tip_color: green,
-        specular: Vec4::new(80.0, 0.0, 20.0, 0.0),
-        shape: Vec4::new(0.0, 0.0, 0.004, 0.004),
         shading: Vec4::new(0.0, 1.0, 1.0, 0.0),
-        counts: UVec4::new(layout.guides, layout.particles, layout.strands_per_guide, layout.subdivisions),
-        ..default()
+        ..plain_uniform(&layout, Vec4::new(0.05, 0.6, 0.05, 1.0), 0.004)
     };
     let strands = scene.draw_strands(data, &layout, uniform);
 

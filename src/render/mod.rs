@@ -236,8 +236,10 @@ fn upload_guides(
         // The frames are one root → tip pass per guide here, instead of a walk from the
         // root in every vertex of every child.
         let n = state.particles_per_strand();
-        for (guide, &root_u) in positions.chunks_exact(n).zip(&drawing.root_u) {
-            let guide: Vec<_> = guide.iter().map(|&p| to_sim(p)).collect();
+        let mut guide = Vec::with_capacity(n);
+        for (points, &root_u) in positions.chunks_exact(n).zip(&drawing.root_u) {
+            guide.clear();
+            guide.extend(points.iter().map(|&p| to_sim(p)));
             let frames = transport_frames(&guide, to_sim(rotation * root_u));
             data.extend(frames.into_iter().map(|u| from_sim(u).extend(0.0)));
         }
@@ -330,7 +332,7 @@ fn uniform(layout: &StrandLayout, groom: &HairGroom, look: &HairLook) -> HairUni
             non_negative(look.diffuse, defaults.diffuse),
             0.0,
         ),
-        counts: UVec4::new(layout.guides, layout.particles, layout.strands_per_guide, layout.subdivisions),
+        counts: layout.shader_counts(),
     }
 }
 
