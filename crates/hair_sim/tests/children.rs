@@ -2,25 +2,12 @@
 //! indices a caller (or a slider) hands them, children are finite, counted exactly, and
 //! the tessellated curves have unit tangents.
 
+mod common;
+
+use common::wild_f32;
 use hair_sim::groom::{child_offset, evaluate, frame_at};
 use hair_sim::prelude::*;
 use proptest::prelude::*;
-
-/// Any f32 a slider, a file or a bug could produce.
-fn wild_f32() -> impl Strategy<Value = f32> {
-    prop_oneof![
-        1 => Just(f32::NAN),
-        1 => Just(f32::INFINITY),
-        1 => Just(f32::NEG_INFINITY),
-        1 => Just(-0.0f32),
-        1 => Just(f32::MAX),
-        1 => Just(1e-40f32), // subnormal
-        2 => -1e6f32..0.0,
-        2 => 1e3f32..1e30,
-        6 => 0.0f32..1.0,
-        2 => 0.0f32..100.0,
-    ]
-}
 
 fn wild_params() -> impl Strategy<Value = ChildParams> {
     (prop_oneof![0u32..40, Just(u32::MAX)], wild_f32(), wild_f32(), wild_f32(), wild_f32(), wild_f32(), wild_f32())

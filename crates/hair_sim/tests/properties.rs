@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{Groom, GroomSpec, groom_on_upper_half};
+use common::{Groom, GroomSpec, groom_on_upper_half, wild_f32};
 use hair_sim::prelude::*;
 use hair_sim::solver::ParamIssue;
 use proptest::prelude::*;
@@ -25,25 +25,6 @@ fn groom() -> &'static Groom {
             seed: 11,
         })
     })
-}
-
-/// Any f32 a slider, a file or a bug could produce: NaN, ±inf, ±0, subnormals, negatives,
-/// huge values, and (most often) ordinary ones.
-fn wild_f32() -> impl Strategy<Value = f32> {
-    prop_oneof![
-        1 => Just(f32::NAN),
-        1 => Just(f32::INFINITY),
-        1 => Just(f32::NEG_INFINITY),
-        1 => Just(0.0f32),
-        1 => Just(-0.0f32),
-        1 => Just(f32::MAX),
-        1 => Just(f32::MIN),
-        1 => Just(1e-40f32), // subnormal
-        2 => -1e6f32..0.0,
-        2 => 1e3f32..1e30,
-        6 => 0.0f32..1.0,
-        4 => 0.0f32..100.0,
-    ]
 }
 
 fn wild_count() -> impl Strategy<Value = u32> {

@@ -2,6 +2,7 @@
 #![allow(dead_code)] // each test binary uses a different part
 
 use hair_sim::prelude::*;
+use proptest::prelude::*;
 
 /// A groom on the procedural head, with the collider it was grown against.
 pub struct Groom {
@@ -47,4 +48,23 @@ pub fn max_distance_from_rest(strands: &Strands, rest: &RestShape, pose: Pose) -
         .zip(&rest.positions)
         .map(|(&p, &r)| (p - pose.transform_point(r)).length())
         .fold(0.0f32, f32::max)
+}
+
+/// Any f32 a slider, a file or a bug could produce: NaN, ±inf, ±0, subnormals, negatives,
+/// huge values, and (most often) ordinary ones.
+pub fn wild_f32() -> impl Strategy<Value = f32> {
+    prop_oneof![
+        1 => Just(f32::NAN),
+        1 => Just(f32::INFINITY),
+        1 => Just(f32::NEG_INFINITY),
+        1 => Just(0.0f32),
+        1 => Just(-0.0f32),
+        1 => Just(f32::MAX),
+        1 => Just(f32::MIN),
+        1 => Just(1e-40f32), // subnormal
+        2 => -1e6f32..0.0,
+        2 => 1e3f32..1e30,
+        6 => 0.0f32..1.0,
+        4 => 0.0f32..100.0,
+    ]
 }
