@@ -27,10 +27,13 @@
 //! deep inside the head, where they would be long); elsewhere the caller uses the BVH.
 
 use super::DistanceGrid;
+use super::distance_grid::GridPoint;
+use super::triangles::FlatTriangles;
 use crate::math::Vec3;
+use glam::Vec4;
 use parry3d::bounding_volume::Aabb;
-use parry3d::query::{PointQuery, PointQueryWithLocation};
-use parry3d::shape::{TriMesh, TrianglePointLocation};
+use parry3d::query::PointQuery;
+use parry3d::shape::TriMesh;
 
 /// Collision thickness, metres, up to which every near query finds a list (thicker
 /// settings still work; some of their queries take the BVH).
@@ -61,46 +64,70 @@ pub(super) struct Closest {
     pub inside: bool,
 }
 
+/// Four consecutive candidates of a list, one per SIMD lane, in one cache line: the
+/// run-time bounds test all four at once.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+struct Block {
+    /// Distances from the cell centre; `INFINITY` in the padding lanes of a list's last
+    /// block, so they never pass a bound.
+    centre_distance: Vec4,
+    /// The gradients' x, y and z components.
+    gradient: [Vec4; 3],
+}
+
 /// Candidate lists on the cells of the distance grid.
 #[derive(Clone, Debug)]
 pub(super) struct CandidateGrid {
-    origin: Vec3,
     cell: f32,
-    /// Cells along each axis.
-    cells: [usize; 3],
-    /// Per cell: `[start, len]` in `entries`, or `[NONE, 0]` for "use the BVH".
+    /// Per cell, by [`GridPoint::index`]: `[first, count]` blocks, or `[NONE, 0]` for
+    /// "use the BVH".
     ranges: Vec<[u32; 2]>,
-    entries: Vec<Candidate>,
-    /// Every triangle's corners, flat: the near query reads them without the mesh's
-    /// index indirection.
-    corners: Vec<[Vec3; 3]>,
+    blocks: Vec<Block>,
+    /// The triangle of each block lane (read only for the candidates that get projected).
+    triangles: Vec<[u32; 4]>,
 }
 
 impl CandidateGrid {
     pub fn bake(grid: &DistanceGrid, mesh: &TriMesh) -> Self {
-        let cells = grid.dims().map(|n| n - 1);
+        let dims = grid.dims();
         let upper = LIST_THICKNESS + grid.max_error();
         let lower = -INSIDE_CELLS * grid.cell_size();
         let mut out = CandidateGrid {
-            origin: grid.origin(),
             cell: grid.cell_size(),
-            cells,
-            ranges: Vec::with_capacity(cells[0] * cells[1] * cells[2]),
-            entries: Vec::new(),
-            corners: mesh.triangles().map(|t| [t.a, t.b, t.c]).collect(),
+            ranges: vec![[NONE, 0]; dims[0] * dims[1] * dims[2]],
+            blocks: Vec::new(),
+            triangles: Vec::new(),
         };
-        for z in 0..cells[2] {
-            for y in 0..cells[1] {
-                for x in 0..cells[0] {
+        for z in 0..dims[2] - 1 {
+            for y in 0..dims[1] - 1 {
+                for x in 0..dims[0] - 1 {
                     // Trilinear samples in a cell lie between its corner values: a cell
                     // whose corners are all far never lets a query through.
                     let (lo, hi) = grid.cell_range([x, y, z]);
-                    let list = if lo <= upper && hi >= lower { out.cell_list(mesh, [x, y, z]) } else { Vec::new() };
+                    if !(lo <= upper && hi >= lower) {
+                        continue;
+                    }
+                    let list = cell_list(mesh, grid.origin(), out.cell, [x, y, z]);
                     if list.is_empty() || list.len() > MAX_CANDIDATES {
-                        out.ranges.push([NONE, 0]);
-                    } else {
-                        out.ranges.push([out.entries.len() as u32, list.len() as u32]);
-                        out.entries.extend(list);
+                        continue;
+                    }
+                    let index = (z * dims[1] + y) * dims[0] + x;
+                    out.ranges[index] = [out.blocks.len() as u32, list.len().div_ceil(4) as u32];
+                    for four in list.chunks(4) {
+                        let lane = |i: usize, f: fn(&Candidate) -> f32, pad: f32| four.get(i).map_or(pad, f);
+                        let lanes = |f: fn(&Candidate) -> f32, pad: f32| {
+                            Vec4::new(lane(0, f, pad), lane(1, f, pad), lane(2, f, pad), lane(3, f, pad))
+                        };
+                        out.blocks.push(Block {
+                            centre_distance: lanes(|c| c.centre_distance, f32::INFINITY),
+                            gradient: [
+                                lanes(|c| c.gradient.x, 0.0),
+                                lanes(|c| c.gradient.y, 0.0),
+                                lanes(|c| c.gradient.z, 0.0),
+                            ],
+                        });
+                        out.triangles.push(std::array::from_fn(|i| four.get(i).map_or(0, |c| c.triangle)));
                     }
                 }
             }
@@ -108,84 +135,79 @@ impl CandidateGrid {
         out
     }
 
-    fn centre(&self, [x, y, z]: [usize; 3]) -> Vec3 {
-        self.origin + (Vec3::new(x as f32, y as f32, z as f32) + 0.5) * self.cell
-    }
-
-    /// Every triangle within `D(c) + 2r` of the cell centre `c`, sorted by distance.
-    fn cell_list(&self, mesh: &TriMesh, cell: [usize; 3]) -> Vec<Candidate> {
-        let centre = self.centre(cell);
-        let half_diagonal = 0.5 * self.cell * 3f32.sqrt();
-        // Parry signs the distance on an oriented mesh; the bound needs its magnitude.
-        let reach = mesh.distance_to_local_point(centre, false).abs() + 2.0 * half_diagonal + SLACK;
-        let aabb = Aabb::new(centre - Vec3::splat(reach), centre + Vec3::splat(reach));
-        let mut list: Vec<Candidate> = mesh
-            .bvh()
-            .intersect_aabb(&aabb)
-            .map(|triangle| {
-                let closest = mesh.triangle(triangle).project_local_point(centre, false).point;
-                let offset = centre - closest;
-                let centre_distance = offset.length();
-                // At distance 0 the tangent plane is flat: a zero gradient is still a bound.
-                let gradient = if centre_distance > 1e-9 { offset / centre_distance } else { Vec3::ZERO };
-                Candidate { gradient, centre_distance, triangle }
-            })
-            .filter(|c| c.centre_distance <= reach)
-            .collect();
-        list.sort_by(|a, b| a.centre_distance.total_cmp(&b.centre_distance).then(a.triangle.cmp(&b.triangle)));
-        list
-    }
-
-    /// The cell centre and candidate list for `p`, if it has one.
+    /// The exact closest point of `mesh` to `p` (in the cell `at`) if it is nearer than
+    /// `max_distance`.
     #[inline]
-    fn lookup(&self, p: Vec3) -> Option<(Vec3, &[Candidate])> {
-        let g = (p - self.origin) / self.cell;
-        let [cx, cy, cz] = self.cells;
-        let inside = g.cmpge(Vec3::ZERO).all() && g.x < cx as f32 && g.y < cy as f32 && g.z < cz as f32;
-        if !inside {
-            return None;
-        }
-        // `g` is non-negative here, so truncation is the floor (through i32: one instruction).
-        let cell = g.to_array().map(|v| v as i32 as usize);
-        let [start, len] = self.ranges[(cell[2] * cy + cell[1]) * cx + cell[0]];
-        if len == 0 {
-            return None;
-        }
-        Some((self.centre(cell), &self.entries[start as usize..][..len as usize]))
-    }
-
-    /// The exact closest point of `mesh` to `p` if it is nearer than `max_distance`.
-    #[inline]
-    pub fn closest(&self, mesh: &TriMesh, p: Vec3, max_distance: f32) -> Near {
-        let Some((centre, list)) = self.lookup(p) else {
+    pub fn closest(&self, flat: &FlatTriangles, mesh: &TriMesh, p: Vec3, at: GridPoint, max_distance: f32) -> Near {
+        let [first, count] = self.ranges[at.index];
+        if count == 0 {
             return Near::Unlisted;
-        };
-        let offset = p - centre;
+        }
+        let range = first as usize..(first + count) as usize;
+        // From the cell centre to `p`.
+        let offset = (at.fraction - 0.5) * self.cell;
         let from_centre = offset.length();
+        let (ox, oy, oz) = (Vec4::splat(offset.x), Vec4::splat(offset.y), Vec4::splat(offset.z));
         let mut best_distance = max_distance;
         let mut best = None;
-        for candidate in list {
-            if candidate.centre_distance - from_centre - SLACK >= best_distance {
+        for (block, triangles) in self.blocks[range.clone()].iter().zip(&self.triangles[range]) {
+            let by_centre = block.centre_distance - (from_centre + SLACK);
+            if by_centre.x >= best_distance {
                 break; // sorted: no later triangle can be closer either
             }
-            if candidate.centre_distance + candidate.gradient.dot(offset) - SLACK >= best_distance {
-                continue; // its tangent-plane bound already rules it out
-            }
-            let (point, location) = project_on_triangle(&self.corners[candidate.triangle as usize], p);
-            // Most projections lose: compare squares and take the root only for a winner.
-            let squared = (p - point).length_squared();
-            if squared < best_distance * best_distance {
-                best_distance = squared.sqrt();
-                best = Some((candidate.triangle, point, location));
+            let [gx, gy, gz] = block.gradient;
+            // The tangent-plane bound, and the larger (tighter) of the two.
+            let by_plane = block.centre_distance + (gx * ox + gy * oy + gz * oz) - SLACK;
+            let bound = by_centre.max(by_plane);
+            let mut lanes = bound.cmplt(Vec4::splat(best_distance)).bitmask();
+            while lanes != 0 {
+                let lane = lanes.trailing_zeros() as usize;
+                lanes &= lanes - 1;
+                if bound[lane] >= best_distance {
+                    continue; // ruled out by a winner found earlier in this block
+                }
+                let triangle = triangles[lane];
+                let (point, location) = flat.get(triangle).project(p);
+                // Most projections lose: compare squares and take the root only for a winner.
+                let squared = (p - point).length_squared();
+                if squared < best_distance * best_distance {
+                    best_distance = squared.sqrt();
+                    best = Some((triangle, point, location));
+                }
             }
         }
         match best {
             Some((triangle, point, location)) => {
-                Near::Closest(Closest { point, triangle, inside: is_inside(mesh, triangle, location, p - point) })
+                let inside = flat.get(triangle).is_inside(mesh, triangle, location, p - point);
+                Near::Closest(Closest { point, triangle, inside })
             }
             None => Near::Beyond,
         }
     }
+}
+
+/// Every triangle within `D(c) + 2r` of the centre `c` of `cell`, sorted by distance.
+fn cell_list(mesh: &TriMesh, origin: Vec3, size: f32, [x, y, z]: [usize; 3]) -> Vec<Candidate> {
+    let centre = origin + (Vec3::new(x as f32, y as f32, z as f32) + 0.5) * size;
+    let half_diagonal = 0.5 * size * 3f32.sqrt();
+    // Parry signs the distance on an oriented mesh; the bound needs its magnitude.
+    let reach = mesh.distance_to_local_point(centre, false).abs() + 2.0 * half_diagonal + SLACK;
+    let aabb = Aabb::new(centre - Vec3::splat(reach), centre + Vec3::splat(reach));
+    let mut list: Vec<Candidate> = mesh
+        .bvh()
+        .intersect_aabb(&aabb)
+        .map(|triangle| {
+            let closest = mesh.triangle(triangle).project_local_point(centre, false).point;
+            let offset = centre - closest;
+            let centre_distance = offset.length();
+            // At distance 0 the tangent plane is flat: a zero gradient is still a bound.
+            let gradient = if centre_distance > 1e-9 { offset / centre_distance } else { Vec3::ZERO };
+            Candidate { gradient, centre_distance, triangle }
+        })
+        .filter(|c| c.centre_distance <= reach)
+        .collect();
+    list.sort_by(|a, b| a.centre_distance.total_cmp(&b.centre_distance).then(a.triangle.cmp(&b.triangle)));
+    list
 }
 
 /// What a candidate-list query found.
@@ -196,72 +218,4 @@ pub(super) enum Near {
     Beyond,
     /// The exact closest point.
     Closest(Closest),
-}
-
-/// Parry's point–triangle projection (`Triangle::project_local_point_and_get_location`,
-/// not solid) on flat corners, step for step so the result is bit-identical; the rare
-/// collinear triangle is handed to parry itself.
-#[inline]
-fn project_on_triangle([a, b, c]: &[Vec3; 3], p: Vec3) -> (Vec3, TrianglePointLocation) {
-    let (a, b, c) = (*a, *b, *c);
-    let (ab, ac, ap) = (b - a, c - a, p - a);
-    let (ab_ap, ac_ap) = (ab.dot(ap), ac.dot(ap));
-    if ab_ap <= 0.0 && ac_ap <= 0.0 {
-        return (a, TrianglePointLocation::OnVertex(0));
-    }
-    let bp = p - b;
-    let (ab_bp, ac_bp) = (ab.dot(bp), ac.dot(bp));
-    if ab_bp >= 0.0 && ac_bp <= ab_bp {
-        return (b, TrianglePointLocation::OnVertex(1));
-    }
-    let cp = p - c;
-    let (ab_cp, ac_cp) = (ab.dot(cp), ac.dot(cp));
-    if ac_cp >= 0.0 && ab_cp <= ac_cp {
-        return (c, TrianglePointLocation::OnVertex(2));
-    }
-    let bc = c - b;
-    let n = ab.cross(ac);
-    let vc = n.dot(ab.cross(ap));
-    if vc < 0.0 && ab_ap >= 0.0 && ab_bp <= 0.0 {
-        let v = ab_ap / ab.length_squared();
-        return (a + ab * v, TrianglePointLocation::OnEdge(0, [1.0 - v, v]));
-    }
-    let vb = -n.dot(ac.cross(cp));
-    if vb < 0.0 && ac_ap >= 0.0 && ac_cp <= 0.0 {
-        let w = ac_ap / ac.length_squared();
-        return (a + ac * w, TrianglePointLocation::OnEdge(2, [1.0 - w, w]));
-    }
-    let va = n.dot(bc.cross(bp));
-    if va < 0.0 && ac_bp - ab_bp >= 0.0 && ab_cp - ac_cp >= 0.0 {
-        let w = bc.dot(bp) / bc.length_squared();
-        return (b + bc * w, TrianglePointLocation::OnEdge(1, [1.0 - w, w]));
-    }
-    let denom = va + vb + vc;
-    if denom == 0.0 {
-        let (proj, location) = parry3d::shape::Triangle::new(a, b, c).project_local_point_and_get_location(p, false);
-        return (proj.point, location);
-    }
-    let v = vb / denom;
-    let w = vc / denom;
-    let side = if n.dot(ap) >= 0.0 { 0 } else { 1 };
-    (a + ab * v + ac * w, TrianglePointLocation::OnFace(side, [1.0 - v - w, v, w]))
-}
-
-/// Parry's inside test for an oriented mesh: a point behind the pseudo-normal of the
-/// feature it projects onto (face, edge or vertex) is inside.
-fn is_inside(mesh: &TriMesh, triangle: u32, location: TrianglePointLocation, offset: Vec3) -> bool {
-    let Some(pseudo) = mesh.pseudo_normals_if_oriented() else {
-        return false;
-    };
-    let normal = match location {
-        TrianglePointLocation::OnFace(..) | TrianglePointLocation::OnSolid => {
-            Some(mesh.triangle(triangle).scaled_normal())
-        }
-        TrianglePointLocation::OnEdge(i, _) => pseudo.edges_pseudo_normal.get(triangle as usize).map(|n| n[i as usize]),
-        TrianglePointLocation::OnVertex(i) => {
-            let vertex = mesh.indices()[triangle as usize][i as usize];
-            pseudo.vertices_pseudo_normal.get(vertex as usize).copied()
-        }
-    };
-    normal.is_some_and(|n| offset.dot(n) <= 0.0)
 }

@@ -1,6 +1,7 @@
 //! A signed distance grid baked from the exact mesh distance, for the cheap far reject.
 
 use crate::math::Vec3;
+use glam::Vec3A;
 
 /// Signed distances sampled on a regular grid around the head (negative inside).
 ///
@@ -10,12 +11,26 @@ use crate::math::Vec3;
 /// [`DistanceGrid::max_error`] is that bound.
 #[derive(Clone, Debug)]
 pub struct DistanceGrid {
-    origin: Vec3,
+    origin: Vec3A,
     cell: f32,
+    /// `1 / cell`, for the per-query scaling.
+    inverse_cell: f32,
     dims: [usize; 3],
+    /// Cells along each axis, as floats: a grid coordinate must stay below them.
+    upper: Vec3A,
     values: Vec<f32>,
     /// The grid reaches at least this far beyond the mesh on every side.
     margin: f32,
+    max_error: f32,
+}
+
+/// Where a point falls in the grid: its cell and its place inside it.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct GridPoint {
+    /// Index of the cell's lowest corner in the sample array; it also names the cell.
+    pub index: usize,
+    /// Position inside the cell, each coordinate in `[0, 1)`.
+    pub fraction: Vec3A,
 }
 
 impl DistanceGrid {
@@ -36,12 +51,14 @@ impl DistanceGrid {
                 }
             }
         }
-        DistanceGrid { origin: min, cell, dims, values, margin }
+        let upper = Vec3A::new((dims[0] - 1) as f32, (dims[1] - 1) as f32, (dims[2] - 1) as f32);
+        let max_error = 0.5 * cell * 3f32.sqrt();
+        DistanceGrid { origin: min.into(), cell, inverse_cell: 1.0 / cell, dims, upper, values, margin, max_error }
     }
 
     /// The largest difference between [`sample`](Self::sample) and the true distance.
     pub fn max_error(&self) -> f32 {
-        0.5 * self.cell * 3f32.sqrt()
+        self.max_error
     }
 
     /// Edge length of one cell.
@@ -53,29 +70,40 @@ impl DistanceGrid {
     /// least [`margin`](Self::margin) away from the mesh (also for non-finite `p`).
     #[inline]
     pub fn sample(&self, p: Vec3) -> Option<f32> {
-        let g = (p - self.origin) / self.cell;
-        let [dx, dy, dz] = self.dims;
-        let inside =
-            g.cmpge(Vec3::ZERO).all() && g.x < (dx - 1) as f32 && g.y < (dy - 1) as f32 && g.z < (dz - 1) as f32;
-        if !inside {
+        self.locate(p).map(|at| self.sample_at(at))
+    }
+
+    /// The cell holding `p`, or `None` outside the grid (and for non-finite `p`).
+    #[inline]
+    pub(super) fn locate(&self, p: Vec3) -> Option<GridPoint> {
+        let g = (Vec3A::from(p) - self.origin) * self.inverse_cell;
+        if !(g.cmpge(Vec3A::ZERO) & g.cmplt(self.upper)).all() {
             return None;
         }
         // `g` is non-negative and below the dims here, so truncation is the floor; through
         // i32 it is one instruction (a direct f32 → usize cast is a slow saturating path).
         let [x, y, z] = g.to_array().map(|v| v as i32 as usize);
-        let t = g - Vec3::new(x as f32, y as f32, z as f32);
-        // The eight corners, in one bounds-checked slice starting at the lowest corner.
+        let fraction = g - Vec3A::new(x as f32, y as f32, z as f32);
+        Some(GridPoint { index: (z * self.dims[1] + y) * self.dims[0] + x, fraction })
+    }
+
+    /// Trilinear interpolation of the cell's eight corners.
+    #[inline]
+    pub(super) fn sample_at(&self, at: GridPoint) -> f32 {
+        let [dx, dy, _] = self.dims;
         let plane = dx * dy;
-        let v = &self.values[(z * dy + y) * dx + x..][..plane + dx + 2];
+        // The eight corners, in one bounds-checked slice starting at the lowest corner.
+        let v = &self.values[at.index..][..plane + dx + 2];
+        let t = at.fraction;
         let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
         let near = lerp(lerp(v[0], v[1], t.x), lerp(v[dx], v[dx + 1], t.x), t.y);
         let far = lerp(lerp(v[plane], v[plane + 1], t.x), lerp(v[plane + dx], v[plane + dx + 1], t.x), t.y);
-        Some(lerp(near, far, t.z))
+        lerp(near, far, t.z)
     }
 
     /// The grid's lowest corner.
     pub(super) fn origin(&self) -> Vec3 {
-        self.origin
+        self.origin.into()
     }
 
     /// Samples along each axis (one more than cells).

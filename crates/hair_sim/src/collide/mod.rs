@@ -8,6 +8,7 @@
 mod candidates;
 mod distance_grid;
 mod shapes;
+mod triangles;
 
 pub use distance_grid::DistanceGrid;
 pub use shapes::ExtraCollider;
@@ -17,6 +18,7 @@ use crate::mesh::{HeadMesh, MeshError};
 use candidates::{CandidateGrid, Closest, Near};
 use parry3d::query::PointQueryWithLocation;
 use parry3d::shape::{TriMesh, TriMeshFlags};
+use triangles::FlatTriangles;
 
 /// Distance-grid cells along the longest side of the head's bounding box.
 pub const DEFAULT_GRID_RESOLUTION: u32 = 64;
@@ -38,6 +40,24 @@ pub struct HeadCollider {
     mesh: TriMesh,
     grid: DistanceGrid,
     candidates: CandidateGrid,
+    triangles: FlatTriangles,
+}
+
+/// Per-particle memory of the triangle it touched last, which lets the next query of a
+/// particle resting on the head skip the search (see [`HeadCollider::resolve_hinted`]).
+/// Only a shortcut: a stale or foreign hint costs one projection and changes no result.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ContactHint(u32);
+
+impl ContactHint {
+    /// No triangle remembered.
+    pub const NONE: ContactHint = ContactHint(u32::MAX);
+}
+
+impl Default for ContactHint {
+    fn default() -> Self {
+        Self::NONE
+    }
 }
 
 impl HeadCollider {
@@ -55,7 +75,8 @@ impl HeadCollider {
         }
         let grid = DistanceGrid::bake(&head.positions, resolution.max(2), |p| signed_distance_exact(&mesh, p));
         let candidates = CandidateGrid::bake(&grid, &mesh);
-        Ok(HeadCollider { mesh, grid, candidates })
+        let triangles = FlatTriangles::bake(&mesh);
+        Ok(HeadCollider { mesh, grid, candidates, triangles })
     }
 
     /// The baked distance grid.
@@ -77,36 +98,64 @@ impl HeadCollider {
     /// centre, which would push particles into an ear instead of out of it.
     #[inline]
     pub fn resolve(&self, p: Vec3, thickness: f32) -> Option<Contact> {
-        let approx = self.grid.sample(p)?;
+        let mut no_hint = ContactHint::NONE;
+        self.resolve_hinted(p, thickness, &mut no_hint)
+    }
+
+    /// [`resolve`](Self::resolve) for a particle that keeps a [`ContactHint`] between
+    /// queries; the same result, to within 1 µm (the certificate's plane tolerance).
+    ///
+    /// A particle resting on the scalp touches the same triangle substep after substep. If
+    /// it lies above that triangle's face within the triangle's baked clearance, no other
+    /// triangle can be closer (the proof is in `collide/triangles.rs`), so one projection
+    /// settles it without the grid or the candidate list.
+    #[inline]
+    pub fn resolve_hinted(&self, p: Vec3, thickness: f32, hint: &mut ContactHint) -> Option<Contact> {
+        if let Some(certified) = self.triangles.certify(hint.0, p) {
+            let offset = p - certified.point;
+            return self.contact(certified.point, offset, certified.distance, hint.0, thickness);
+        }
+        *hint = ContactHint::NONE;
+        let at = self.grid.locate(p)?;
+        let approx = self.grid.sample_at(at);
         let error = self.grid.max_error();
         if approx > thickness + error {
             return None;
         }
-        // Where the grid proves `p` outside, only triangles nearer than `thickness` can
-        // matter; inside or unsure, the true closest point is needed to push it out.
+        // Where the grid proves `p` outside, the closest triangle is within `approx + error`;
+        // inside or unsure, the search has no bound. Either way it finds the closest
+        // triangle, which becomes the hint for the next query.
         let outside = approx > error;
-        let reach = if outside { thickness } else { f32::INFINITY };
+        let reach = if outside { approx + error } else { f32::INFINITY };
         // Near the surface the decision is exact: the cell's candidate list holds every
         // triangle that can be closest; without one, ask the BVH.
-        let closest = match self.candidates.closest(&self.mesh, p, reach) {
+        let closest = match self.candidates.closest(&self.triangles, &self.mesh, p, at, reach) {
             Near::Closest(closest) => closest,
             Near::Beyond => return None,
             Near::Unlisted => self.closest_by_bvh(p, approx.abs() + error + thickness)?,
         };
+        *hint = ContactHint(closest.triangle);
         let offset = p - closest.point;
         let distance = offset.length();
         let signed = if closest.inside { -distance } else { distance };
+        self.contact(closest.point, offset, signed, closest.triangle, thickness)
+    }
+
+    /// The contact for a point at `offset` from its closest surface point `on_surface`
+    /// (on `triangle`), `signed` distance away, if that is nearer than `thickness`.
+    #[inline]
+    fn contact(&self, on_surface: Vec3, offset: Vec3, signed: f32, triangle: u32, thickness: f32) -> Option<Contact> {
         if signed >= thickness {
             return None;
         }
         // Outward normal: away from the surface outside, towards it inside; on the surface
         // itself the offset has no direction, so the face normal decides.
-        let normal = if distance > 1e-7 {
+        let normal = if signed.abs() > 1e-7 {
             offset / signed
         } else {
-            self.mesh.triangle(closest.triangle).normal().unwrap_or(Vec3::Y)
+            self.mesh.triangle(triangle).normal().unwrap_or(Vec3::Y)
         };
-        Some(Contact { position: closest.point + normal * thickness, normal, depth: thickness - signed })
+        Some(Contact { position: on_surface + normal * thickness, normal, depth: thickness - signed })
     }
 
     /// The closest point by a BVH walk; the true distance is within `max_dist`.
@@ -192,14 +241,20 @@ mod tests {
             let dir = Vec3::new(f.sin(), (f * 1.37).cos(), (f * 0.53).sin()).normalize();
             let radius = 0.06 + 0.06 * ((f * 3.1).sin() * 0.5 + 0.5);
             let p = dir * radius;
-            let Near::Closest(closest) = collider.candidates.closest(&collider.mesh, p, f32::INFINITY) else {
+            let Some(at) = collider.grid.locate(p) else { continue };
+            let Near::Closest(closest) =
+                collider.candidates.closest(&collider.triangles, &collider.mesh, p, at, f32::INFINITY)
+            else {
                 continue;
             };
             listed += 1;
             let exact = collider.signed_distance(p);
             let signed = if closest.inside { -1.0 } else { 1.0 } * (p - closest.point).length();
             assert!((signed - exact).abs() < 1e-6, "at {p:?}: {signed} vs {exact}");
-            let near = matches!(collider.candidates.closest(&collider.mesh, p, 0.003), Near::Closest(_));
+            let near = matches!(
+                collider.candidates.closest(&collider.triangles, &collider.mesh, p, at, 0.003),
+                Near::Closest(_)
+            );
             assert_eq!(near, exact.abs() < 0.003, "at {p:?}: {exact}");
         }
         assert!(listed > 500, "most near points have a list: {listed}");

@@ -12,7 +12,7 @@ mod wind;
 pub use params::{LengthMode, ParamIssue, SimParams, Wind, stiffness_per_application};
 pub use wind::wind_at;
 
-use crate::collide::{ExtraCollider, HeadCollider};
+use crate::collide::{ContactHint, ExtraCollider, HeadCollider};
 use crate::math::{Pose, Quat, Vec3};
 use std::fmt;
 
@@ -158,6 +158,8 @@ pub struct Strands {
     rest: RestShape,
     positions: Vec<Vec3>,
     velocities: Vec<Vec3>,
+    /// Per particle, the head triangle it touched last (a collision shortcut).
+    hints: Vec<ContactHint>,
 }
 
 impl Strands {
@@ -165,7 +167,8 @@ impl Strands {
     pub fn new(rest: RestShape, pose: Pose) -> Self {
         let positions = rest.positions.iter().map(|&p| pose.transform_point(p)).collect();
         let velocities = vec![Vec3::ZERO; rest.positions.len()];
-        Strands { rest, positions, velocities }
+        let hints = vec![ContactHint::NONE; rest.positions.len()];
+        Strands { rest, positions, velocities, hints }
     }
 
     /// The rest shape.
@@ -199,6 +202,7 @@ impl Strands {
             *p = pose.transform_point(r);
         }
         self.velocities.fill(Vec3::ZERO);
+        self.hints.fill(ContactHint::NONE);
     }
 
     /// Splits the state into chunks of `strands_per_chunk` strands (the last may be
@@ -209,12 +213,12 @@ impl Strands {
         self.positions
             .chunks_mut(size)
             .zip(self.velocities.chunks_mut(size))
+            .zip(self.hints.chunks_mut(size))
             .enumerate()
-            .map(|(c, (positions, velocities))| StrandChunk {
+            .map(|(c, ((positions, velocities), hints))| StrandChunk {
                 first_strand: c * strands_per_chunk.max(1),
                 rest: &self.rest,
-                positions,
-                velocities,
+                state: ChunkState { positions, velocities, hints },
             })
             .collect()
     }
@@ -243,13 +247,19 @@ impl Strands {
 pub struct StrandChunk<'a> {
     first_strand: usize,
     rest: &'a RestShape,
+    state: ChunkState<'a>,
+}
+
+/// The per-particle arrays of a chunk, strand-major.
+struct ChunkState<'a> {
     positions: &'a mut [Vec3],
     velocities: &'a mut [Vec3],
+    hints: &'a mut [ContactHint],
 }
 
 impl StrandChunk<'_> {
     /// Advances the strands of this chunk by one step.
     pub fn step(&mut self, input: &StepInput) -> StepReport {
-        step::step_chunk(self.first_strand, self.rest, self.positions, self.velocities, input)
+        step::step_chunk(self.first_strand, self.rest, &mut self.state, input)
     }
 }

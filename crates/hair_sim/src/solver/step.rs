@@ -13,8 +13,8 @@
 
 use super::params::{LengthMode, SimParams, stiffness_per_application};
 use super::wind::wind_at;
-use super::{RestShape, StepInput, StepReport};
-use crate::collide::Contact;
+use super::{ChunkState, RestShape, StepInput, StepReport};
+use crate::collide::{Contact, ContactHint};
 use crate::math::{Pose, Quat, Vec3};
 use glam::{Mat3A, Vec3A};
 
@@ -121,10 +121,10 @@ struct Scratch {
 pub(super) fn step_chunk(
     first_strand: usize,
     rest: &RestShape,
-    positions: &mut [Vec3],
-    velocities: &mut [Vec3],
+    state: &mut ChunkState,
     input: &StepInput,
 ) -> StepReport {
+    let ChunkState { positions, velocities, hints } = state;
     let n = rest.particles_per_strand;
     let mut report = StepReport::default();
     let Some(c) = Constants::new(input, n) else {
@@ -149,7 +149,7 @@ pub(super) fn step_chunk(
         let (xs, vs) = (&mut positions[k * n..][..n], &mut velocities[k * n..][..n]);
         let root_jump = (head_to.transform_point(rest_x[0]) - xs[0]).length();
         if root_jump.is_nan() || root_jump > p.teleport_distance {
-            reset_strand(xs, vs, rest_x, &head_to);
+            reset_strand(xs, vs, &mut hints[k * n..][..n], rest_x, &head_to);
             report.teleport_resets += 1;
         } else {
             group[lanes] = k;
@@ -157,7 +157,8 @@ pub(super) fn step_chunk(
         }
         if lanes == LANES || (k + 1 == strands && lanes > 0) {
             let g = Group { first_strand, n, strands: &group[..lanes] };
-            step_group(&g, rest, positions, velocities, &mut scratch, &c, input, &mut report);
+            let state = ChunkState { positions, velocities, hints };
+            step_group(&g, rest, state, &mut scratch, &c, input, &mut report);
             lanes = 0;
         }
     }
@@ -183,36 +184,38 @@ impl Group<'_> {
 fn step_group(
     g: &Group,
     rest: &RestShape,
-    positions: &mut [Vec3],
-    velocities: &mut [Vec3],
+    state: ChunkState,
     scratch: &mut Scratch,
     c: &Constants,
     input: &StepInput,
     report: &mut StepReport,
 ) {
     let n = g.n;
+    let ChunkState { positions, velocities, hints } = state;
     for s in 1..c.poses.len() {
         let (pose_before, pose) = (&c.matrices[s - 1], &c.matrices[s]);
         let frame = c.poses[s].rotation;
         let time = input.time + c.h * s as f32;
         let poses = SubstepPoses { before: pose_before, now: pose, frame };
-        substep(g, rest, positions, velocities, scratch, c, time, &poses, input, report);
+        let state = ChunkState { positions, velocities, hints };
+        substep(g, rest, state, scratch, c, time, &poses, input, report);
     }
     let head_to = c.poses.last().expect("at least one pose");
     for (_, at, rest_at) in g.lanes() {
         let (xs, vs) = (&mut positions[at..][..n], &mut velocities[at..][..n]);
         if !xs.iter().chain(vs.iter()).all(|v| v.is_finite()) {
-            reset_strand(xs, vs, &rest.positions[rest_at..][..n], head_to);
+            reset_strand(xs, vs, &mut hints[at..][..n], &rest.positions[rest_at..][..n], head_to);
             report.nan_resets += 1;
         }
     }
 }
 
-fn reset_strand(xs: &mut [Vec3], vs: &mut [Vec3], rest_x: &[Vec3], pose: &Pose) {
+fn reset_strand(xs: &mut [Vec3], vs: &mut [Vec3], hints: &mut [ContactHint], rest_x: &[Vec3], pose: &Pose) {
     for (x, &r) in xs.iter_mut().zip(rest_x) {
         *x = pose.transform_point(r);
     }
     vs.fill(Vec3::ZERO);
+    hints.fill(ContactHint::NONE);
 }
 
 /// The head at the start and end of a substep.
@@ -227,8 +230,7 @@ struct SubstepPoses<'a> {
 fn substep(
     g: &Group,
     rest: &RestShape,
-    positions: &mut [Vec3],
-    velocities: &mut [Vec3],
+    state: ChunkState,
     scratch: &mut Scratch,
     c: &Constants,
     time: f32,
@@ -236,6 +238,7 @@ fn substep(
     input: &StepInput,
     report: &mut StepReport,
 ) {
+    let ChunkState { positions, velocities, hints } = state;
     let p = input.params;
     let pose = poses.now;
     let n = g.n;
@@ -303,7 +306,8 @@ fn substep(
     //    which leaves it outside the surface it was just pushed to (to first order).
     if p.collision {
         for (l, at, _) in g.lanes() {
-            collide(&mut positions[at..][..n], &scratch.start[l * n..][..n], p, poses, input, report);
+            let (xs, hints) = (&mut positions[at..][..n], &mut hints[at..][..n]);
+            collide(xs, hints, &scratch.start[l * n..][..n], p, poses, input, report);
         }
         // Both length models promise their bound after the step, whatever collision did.
         length_pass(rest, g, positions, &mut scratch.ftl_correction, p);
@@ -334,6 +338,7 @@ fn length_pass(rest: &RestShape, g: &Group, positions: &mut [Vec3], corrections:
 /// Moves particles out of the head and the extra colliders, with friction.
 fn collide(
     xs: &mut [Vec3],
+    hints: &mut [ContactHint],
     start: &[Vec3],
     p: &SimParams,
     poses: &SubstepPoses,
@@ -343,7 +348,7 @@ fn collide(
     for j in 1..xs.len() {
         if let Some(collider) = input.collider {
             let local = poses.now.local_point(xs[j]);
-            if let Some(contact) = collider.resolve(local, p.collision_thickness) {
+            if let Some(contact) = collider.resolve_hinted(local, p.collision_thickness, &mut hints[j]) {
                 // Friction acts on sliding relative to the head, so compare in head space.
                 let local_start = poses.before.local_point(start[j]);
                 xs[j] = poses.now.world_point(with_friction(contact, local_start, p.friction));

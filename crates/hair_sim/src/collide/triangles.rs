@@ -1,0 +1,281 @@
+//! The head's triangles in a flat, query-ready form, and the *clearance certificate* that
+//! lets a particle resting on the scalp skip the candidate search.
+//!
+//! # The certificate
+//!
+//! Let `p` lie on the outer side of triangle `T`, at height `h` above it, with its
+//! projection inside `T`'s face, so `dist(p, T) = h`. Every triangle lying entirely on
+//! or below `T`'s plane is at least `h` from `p`. Any other triangle `T'` (one poking above
+//! the plane) is at least `dist(T, T') − h` away, because `dist(T, T') ≤ h + dist(p, T')`.
+//! So if every such `T'` is at least `R` from `T` and `h ≤ R / 2`, then `T` holds the
+//! closest point of the whole mesh. `R / 2` is baked per triangle as its clearance. On the
+//! convex scalp no triangle nearby pokes above, the clearance is large, and one projection
+//! onto the triangle a particle touched last substep settles its collision exactly.
+//! In concave places (ear, neck) it is small or zero, and the search runs as before.
+//!
+//! A triangle counts as lying below the plane when no corner rises more than
+//! [`PLANE_TOLERANCE`] above it (rounding on flat patches); a certified distance may
+//! therefore exceed the true one by at most that much.
+
+use crate::math::Vec3;
+use glam::Vec3A;
+use parry3d::bounding_volume::Aabb;
+use parry3d::math::Pose as Isometry;
+use parry3d::query::PointQueryWithLocation;
+use parry3d::shape::{TriMesh, Triangle, TrianglePointLocation};
+
+/// How far a neighbour's corner may rise above a triangle's plane and still count as
+/// below it, metres.
+pub const PLANE_TOLERANCE: f32 = 1e-6;
+/// The largest clearance baked, metres: triangles poking above the plane are searched for
+/// this far (twice it) around each triangle.
+const MAX_CLEARANCE: f32 = 0.01;
+/// Taken off every baked triangle–triangle distance, metres, so it stays a lower bound.
+const DISTANCE_SLACK: f32 = 1e-5;
+
+/// Every triangle of the head as a [`FlatTriangle`], with its clearance.
+#[derive(Clone, Debug)]
+pub(super) struct FlatTriangles {
+    triangles: Vec<FlatTriangle>,
+    /// Per triangle: the height above it up to which the certificate holds.
+    clearances: Vec<f32>,
+}
+
+/// What the certificate settled about a point.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Certified {
+    /// The closest point of the mesh.
+    pub point: Vec3,
+    /// Distance from the query point to it (the point is outside).
+    pub distance: f32,
+}
+
+impl FlatTriangles {
+    pub fn bake(mesh: &TriMesh) -> Self {
+        let triangles: Vec<FlatTriangle> = mesh.triangles().map(|t| FlatTriangle::new(t.a, t.b, t.c)).collect();
+        let clearances = mesh.triangles().zip(&triangles).map(|(t, flat)| clearance(mesh, &t, flat)).collect();
+        FlatTriangles { triangles, clearances }
+    }
+
+    #[inline]
+    pub fn get(&self, triangle: u32) -> &FlatTriangle {
+        &self.triangles[triangle as usize]
+    }
+
+    /// The closest point of the mesh to `p`, if the certificate of `triangle` proves it:
+    /// `p` above the triangle's face, within its clearance.
+    #[inline]
+    pub fn certify(&self, triangle: u32, p: Vec3) -> Option<Certified> {
+        let flat = self.triangles.get(triangle as usize)?;
+        let (point, location) = flat.project(p);
+        let TrianglePointLocation::OnFace(0, _) = location else {
+            return None;
+        };
+        let distance = (p - point).length();
+        (distance <= self.clearances[triangle as usize]).then_some(Certified { point, distance })
+    }
+}
+
+/// Half the distance from `t` to the nearest triangle that rises above its plane, capped
+/// at [`MAX_CLEARANCE`]; zero for a sliver without a normal.
+fn clearance(mesh: &TriMesh, t: &Triangle, flat: &FlatTriangle) -> f32 {
+    let normal = Vec3::from(flat.normal);
+    if normal == Vec3::ZERO {
+        return 0.0;
+    }
+    let reach = 2.0 * MAX_CLEARANCE;
+    let (lo, hi) = (t.a.min(t.b).min(t.c), t.a.max(t.b).max(t.c));
+    let aabb = Aabb::new(lo - Vec3::splat(reach), hi + Vec3::splat(reach));
+    let above = |other: &Triangle| [other.a, other.b, other.c].iter().any(|&v| (v - t.a).dot(normal) > PLANE_TOLERANCE);
+    let nearest = mesh
+        .bvh()
+        .intersect_aabb(&aabb)
+        .map(|i| mesh.triangle(i))
+        .filter(above)
+        .map(|other| {
+            // GJK converges to within rounding; the slack keeps the result a lower bound.
+            let identity = Isometry::IDENTITY;
+            parry3d::query::distance(&identity, t, &identity, &other)
+                .map_or(0.0, |d| (d.distance - DISTANCE_SLACK).max(0.0))
+        })
+        .fold(reach, f32::min);
+    0.5 * nearest
+}
+
+/// A triangle as its first corner and two edges (and their cross product), the form the
+/// projection works on, in one 64-byte line.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+pub(super) struct FlatTriangle {
+    a: Vec3A,
+    ab: Vec3A,
+    ac: Vec3A,
+    /// Unit face normal (zero for a sliver without one).
+    normal: Vec3A,
+}
+
+impl FlatTriangle {
+    fn new(a: Vec3, b: Vec3, c: Vec3) -> Self {
+        let (a, ab, ac) = (Vec3A::from(a), Vec3A::from(b - a), Vec3A::from(c - a));
+        FlatTriangle { a, ab, ac, normal: ab.cross(ac).normalize_or_zero() }
+    }
+
+    /// The point of the triangle closest to `p`, and the feature it lies on (edges
+    /// numbered as parry does: 0 = ab, 1 = bc, 2 = ca). Voronoi regions in barycentric
+    /// form (Ericson, *Real-Time Collision Detection*, 5.1.5): six dot products, and the
+    /// edges are given, not recomputed per query.
+    #[inline]
+    pub fn project(&self, p: Vec3) -> (Vec3, TrianglePointLocation) {
+        let (ab, ac) = (self.ab, self.ac);
+        let ap = Vec3A::from(p) - self.a;
+        let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+        if d1 <= 0.0 && d2 <= 0.0 {
+            return (self.a.into(), TrianglePointLocation::OnVertex(0));
+        }
+        let bp = ap - ab;
+        let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+        if d3 >= 0.0 && d4 <= d3 {
+            return ((self.a + ab).into(), TrianglePointLocation::OnVertex(1));
+        }
+        let vc = d1 * d4 - d3 * d2;
+        if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+            let v = d1 / (d1 - d3);
+            return ((self.a + ab * v).into(), TrianglePointLocation::OnEdge(0, [1.0 - v, v]));
+        }
+        let cp = ap - ac;
+        let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+        if d6 >= 0.0 && d5 <= d6 {
+            return ((self.a + ac).into(), TrianglePointLocation::OnVertex(2));
+        }
+        let vb = d5 * d2 - d1 * d6;
+        if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+            let w = d2 / (d2 - d6);
+            return ((self.a + ac * w).into(), TrianglePointLocation::OnEdge(2, [1.0 - w, w]));
+        }
+        let va = d3 * d6 - d5 * d4;
+        if va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0 {
+            let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+            return ((self.a + ab + (ac - ab) * w).into(), TrianglePointLocation::OnEdge(1, [1.0 - w, w]));
+        }
+        // Inside the face. A sliver too thin for the barycentrics goes to parry.
+        let denom = va + vb + vc;
+        if denom.abs() <= f32::MIN_POSITIVE {
+            let b = self.a + ab;
+            let c = self.a + ac;
+            let (proj, location) = parry3d::shape::Triangle::new(self.a.into(), b.into(), c.into())
+                .project_local_point_and_get_location(p, false);
+            return (proj.point, location);
+        }
+        let (v, w) = (vb / denom, vc / denom);
+        let side = if self.normal.dot(ap) >= 0.0 { 0 } else { 1 };
+        ((self.a + ab * v + ac * w).into(), TrianglePointLocation::OnFace(side, [1.0 - v - w, v, w]))
+    }
+
+    /// Parry's inside test for an oriented mesh: a point behind the pseudo-normal of the
+    /// feature it projects onto (face, edge or vertex) is inside.
+    pub fn is_inside(&self, mesh: &TriMesh, triangle: u32, location: TrianglePointLocation, offset: Vec3) -> bool {
+        let Some(pseudo) = mesh.pseudo_normals_if_oriented() else {
+            return false;
+        };
+        let normal = match location {
+            TrianglePointLocation::OnFace(..) | TrianglePointLocation::OnSolid => Some(self.normal.into()),
+            TrianglePointLocation::OnEdge(i, _) => {
+                pseudo.edges_pseudo_normal.get(triangle as usize).map(|n| n[i as usize])
+            }
+            TrianglePointLocation::OnVertex(i) => {
+                let vertex = mesh.indices()[triangle as usize][i as usize];
+                pseudo.vertices_pseudo_normal.get(vertex as usize).copied()
+            }
+        };
+        normal.is_some_and(|n: Vec3| offset.dot(n) <= 0.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::collide::{ContactHint, HeadCollider};
+    use crate::groom::{SplitMix64, sample_roots};
+    use crate::mesh::test_head;
+    use parry3d::shape::TriMeshFlags;
+
+    /// A 10 cm floor triangle (up = +Y) and a wall rising 4 mm beside it.
+    fn floor_and_wall() -> TriMesh {
+        let vertices = vec![
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(0.1, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, -0.1),
+            // The wall, in the plane x = 0.104, facing the floor.
+            Vec3::new(0.104, 0.0, 0.0),
+            Vec3::new(0.104, 0.05, 0.0),
+            Vec3::new(0.104, 0.0, -0.1),
+        ];
+        TriMesh::with_flags(vertices, vec![[0, 1, 2], [3, 4, 5]], TriMeshFlags::empty()).unwrap()
+    }
+
+    #[test]
+    fn clearance_is_half_the_gap_to_a_triangle_rising_above_the_plane() {
+        let flat = FlatTriangles::bake(&floor_and_wall());
+        assert!((flat.clearances[0] - 0.002).abs() < 2e-5, "floor: {}", flat.clearances[0]);
+        // The floor lies in front of the wall, so the wall's clearance is the same.
+        assert!((flat.clearances[1] - 0.002).abs() < 2e-5, "wall: {}", flat.clearances[1]);
+    }
+
+    #[test]
+    fn certificate_refuses_where_another_triangle_may_be_closer() {
+        let flat = FlatTriangles::bake(&floor_and_wall());
+        // 1.5 mm above the floor, far from the wall: the floor is certainly closest.
+        let low = flat.certify(0, Vec3::new(0.02, 0.0015, -0.02)).expect("within the clearance");
+        assert!((low.distance - 0.0015).abs() < 1e-7);
+        // Over the floor's corner, 4.5 mm up and 4.1 mm from the wall: the wall is closer,
+        // and 4.5 mm is beyond the floor's 2 mm clearance, so the floor is not claimed.
+        let p = Vec3::new(0.0999, 0.0045, -0.00005);
+        assert!(0.104 - p.x < p.y, "the wall is the closer triangle");
+        assert!(matches!(flat.get(0).project(p).1, TrianglePointLocation::OnFace(0, _)), "over the face");
+        assert!(flat.certify(0, p).is_none());
+        // Below the floor, or beside its face: no claim either.
+        assert!(flat.certify(0, Vec3::new(0.02, -0.001, -0.02)).is_none());
+        assert!(flat.certify(0, Vec3::new(-0.01, 0.001, 0.01)).is_none());
+        assert!(flat.certify(7, Vec3::ZERO).is_none(), "an unknown triangle proves nothing");
+    }
+
+    #[test]
+    fn hinted_queries_match_the_exact_ones() {
+        let head = test_head(4);
+        let collider = HeadCollider::new(&head, 48).unwrap();
+        let everywhere = vec![1.0; head.triangles.len()];
+        let roots = sample_roots(&head, &everywhere, 3000, 5).unwrap();
+        let mut rng = SplitMix64::new(5);
+        let (mut certified, mut contacts) = (0, 0);
+        for root in &roots {
+            let surface = root.position(&head);
+            let normal = root.normal(&head);
+            // A particle resting within the thickness, then moving a little: the first
+            // query leaves the hint, the second may use it.
+            let first = surface + normal * (0.003 * rng.next_f32());
+            let second = first + Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, rng.next_f32() - 0.5) * 0.002;
+            let mut hint = ContactHint::NONE;
+            collider.resolve_hinted(first, 0.003, &mut hint);
+            if collider.triangles.certify(hint.0, second).is_some() {
+                certified += 1;
+            }
+            let hinted = collider.resolve_hinted(second, 0.003, &mut hint);
+            // A hint that belongs to another particle must not change the answer either.
+            let mut foreign = ContactHint((rng.next_f32() * head.triangles.len() as f32) as u32);
+            let with_foreign = collider.resolve_hinted(second, 0.003, &mut foreign);
+            let exact = collider.resolve(second, 0.003);
+            assert_eq!(hinted.is_some(), exact.is_some(), "at {second:?}");
+            assert_eq!(with_foreign.is_some(), exact.is_some(), "at {second:?}");
+            if let (Some(a), Some(b), Some(c)) = (hinted, exact, with_foreign) {
+                contacts += 1;
+                assert!((a.position - b.position).length() < 1e-5, "{a:?} vs {b:?}");
+                assert!((c.position - b.position).length() < 1e-5, "{c:?} vs {b:?}");
+                assert!((a.depth - b.depth).abs() < 1e-5);
+            }
+        }
+        assert!(contacts > 1500, "most second positions touch: {contacts}");
+        // Not all: some moved inside, beside their triangle's face, or sit where the head is
+        // concave (ears, neck).
+        assert!(certified > 1500, "most resting particles skip the search: {certified} of 3000");
+    }
+}
