@@ -5,6 +5,7 @@
 //! state into disjoint [`StrandChunk`]s that any thread pool can step in parallel; the
 //! result is bit-identical to [`Strands::step`], whatever the chunking.
 
+mod lanes;
 mod params;
 mod step;
 mod wind;

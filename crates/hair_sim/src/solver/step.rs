@@ -11,6 +11,7 @@
 //! A strand whose root jumped more than `teleport_distance` is reset to the rest pose
 //! instead; a strand that somehow produced a non-finite value is reset too.
 
+use super::lanes::{LANES, M3, PoseLanes, V3, Wide};
 use super::params::{LengthMode, SimParams, stiffness_per_application};
 use super::wind::wind_at;
 use super::{ChunkState, RestShape, StepInput, StepReport};
@@ -104,18 +105,74 @@ impl Constants {
     }
 }
 
-/// Strands stepped together. Follow-the-leader and local shape walk each strand root →
-/// tip, every particle waiting on its parent (a square root and a division per link);
-/// walking several independent strands in lockstep lets the CPU overlap those chains.
-/// Each strand's arithmetic is unchanged, so results do not depend on the grouping.
-const LANES: usize = 4;
+/// One group's state while it steps: its strands side by side (see [`lanes`](super::lanes)),
+/// particle `j` of every lane at index `j`. Allocated once per chunk and step and reused
+/// by each group; lanes without a strand copy lane 0 and are never written back.
+struct GroupState {
+    /// Strand index of each real lane, within the chunk.
+    strands: [usize; LANES],
+    lanes: usize,
+    positions: Vec<V3>,
+    velocities: Vec<V3>,
+    /// Positions at the start of the substep.
+    start: Vec<V3>,
+    force: Vec<V3>,
+    ftl_correction: Vec<V3>,
+    rest_positions: Vec<V3>,
+    rest_directions: Vec<V3>,
+    lengths: Vec<Wide>,
+    /// Head-local root frame of each lane.
+    root_frames: [Quat; LANES],
+    /// Wind seeds: the strands' indices in the whole groom.
+    seeds: [u32; LANES],
+}
 
-/// Scratch buffers for one group of strands (lane `l`, particle `j` at `l * n + j`),
-/// allocated once per chunk and step.
-struct Scratch {
-    start: Vec<Vec3>,
-    force: Vec<Vec3>,
-    ftl_correction: Vec<Vec3>,
+impl GroupState {
+    fn new(n: usize) -> Self {
+        GroupState {
+            strands: [0; LANES],
+            lanes: 0,
+            positions: vec![V3::ZERO; n],
+            velocities: vec![V3::ZERO; n],
+            start: vec![V3::ZERO; n],
+            force: vec![V3::ZERO; n],
+            ftl_correction: vec![V3::ZERO; n],
+            rest_positions: vec![V3::ZERO; n],
+            rest_directions: vec![V3::ZERO; n],
+            lengths: vec![Wide::ZERO; n],
+            root_frames: [Quat::IDENTITY; LANES],
+            seeds: [0; LANES],
+        }
+    }
+
+    /// Loads the strands `strands` (chunk-local) of the chunk into the lanes.
+    fn load(&mut self, strands: &[usize], first_strand: usize, rest: &RestShape, state: &ChunkState) {
+        let n = self.positions.len();
+        self.lanes = strands.len();
+        // Empty lanes repeat the first strand: finite work whose result is dropped.
+        self.strands = std::array::from_fn(|l| strands.get(l).copied().unwrap_or(strands[0]));
+        let (at, global) = (self.strands.map(|k| k * n), self.strands.map(|k| (first_strand + k) * n));
+        for j in 0..n {
+            self.positions[j] = V3::from_lanes(at.map(|a| state.positions[a + j]));
+            self.velocities[j] = V3::from_lanes(at.map(|a| state.velocities[a + j]));
+            self.rest_positions[j] = V3::from_lanes(global.map(|g| rest.positions[g + j]));
+            self.rest_directions[j] = V3::from_lanes(global.map(|g| rest.local_directions[g + j]));
+            self.lengths[j] = Wide::from_array(global.map(|g| rest.lengths[g + j]));
+        }
+        self.root_frames = self.strands.map(|k| rest.root_frames[first_strand + k]);
+        self.seeds = self.strands.map(|k| (first_strand + k) as u32);
+    }
+
+    /// Writes the real lanes back into the chunk.
+    fn store(&self, state: &mut ChunkState) {
+        let n = self.positions.len();
+        for (l, &k) in self.strands[..self.lanes].iter().enumerate() {
+            for j in 0..n {
+                state.positions[k * n + j] = self.positions[j].lane(l);
+                state.velocities[k * n + j] = self.velocities[j].lane(l);
+            }
+        }
+    }
 }
 
 pub(super) fn step_chunk(
@@ -124,253 +181,218 @@ pub(super) fn step_chunk(
     state: &mut ChunkState,
     input: &StepInput,
 ) -> StepReport {
-    let ChunkState { positions, velocities, hints } = state;
     let n = rest.particles_per_strand;
     let mut report = StepReport::default();
     let Some(c) = Constants::new(input, n) else {
         return report;
     };
     let p = input.params;
-    let size = LANES * n;
-    let mut scratch = Scratch {
-        start: vec![Vec3::ZERO; size],
-        force: vec![Vec3::ZERO; size],
-        ftl_correction: vec![Vec3::ZERO; size],
-    };
     let head_to = *c.poses.last().expect("at least one pose");
+    let mut group_state = GroupState::new(n);
 
     // Chunk-local indices of the strands gathered for the next group.
     let mut group = [0usize; LANES];
     let mut lanes = 0;
-    let strands = positions.len() / n;
+    let strands = state.positions.len() / n;
     for k in 0..strands {
-        let strand = first_strand + k;
-        let rest_x = &rest.positions[strand * n..][..n];
-        let (xs, vs) = (&mut positions[k * n..][..n], &mut velocities[k * n..][..n]);
-        let root_jump = (head_to.transform_point(rest_x[0]) - xs[0]).length();
+        let rest_x = &rest.positions[(first_strand + k) * n..][..n];
+        let root_jump = (head_to.transform_point(rest_x[0]) - state.positions[k * n]).length();
         if root_jump.is_nan() || root_jump > p.teleport_distance {
-            reset_strand(xs, vs, &mut hints[k * n..][..n], rest_x, &head_to);
+            reset_strand(state, k, n, rest_x, &head_to);
             report.teleport_resets += 1;
         } else {
             group[lanes] = k;
             lanes += 1;
         }
         if lanes == LANES || (k + 1 == strands && lanes > 0) {
-            let g = Group { first_strand, n, strands: &group[..lanes] };
-            let state = ChunkState { positions, velocities, hints };
-            step_group(&g, rest, state, &mut scratch, &c, input, &mut report);
+            group_state.load(&group[..lanes], first_strand, rest, state);
+            step_group(&mut group_state, state, &c, input, &mut report);
+            group_state.store(state);
+            for &k in &group[..lanes] {
+                let (xs, vs) = (&state.positions[k * n..][..n], &state.velocities[k * n..][..n]);
+                if !xs.iter().chain(vs).all(|v| v.is_finite()) {
+                    reset_strand(state, k, n, &rest.positions[(first_strand + k) * n..][..n], &head_to);
+                    report.nan_resets += 1;
+                }
+            }
             lanes = 0;
         }
     }
     report
 }
 
-/// Which strands of a chunk a group steps.
-struct Group<'a> {
-    first_strand: usize,
-    n: usize,
-    /// Chunk-local strand indices, one per lane.
-    strands: &'a [usize],
-}
-
-impl Group<'_> {
-    /// Lane index, the strand's offset in the chunk's arrays, and in the whole groom's.
-    fn lanes(&self) -> impl Iterator<Item = (usize, usize, usize)> + '_ {
-        self.strands.iter().enumerate().map(|(l, &k)| (l, k * self.n, (self.first_strand + k) * self.n))
-    }
-}
-
-#[allow(clippy::too_many_arguments)] // one call site; the arguments are the step's context
-fn step_group(
-    g: &Group,
-    rest: &RestShape,
-    state: ChunkState,
-    scratch: &mut Scratch,
-    c: &Constants,
-    input: &StepInput,
-    report: &mut StepReport,
-) {
-    let n = g.n;
-    let ChunkState { positions, velocities, hints } = state;
-    for s in 1..c.poses.len() {
-        let (pose_before, pose) = (&c.matrices[s - 1], &c.matrices[s]);
-        let frame = c.poses[s].rotation;
-        let time = input.time + c.h * s as f32;
-        let poses = SubstepPoses { before: pose_before, now: pose, frame };
-        let state = ChunkState { positions, velocities, hints };
-        substep(g, rest, state, scratch, c, time, &poses, input, report);
-    }
-    let head_to = c.poses.last().expect("at least one pose");
-    for (_, at, rest_at) in g.lanes() {
-        let (xs, vs) = (&mut positions[at..][..n], &mut velocities[at..][..n]);
-        if !xs.iter().chain(vs.iter()).all(|v| v.is_finite()) {
-            reset_strand(xs, vs, &mut hints[at..][..n], &rest.positions[rest_at..][..n], head_to);
-            report.nan_resets += 1;
-        }
-    }
-}
-
-fn reset_strand(xs: &mut [Vec3], vs: &mut [Vec3], hints: &mut [ContactHint], rest_x: &[Vec3], pose: &Pose) {
-    for (x, &r) in xs.iter_mut().zip(rest_x) {
+/// Puts chunk strand `k` back at rest under `pose`, motionless.
+fn reset_strand(state: &mut ChunkState, k: usize, n: usize, rest_x: &[Vec3], pose: &Pose) {
+    for (x, &r) in state.positions[k * n..][..n].iter_mut().zip(rest_x) {
         *x = pose.transform_point(r);
     }
-    vs.fill(Vec3::ZERO);
-    hints.fill(ContactHint::NONE);
+    state.velocities[k * n..][..n].fill(Vec3::ZERO);
+    state.hints[k * n..][..n].fill(ContactHint::NONE);
+}
+
+fn step_group(g: &mut GroupState, state: &mut ChunkState, c: &Constants, input: &StepInput, report: &mut StepReport) {
+    for s in 1..c.poses.len() {
+        let poses = SubstepPoses {
+            before: &c.matrices[s - 1],
+            now: &c.matrices[s],
+            now_lanes: PoseLanes::new(c.matrices[s].rotation, c.matrices[s].translation),
+            frame: c.poses[s].rotation,
+        };
+        let time = input.time + c.h * s as f32;
+        substep(g, state, c, time, &poses, input, report);
+    }
 }
 
 /// The head at the start and end of a substep.
 struct SubstepPoses<'a> {
     before: &'a PoseMatrix,
     now: &'a PoseMatrix,
+    /// `now`, for whole lanes at once.
+    now_lanes: PoseLanes,
     /// The rotation of `now`, for the root frames of local shape.
     frame: Quat,
 }
 
-#[allow(clippy::too_many_arguments)] // one call site; the arguments are the step's context
 fn substep(
-    g: &Group,
-    rest: &RestShape,
-    state: ChunkState,
-    scratch: &mut Scratch,
+    g: &mut GroupState,
+    state: &mut ChunkState,
     c: &Constants,
     time: f32,
     poses: &SubstepPoses,
     input: &StepInput,
     report: &mut StepReport,
 ) {
-    let ChunkState { positions, velocities, hints } = state;
     let p = input.params;
-    let pose = poses.now;
-    let n = g.n;
-    let h = c.h;
-    let inv_mass = 1.0 / p.particle_mass;
-    let gravity = Vec3::from_array(p.gravity);
+    let n = g.positions.len();
+    let h = Wide::splat(c.h);
 
     // 1. Forces and integration of the free particles; 2. the root follows the head.
-    for (l, at, base) in g.lanes() {
-        let (xs, vs) = (&mut positions[at..][..n], &velocities[at..][..n]);
-        let start = &mut scratch.start[l * n..][..n];
-        let force = &mut scratch.force[l * n..][..n];
-        start.copy_from_slice(xs);
-        let wind = wind_at(&p.wind, (base / n) as u32, time);
-        force.fill(Vec3::ZERO);
-        if p.length_mode == LengthMode::Springs {
-            for j in 1..n {
-                let d = xs[j] - xs[j - 1];
-                let l = d.length();
-                if l > 1e-9 {
-                    let dir = d / l;
-                    let stretch = c.spring_k * (l - rest.lengths[base + j]);
-                    let damping = c.spring_d * (vs[j] - vs[j - 1]).dot(dir);
-                    let f = dir * (stretch + damping);
-                    force[j] -= f;
-                    force[j - 1] += f;
-                }
-            }
-        }
-        for j in 1..n {
-            // Only the wind across the segment pushes; without wind, skip the normalize.
-            let wind_across = if wind == Vec3::ZERO {
-                Vec3::ZERO
-            } else {
-                let tangent = (xs[j] - xs[j - 1]).normalize_or_zero();
-                wind - tangent * wind.dot(tangent)
-            };
-            let a = gravity + wind_across + force[j] * inv_mass;
-            let v = (vs[j] + a * h) * c.drag_factor;
-            let step = (v * h).clamp_length_max(c.max_step_move);
-            xs[j] += step;
-        }
-        xs[0] = pose.world_point(rest.positions[base]);
+    g.start.copy_from_slice(&g.positions);
+    let wind = V3::from_lanes(g.seeds.map(|seed| wind_at(&p.wind, seed, time)));
+    if p.length_mode == LengthMode::Springs {
+        spring_forces(g, c);
     }
+    let gravity = V3::splat(Vec3::from_array(p.gravity));
+    let (inv_mass, drag, max_move) =
+        (Wide::splat(1.0 / p.particle_mass), Wide::splat(c.drag_factor), Wide::splat(c.max_step_move));
+    let windless = wind == V3::ZERO;
+    for j in 1..n {
+        // Only the wind across the segment pushes; without wind, skip the normalize.
+        let wind_across = if windless {
+            V3::ZERO
+        } else {
+            let tangent = (g.positions[j] - g.positions[j - 1]).normalize_or(V3::ZERO);
+            wind - tangent * wind.dot(tangent)
+        };
+        let mut a = gravity + wind_across;
+        if p.length_mode == LengthMode::Springs {
+            a += g.force[j] * inv_mass;
+        }
+        let v = (g.velocities[j] + a * h) * drag;
+        g.positions[j] += (v * h).clamp_length_max(max_move);
+    }
+    g.positions[0] = poses.now_lanes.world_point(g.rest_positions[0]);
 
     // 3. Shape and length.
-    scratch.ftl_correction[..g.strands.len() * n].fill(Vec3::ZERO);
-    let root_frames: [Mat3A; LANES] = std::array::from_fn(|l| {
-        g.strands
-            .get(l)
-            .map_or(Mat3A::IDENTITY, |&k| Mat3A::from_quat(poses.frame * rest.root_frames[g.first_strand + k]))
-    });
+    g.ftl_correction.fill(V3::ZERO);
+    let root_frame = M3::from_lanes(g.root_frames.map(|q| Mat3A::from_quat(poses.frame * q)));
     for _ in 0..p.iterations {
-        for (_, at, base) in g.lanes() {
-            global_shape(&rest.positions[base..][..n], &mut positions[at..][..n], &c.global_alpha, pose);
-        }
+        global_shape(g, &c.global_alpha, &poses.now_lanes);
         if c.local_alpha > 0.0 {
-            local_shape(rest, g, positions, c.local_alpha, &root_frames);
+            local_shape(g, c.local_alpha, root_frame);
         }
-        length_pass(rest, g, positions, &mut scratch.ftl_correction, p);
+        length_pass(g, p);
     }
 
     // 4. Collision, then one more length pass: pushing particles out of the head
     //    stretches segments, and FTL only moves each particle along its parent segment,
     //    which leaves it outside the surface it was just pushed to (to first order).
     if p.collision {
-        for (l, at, _) in g.lanes() {
-            let (xs, hints) = (&mut positions[at..][..n], &mut hints[at..][..n]);
-            collide(xs, hints, &scratch.start[l * n..][..n], p, poses, input, report);
-        }
+        collide(g, state, p, poses, input, report);
         // Both length models promise their bound after the step, whatever collision did.
-        length_pass(rest, g, positions, &mut scratch.ftl_correction, p);
+        length_pass(g, p);
     }
 
-    // 5. Velocities.
-    for (l, at, _) in g.lanes() {
-        let (xs, vs) = (&positions[at..][..n], &mut velocities[at..][..n]);
-        let (start, correction) = (&scratch.start[l * n..][..n], &scratch.ftl_correction[l * n..][..n]);
-        // The root moves with the head; its speed feeds spring damping, so it gets the same limit.
-        vs[0] = ((xs[0] - start[0]) / h).clamp_length_max(p.max_speed);
-        for j in 1..n {
-            let next_correction = if j + 1 < n { correction[j + 1] } else { Vec3::ZERO };
-            let v = (xs[j] - start[j]) / h - next_correction * c.ftl_velocity;
-            vs[j] = v.clamp_length_max(p.max_speed);
-        }
+    // 5. Velocities. The root moves with the head; its speed feeds spring damping, so it
+    //    gets the same limit.
+    let (max_speed, ftl_velocity) = (Wide::splat(p.max_speed), Wide::splat(c.ftl_velocity));
+    let inv_h = h.recip();
+    g.velocities[0] = ((g.positions[0] - g.start[0]) * inv_h).clamp_length_max(max_speed);
+    for j in 1..n {
+        let next_correction = if j + 1 < n { g.ftl_correction[j + 1] } else { V3::ZERO };
+        let v = (g.positions[j] - g.start[j]) * inv_h - next_correction * ftl_velocity;
+        g.velocities[j] = v.clamp_length_max(max_speed);
     }
 }
 
-/// The length constraint of `p.length_mode` on every strand of the group.
-fn length_pass(rest: &RestShape, g: &Group, positions: &mut [Vec3], corrections: &mut [Vec3], p: &SimParams) {
+/// The reference mass-spring model: `F_s = k_s (l − l0)` along each segment and damping
+/// `F_d = k_d (Δv · dir)`, into `g.force`.
+fn spring_forces(g: &mut GroupState, c: &Constants) {
+    let (k, d) = (Wide::splat(c.spring_k), Wide::splat(c.spring_d));
+    g.force.fill(V3::ZERO);
+    for j in 1..g.positions.len() {
+        let segment = g.positions[j] - g.positions[j - 1];
+        let l = segment.length();
+        let dir = segment * l.recip();
+        let stretch = k * (l - g.lengths[j]);
+        let damping = d * (g.velocities[j] - g.velocities[j - 1]).dot(dir);
+        // A collapsed segment has no direction to push along.
+        let f = V3::select(l.cmpgt(Wide::splat(1e-9)), dir * (stretch + damping), V3::ZERO);
+        g.force[j] -= f;
+        g.force[j - 1] += f;
+    }
+}
+
+/// The length constraint of `p.length_mode`.
+fn length_pass(g: &mut GroupState, p: &SimParams) {
     match p.length_mode {
-        LengthMode::Inextensible => follow_the_leader(&rest.lengths, g, positions, corrections),
-        LengthMode::Springs => clamp_lengths(&rest.lengths, g, positions, p.length_tolerance),
+        LengthMode::Inextensible => follow_the_leader(g),
+        LengthMode::Springs => clamp_lengths(g, p.length_tolerance),
     }
 }
 
-/// Moves particles out of the head and the extra colliders, with friction.
+/// Moves particles out of the head and the extra colliders, with friction. Queries are
+/// per particle (their paths differ), on the real lanes only.
 fn collide(
-    xs: &mut [Vec3],
-    hints: &mut [ContactHint],
-    start: &[Vec3],
+    g: &mut GroupState,
+    state: &mut ChunkState,
     p: &SimParams,
     poses: &SubstepPoses,
     input: &StepInput,
     report: &mut StepReport,
 ) {
-    for j in 1..xs.len() {
-        if let Some(collider) = input.collider {
-            let local = poses.now.local_point(xs[j]);
-            if let Some(contact) = collider.resolve_hinted(local, p.collision_thickness, &mut hints[j]) {
-                // Friction acts on sliding relative to the head, so compare in head space.
-                let local_start = poses.before.local_point(start[j]);
-                xs[j] = poses.now.world_point(with_friction(contact, local_start, p.friction));
-                report.contacts += 1;
-                report.max_depth = report.max_depth.max(contact.depth);
+    let n = g.positions.len();
+    for l in 0..g.lanes {
+        let hints = &mut state.hints[g.strands[l] * n..][..n];
+        for (j, hint) in hints.iter_mut().enumerate().skip(1) {
+            let (mut x, start) = (g.positions[j].lane(l), g.start[j].lane(l));
+            if let Some(collider) = input.collider {
+                let local = poses.now.local_point(x);
+                if let Some(contact) = collider.resolve_hinted(local, p.collision_thickness, hint) {
+                    // Friction acts on sliding relative to the head, so compare in head space.
+                    let local_start = poses.before.local_point(start);
+                    x = poses.now.world_point(with_friction(contact, local_start, p.friction));
+                    report.contacts += 1;
+                    report.max_depth = report.max_depth.max(contact.depth);
+                }
             }
-        }
-        for extra in input.extra_colliders {
-            if let Some(contact) = extra.resolve(xs[j], p.collision_thickness) {
-                xs[j] = with_friction(contact, start[j], p.friction);
-                report.contacts += 1;
-                report.max_depth = report.max_depth.max(contact.depth);
+            for extra in input.extra_colliders {
+                if let Some(contact) = extra.resolve(x, p.collision_thickness) {
+                    x = with_friction(contact, start, p.friction);
+                    report.contacts += 1;
+                    report.max_depth = report.max_depth.max(contact.depth);
+                }
             }
+            g.positions[j].set_lane(l, x);
         }
     }
 }
 
 /// Pulls each particle toward the rest pose carried by the head, by `alpha[j]`.
-fn global_shape(rest_x: &[Vec3], xs: &mut [Vec3], alpha: &[f32], pose: &PoseMatrix) {
-    for j in 1..xs.len() {
-        if alpha[j] > 0.0 {
-            xs[j] += (pose.world_point(rest_x[j]) - xs[j]) * alpha[j];
+fn global_shape(g: &mut GroupState, alpha: &[f32], pose: &PoseLanes) {
+    for ((x, &rest), &alpha) in g.positions.iter_mut().zip(&g.rest_positions).zip(alpha).skip(1) {
+        if alpha > 0.0 {
+            *x = *x + (pose.world_point(rest) - *x) * Wide::splat(alpha);
         }
     }
 }
@@ -380,72 +402,45 @@ fn global_shape(rest_x: &[Vec3], xs: &mut [Vec3], alpha: &[f32], pose: &PoseMatr
 /// The frame starts as the head-carried root frame; each segment's deviation from where
 /// its parent expected it rotates the frame handed to its child, so a bent strand keeps
 /// its curl relative to the bend instead of snapping back to the head's orientation.
-/// The group's strands walk root → tip in lockstep (see [`LANES`]).
-fn local_shape(rest: &RestShape, g: &Group, positions: &mut [Vec3], alpha: f32, root_frames: &[Mat3A; LANES]) {
-    let mut frames = *root_frames;
-    for j in 1..g.n {
-        for (l, at, base) in g.lanes() {
-            let frame = &mut frames[l];
-            let expected = *frame * Vec3A::from(rest.local_directions[base + j]);
-            let parent = positions[at + j - 1];
-            let target = parent + Vec3::from(expected) * rest.lengths[base + j];
-            let x = &mut positions[at + j];
-            *x += (target - *x) * alpha;
-            let actual = Vec3A::from(*x - parent).normalize_or(expected);
-            *frame = rotation_arc(expected, actual) * *frame;
-        }
+fn local_shape(g: &mut GroupState, alpha: f32, root_frame: M3) {
+    let alpha = Wide::splat(alpha);
+    let mut frame = root_frame;
+    for j in 1..g.positions.len() {
+        let expected = frame.mul_vec(g.rest_directions[j]);
+        let parent = g.positions[j - 1];
+        let target = parent + expected * g.lengths[j];
+        let x = g.positions[j] + (target - g.positions[j]) * alpha;
+        g.positions[j] = x;
+        let actual = (x - parent).normalize_or(expected);
+        frame = M3::rotation_arc(expected, actual).mul_mat(&frame);
     }
-}
-
-/// The shortest-arc rotation taking unit `from` onto unit `to`, as a matrix (Rodrigues):
-/// `R = c·I + [v]× + v·vᵀ/(1 + c)` with `v = from × to`, `c = from · to`. Unlike the
-/// quaternion form it needs no square root, and it is orthonormal to rounding, so the
-/// frame chained along a strand needs no renormalising.
-#[inline]
-fn rotation_arc(from: Vec3A, to: Vec3A) -> Mat3A {
-    let c = from.dot(to);
-    if c < -0.999 {
-        // Nearly opposite: the axis is ill-defined; the quaternion form picks one.
-        return Mat3A::from_quat(Quat::from_rotation_arc(from.into(), to.into()));
-    }
-    let v = from.cross(to);
-    let kv = v / (1.0 + c);
-    Mat3A::from_cols(
-        Vec3A::new(c, v.z, -v.y) + kv * v.x,
-        Vec3A::new(-v.z, c, v.x) + kv * v.y,
-        Vec3A::new(v.y, -v.x, c) + kv * v.z,
-    )
 }
 
 /// Follow-The-Leader: walk root → tip, putting each particle at rest length from its
-/// parent. Records each particle's correction (lane `l` at `l * n + j`) for Müller's
-/// velocity term. The group's strands walk in lockstep (see [`LANES`]).
-fn follow_the_leader(lengths: &[f32], g: &Group, positions: &mut [Vec3], corrections: &mut [Vec3]) {
-    for j in 1..g.n {
-        for (l, at, base) in g.lanes() {
-            let parent = positions[at + j - 1];
-            let d = positions[at + j] - parent;
-            let placed = parent + d.normalize_or(Vec3::NEG_Y) * lengths[base + j];
-            corrections[l * g.n + j] += placed - positions[at + j];
-            positions[at + j] = placed;
-        }
+/// parent. Records each particle's correction for Müller's velocity term.
+fn follow_the_leader(g: &mut GroupState) {
+    let down = V3::splat(Vec3::NEG_Y);
+    for j in 1..g.positions.len() {
+        let parent = g.positions[j - 1];
+        let d = g.positions[j] - parent;
+        let placed = parent + d.normalize_or(down) * g.lengths[j];
+        g.ftl_correction[j] += placed - g.positions[j];
+        g.positions[j] = placed;
     }
 }
 
 /// The reference's length constraint: no segment longer or shorter than `tolerance` ×
 /// its rest length. Root → tip, so each fix rests on an already-fixed parent.
-fn clamp_lengths(lengths: &[f32], g: &Group, positions: &mut [Vec3], tolerance: f32) {
-    for j in 1..g.n {
-        for (_, at, base) in g.lanes() {
-            let parent = positions[at + j - 1];
-            let d = positions[at + j] - parent;
-            let l = d.length();
-            let rest = lengths[base + j];
-            let clamped = l.clamp(rest * (1.0 - tolerance), rest * (1.0 + tolerance));
-            if clamped != l {
-                positions[at + j] = parent + d.normalize_or(Vec3::NEG_Y) * clamped;
-            }
-        }
+fn clamp_lengths(g: &mut GroupState, tolerance: f32) {
+    let down = V3::splat(Vec3::NEG_Y);
+    let (shortest, longest) = (Wide::splat(1.0 - tolerance), Wide::splat(1.0 + tolerance));
+    for j in 1..g.positions.len() {
+        let parent = g.positions[j - 1];
+        let d = g.positions[j] - parent;
+        let l = d.length();
+        let clamped = l.clamp(g.lengths[j] * shortest, g.lengths[j] * longest);
+        let moved = parent + d.normalize_or(down) * clamped;
+        g.positions[j] = V3::select(clamped.cmpne(l), moved, g.positions[j]);
     }
 }
 
@@ -462,75 +457,90 @@ fn with_friction(contact: Contact, start: Vec3, friction: f32) -> Vec3 {
 mod tests {
     use super::*;
 
-    /// One strand of `n` particles as a group.
-    fn one(n: usize) -> Group<'static> {
-        Group { first_strand: 0, n, strands: &[0] }
+    /// A group holding one strand at `xs`, with rest shape `rest_positions`.
+    fn one(rest_positions: Vec<Vec3>, xs: &[Vec3]) -> GroupState {
+        let n = xs.len();
+        let rest = RestShape::new(rest_positions, n).unwrap();
+        let (mut positions, mut velocities, mut hints) = (xs.to_vec(), vec![Vec3::ZERO; n], vec![ContactHint::NONE; n]);
+        let state = ChunkState { positions: &mut positions, velocities: &mut velocities, hints: &mut hints };
+        let mut g = GroupState::new(n);
+        g.load(&[0], 0, &rest, &state);
+        g
     }
 
-    fn frames(root: Quat) -> [Mat3A; LANES] {
-        std::array::from_fn(|l| if l == 0 { Mat3A::from_quat(root) } else { Mat3A::IDENTITY })
+    fn lane0(values: &[V3]) -> Vec<Vec3> {
+        values.iter().map(|v| v.lane(0)).collect()
+    }
+
+    /// A straight strand hanging 1 m per segment.
+    fn hanging(n: usize) -> Vec<Vec3> {
+        (0..n).map(|j| Vec3::new(0.0, -(j as f32), 0.0)).collect()
     }
 
     #[test]
     fn ftl_restores_rest_lengths_and_records_corrections() {
-        let lengths = [0.0, 1.0, 1.0];
-        let mut xs = [Vec3::ZERO, Vec3::new(0.0, -2.0, 0.0), Vec3::new(0.0, -2.5, 0.0)];
-        let mut corr = [Vec3::ZERO; 3];
-        follow_the_leader(&lengths, &one(3), &mut xs, &mut corr);
+        let mut g = one(hanging(3), &[Vec3::ZERO, Vec3::new(0.0, -2.0, 0.0), Vec3::new(0.0, -2.5, 0.0)]);
+        follow_the_leader(&mut g);
+        let xs = lane0(&g.positions);
         assert_eq!(xs[1], Vec3::new(0.0, -1.0, 0.0));
         assert_eq!(xs[2], Vec3::new(0.0, -2.0, 0.0));
+        let corr = lane0(&g.ftl_correction);
         assert_eq!(corr[1], Vec3::new(0.0, 1.0, 0.0));
         assert_eq!(corr[2], Vec3::new(0.0, 0.5, 0.0));
     }
 
     #[test]
     fn clamp_keeps_lengths_within_tolerance() {
-        let lengths = [0.0, 1.0, 1.0];
-        let mut xs = [Vec3::ZERO, Vec3::new(0.0, -1.5, 0.0), Vec3::new(0.0, -1.55, 0.0)];
-        clamp_lengths(&lengths, &one(3), &mut xs, 0.1);
+        let mut g = one(hanging(3), &[Vec3::ZERO, Vec3::new(0.0, -1.5, 0.0), Vec3::new(0.0, -1.55, 0.0)]);
+        clamp_lengths(&mut g, 0.1);
+        let xs = lane0(&g.positions);
         assert!((xs[1].y + 1.1).abs() < 1e-6);
         assert!(((xs[2] - xs[1]).length() - 0.9).abs() < 1e-6);
-        let mut within = [Vec3::ZERO, Vec3::new(0.0, -1.05, 0.0), Vec3::new(0.0, -2.0, 0.0)];
-        clamp_lengths(&lengths, &one(3), &mut within, 0.1);
-        assert_eq!(within[1].y, -1.05, "inside the tolerance nothing moves");
+        let mut within = one(hanging(3), &[Vec3::ZERO, Vec3::new(0.0, -1.05, 0.0), Vec3::new(0.0, -2.0, 0.0)]);
+        clamp_lengths(&mut within, 0.1);
+        assert_eq!(within.positions[1].lane(0).y, -1.05, "inside the tolerance nothing moves");
     }
 
     #[test]
     fn local_shape_keeps_the_bend_relative_to_the_parent() {
-        // Rest: an L (down, then +X). Rotate the whole strand 90° about Z by moving the
-        // first segment: full-stiffness local shape must turn the second segment with it.
-        let rest = RestShape::new(vec![Vec3::ZERO, Vec3::NEG_Y, Vec3::new(1.0, -1.0, 0.0)], 3).unwrap();
+        // Rest: an L (down, then +X).
+        let l_shape = vec![Vec3::ZERO, Vec3::NEG_Y, Vec3::new(1.0, -1.0, 0.0)];
+        let rest_frame = RestShape::new(l_shape.clone(), 3).unwrap().root_frames[0];
         // The head turned 90° about Z: the root frame turns, and full-stiffness local shape
         // must carry the bend along the strand, not just the first segment.
         let turn = Quat::from_rotation_z(std::f32::consts::FRAC_PI_2);
-        let mut xs = [Vec3::ZERO, Vec3::new(0.3, -0.2, 0.0), Vec3::new(5.0, 5.0, 0.0)];
-        local_shape(&rest, &one(3), &mut xs, 1.0, &frames(turn * rest.root_frames[0]));
+        let mut g = one(l_shape.clone(), &[Vec3::ZERO, Vec3::new(0.3, -0.2, 0.0), Vec3::new(5.0, 5.0, 0.0)]);
+        local_shape(&mut g, 1.0, M3::splat(Mat3A::from_quat(turn * rest_frame)));
+        let xs = lane0(&g.positions);
         assert!((xs[1] - turn * Vec3::NEG_Y).length() < 1e-5, "first {:?}", xs[1]);
         let second = xs[2] - xs[1];
         assert!((second - turn * Vec3::X).length() < 1e-5, "second segment {second:?}");
         // Half stiffness from a strand bent at the root: the child follows the parent's
         // actual direction, so the L stays an L (angle between segments stays 90°).
-        let mut bent = [Vec3::ZERO, Vec3::new(1.0, -1.0, 0.0).normalize(), Vec3::new(9.0, 0.0, 0.0)];
+        let mut bent = one(l_shape, &[Vec3::ZERO, Vec3::new(1.0, -1.0, 0.0).normalize(), Vec3::new(9.0, 0.0, 0.0)]);
         for _ in 0..60 {
-            local_shape(&rest, &one(3), &mut bent, 0.5, &frames(rest.root_frames[0]));
+            local_shape(&mut bent, 0.5, M3::splat(Mat3A::from_quat(rest_frame)));
         }
-        let (a, b) = ((bent[1] - bent[0]).normalize(), (bent[2] - bent[1]).normalize());
+        let xs = lane0(&bent.positions);
+        let (a, b) = ((xs[1] - xs[0]).normalize(), (xs[2] - xs[1]).normalize());
         assert!(a.dot(b).abs() < 1e-3, "right angle kept: {}", a.dot(b));
     }
 
     #[test]
-    fn rotation_arc_matches_the_quaternion_form() {
-        for i in 0..200 {
-            let f = i as f32 * 0.61;
-            let from = Vec3A::new(f.sin(), (f * 1.7).cos(), (f * 0.3).sin() - 0.2).normalize();
-            let to = Vec3A::new((f * 2.3).cos(), f.sin() * 0.5, (f * 1.1).cos()).normalize();
-            let m = rotation_arc(from, to);
-            let q = Mat3A::from_quat(Quat::from_rotation_arc(from.into(), to.into()));
-            assert!((m * from - to).length() < 1e-5, "maps from onto to");
-            for axis in [Vec3A::X, Vec3A::Y, Vec3A::Z] {
-                assert!((m * axis - q * axis).length() < 1e-4, "{i}: {:?} vs {:?}", m * axis, q * axis);
-            }
-        }
+    fn empty_lanes_repeat_the_first_strand_and_are_not_stored() {
+        let n = 3;
+        let rest = RestShape::new([hanging(n), hanging(n)].concat(), n).unwrap();
+        let mut positions: Vec<Vec3> = rest.positions.iter().map(|p| *p * 2.0).collect();
+        let (mut velocities, mut hints) = (vec![Vec3::ZERO; 2 * n], vec![ContactHint::NONE; 2 * n]);
+        let mut state = ChunkState { positions: &mut positions, velocities: &mut velocities, hints: &mut hints };
+        let mut g = GroupState::new(n);
+        g.load(&[1], 0, &rest, &state);
+        assert_eq!((g.lanes, g.strands), (1, [1; LANES]));
+        assert!((0..LANES).all(|l| g.positions[2].lane(l) == Vec3::new(0.0, -4.0, 0.0)));
+        follow_the_leader(&mut g);
+        g.store(&mut state);
+        assert_eq!(state.positions[n + 2], Vec3::new(0.0, -2.0, 0.0), "strand 1 restored to rest length");
+        assert_eq!(state.positions[2], Vec3::new(0.0, -4.0, 0.0), "strand 0 was not in the group");
     }
 
     #[test]
