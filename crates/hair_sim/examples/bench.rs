@@ -7,6 +7,7 @@
 //! ```
 
 use hair_sim::prelude::*;
+use hair_sim::solver::StrandChunk;
 use std::time::Instant;
 
 /// Head keyframes: (time s, yaw rad, pitch rad), looped; a turn, a nod, a fast shake.
@@ -69,12 +70,11 @@ fn main() {
     let mut strands = Strands::new(rest, head_pose(0.0));
 
     let chunk = strands.strand_count().div_ceil(threads * 4).max(1);
+    let n = strands.particles_per_strand();
     let dt = 1.0 / 60.0;
-    let mut times = Vec::with_capacity(steps);
-    let mut max_penetration = 0.0f32;
-    for k in 0..steps {
+    let input_at = |k: usize| {
         let time = k as f32 * dt;
-        let input = StepInput {
+        StepInput {
             dt,
             time,
             head_from: head_pose(time),
@@ -82,30 +82,60 @@ fn main() {
             collider: Some(&collider),
             extra_colliders: &[],
             params: &params,
-        };
-        let start = Instant::now();
-        let mut chunks = strands.chunks_mut(chunk);
-        std::thread::scope(|scope| {
-            let per_thread = chunks.len().div_ceil(threads);
-            for group in chunks.chunks_mut(per_thread) {
+        }
+    };
+    // Deepest particle below the head surface after step `k`, over some chunks.
+    let penetration = |chunks: &[StrandChunk], k: usize| {
+        let pose = head_pose((k + 1) as f32 * dt);
+        let particles = chunks.iter().flat_map(|c| c.positions().iter().enumerate().filter(|(i, _)| i % n != 0));
+        particles.fold(0.0f32, |deepest, (_, &p)| {
+            debug_assert!(p.is_finite(), "a particle is not finite");
+            deepest.max(-collider.signed_distance(pose.inverse_transform_point(p)))
+        })
+    };
+    // Workers live for the whole run and keep the same chunks, as a game's task pool
+    // would: spawning threads per step, or moving chunks between cores, would be timed
+    // along with the solver. The calling thread steps the first share itself.
+    let mut times = Vec::with_capacity(steps);
+    let mut max_penetration = 0.0f32;
+    let mut chunks = strands.chunks_mut(chunk);
+    let per_thread = chunks.len().div_ceil(threads);
+    std::thread::scope(|scope| {
+        let mut shares = chunks.chunks_mut(per_thread);
+        let own = shares.next().expect("at least one chunk");
+        let (done_tx, done_rx) = std::sync::mpsc::channel::<f32>();
+        let workers: Vec<_> = shares
+            .map(|share| {
+                let (go_tx, go_rx) = std::sync::mpsc::channel::<usize>();
+                let done = done_tx.clone();
                 scope.spawn(move || {
-                    group.iter_mut().for_each(|c| {
-                        c.step(&input);
-                    })
+                    for k in go_rx {
+                        share.iter_mut().for_each(|c| {
+                            c.step(&input_at(k));
+                        });
+                        let deepest = if k % 10 == 9 { penetration(share, k) } else { 0.0 };
+                        done.send(deepest).expect("the main thread waits");
+                    }
                 });
-            }
-        });
-        times.push(start.elapsed().as_secs_f64() * 1e3);
-        if k % 10 == 9 {
-            let pose = head_pose(time + dt);
-            let n = strands.particles_per_strand();
-            for (i, &p) in strands.positions().iter().enumerate().filter(|(i, _)| i % n != 0) {
-                let depth = -collider.signed_distance(pose.inverse_transform_point(p));
-                debug_assert!(p.is_finite(), "particle {i} is not finite");
-                max_penetration = max_penetration.max(depth);
+                go_tx
+            })
+            .collect();
+        for k in 0..steps {
+            let start = Instant::now();
+            workers.iter().for_each(|w| w.send(k).expect("workers run until the end"));
+            own.iter_mut().for_each(|c| {
+                c.step(&input_at(k));
+            });
+            let deepest: Vec<f32> = workers.iter().map(|_| done_rx.recv().expect("a worker answers")).collect();
+            // Workers answer after their penetration check; the step itself ended earlier,
+            // so time it only when there was no check.
+            if k % 10 != 9 {
+                times.push(start.elapsed().as_secs_f64() * 1e3);
+            } else {
+                max_penetration = deepest.into_iter().fold(max_penetration.max(penetration(own, k)), f32::max);
             }
         }
-    }
+    });
     times.sort_by(f64::total_cmp);
     let median = times[times.len() / 2];
     let particle_steps = (guides * particles) as f64;

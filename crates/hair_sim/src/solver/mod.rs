@@ -259,6 +259,11 @@ struct ChunkState<'a> {
 }
 
 impl StrandChunk<'_> {
+    /// World positions of this chunk's particles, strand-major (its first strand first).
+    pub fn positions(&self) -> &[Vec3] {
+        self.state.positions
+    }
+
     /// Advances the strands of this chunk by one step.
     pub fn step(&mut self, input: &StepInput) -> StepReport {
         step::step_chunk(self.first_strand, self.rest, &mut self.state, input)
