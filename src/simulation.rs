@@ -14,7 +14,7 @@ use hair_sim::collide::{ExtraCollider, HeadCollider};
 use hair_sim::groom::RootBinding;
 use hair_sim::math::Pose;
 use hair_sim::mesh::HeadMesh;
-use hair_sim::solver::{StepInput, StepReport, Strands};
+use hair_sim::solver::{STRANDS_PER_GROUP, StepInput, StepReport, Strands};
 use std::sync::Arc;
 
 /// Fewest strands worth a task of their own.
@@ -185,6 +185,8 @@ pub(crate) fn simulate(
         };
         let strands_per_task =
             state.strands.strand_count().div_ceil(pool.thread_num().max(1) * 4).max(MIN_STRANDS_PER_TASK);
+        // Whole SIMD groups per task, so no task steps idle lanes.
+        let strands_per_task = strands_per_task.next_multiple_of(STRANDS_PER_GROUP);
         let reports = pool.scope(|scope| {
             for mut chunk in state.strands.chunks_mut(strands_per_task) {
                 scope.spawn(async move { chunk.step(&input) });

@@ -7,7 +7,7 @@
 //! ```
 
 use hair_sim::prelude::*;
-use hair_sim::solver::StrandChunk;
+use hair_sim::solver::{STRANDS_PER_GROUP, StrandChunk};
 use std::time::Instant;
 
 /// Head keyframes: (time s, yaw rad, pitch rad), looped; a turn, a nod, a fast shake.
@@ -69,7 +69,7 @@ fn main() {
     let params = SimParams { collision: !std::env::args().any(|a| a == "--no-collision"), ..params };
     let mut strands = Strands::new(rest, head_pose(0.0));
 
-    let chunk = strands.strand_count().div_ceil(threads * 4).max(1);
+    let chunk = strands.strand_count().div_ceil(threads * 4).next_multiple_of(STRANDS_PER_GROUP);
     let n = strands.particles_per_strand();
     let dt = 1.0 / 60.0;
     let input_at = |k: usize| {

@@ -17,6 +17,10 @@ use crate::collide::{ContactHint, ExtraCollider, HeadCollider};
 use crate::math::{Pose, Quat, Vec3};
 use std::fmt;
 
+/// Strands the solver steps side by side in SIMD lanes. Chunks of a multiple of this
+/// many strands (see [`Strands::chunks_mut`]) leave no lane idle.
+pub const STRANDS_PER_GROUP: usize = lanes::LANES;
+
 /// Shortest segment the solver accepts, metres; shorter rest segments are lengthened.
 pub const MIN_SEGMENT_LENGTH: f32 = 1e-5;
 
@@ -207,7 +211,8 @@ impl Strands {
     }
 
     /// Splits the state into chunks of `strands_per_chunk` strands (the last may be
-    /// shorter) that can be stepped on different threads.
+    /// shorter) that can be stepped on different threads. Multiples of
+    /// [`STRANDS_PER_GROUP`] use the SIMD lanes fully.
     pub fn chunks_mut(&mut self, strands_per_chunk: usize) -> Vec<StrandChunk<'_>> {
         let n = self.rest.particles_per_strand;
         let size = strands_per_chunk.max(1) * n;

@@ -365,12 +365,13 @@ fn collide(
     for l in 0..g.lanes {
         let hints = &mut state.hints[g.strands[l] * n..][..n];
         for (j, hint) in hints.iter_mut().enumerate().skip(1) {
-            let (mut x, start) = (g.positions[j].lane(l), g.start[j].lane(l));
+            let mut x = g.positions[j].lane(l);
+            let start = || g.start[j].lane(l);
             if let Some(collider) = input.collider {
                 let local = poses.now.local_point(x);
                 if let Some(contact) = collider.resolve_hinted(local, p.collision_thickness, hint) {
                     // Friction acts on sliding relative to the head, so compare in head space.
-                    let local_start = poses.before.local_point(start);
+                    let local_start = poses.before.local_point(start());
                     x = poses.now.world_point(with_friction(contact, local_start, p.friction));
                     report.contacts += 1;
                     report.max_depth = report.max_depth.max(contact.depth);
@@ -378,7 +379,7 @@ fn collide(
             }
             for extra in input.extra_colliders {
                 if let Some(contact) = extra.resolve(x, p.collision_thickness) {
-                    x = with_friction(contact, start, p.friction);
+                    x = with_friction(contact, start(), p.friction);
                     report.contacts += 1;
                     report.max_depth = report.max_depth.max(contact.depth);
                 }
