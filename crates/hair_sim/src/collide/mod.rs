@@ -16,6 +16,7 @@ pub use shapes::ExtraCollider;
 use crate::math::Vec3;
 use crate::mesh::{HeadMesh, MeshError};
 use candidates::{CandidateGrid, Closest, Near};
+use glam::Vec3A;
 use parry3d::query::PointQueryWithLocation;
 use parry3d::shape::{TriMesh, TriMeshFlags};
 use triangles::FlatTriangles;
@@ -41,23 +42,30 @@ pub struct HeadCollider {
     grid: DistanceGrid,
     candidates: CandidateGrid,
     triangles: FlatTriangles,
+    /// The mesh's bounding box, lowest and highest corner.
+    bounds: (Vec3A, Vec3A),
 }
 
-/// Per-particle memory of the triangle it touched last, which lets the next query of a
-/// particle resting on the head skip the search (see [`HeadCollider::resolve_hinted`]).
-/// Only a shortcut: a stale or foreign hint costs one projection and changes no result.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct ContactHint(u32);
+/// Per-particle memory of its last collision query, which lets the next query skip work
+/// (see [`HeadCollider::resolve_hinted`]): a particle resting on the head remembers the
+/// triangle it touched, one away from it a ball around the spot it was tested at that
+/// holds no surface. Only a shortcut: a stale or foreign hint changes no result.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ContactHint(Hint);
+
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+enum Hint {
+    #[default]
+    None,
+    /// The closest triangle at the last query.
+    Touching(u32),
+    /// No surface within `distance` of the head-local point `at`.
+    Clear { at: Vec3, distance: f32 },
+}
 
 impl ContactHint {
-    /// No triangle remembered.
-    pub const NONE: ContactHint = ContactHint(u32::MAX);
-}
-
-impl Default for ContactHint {
-    fn default() -> Self {
-        Self::NONE
-    }
+    /// Nothing remembered.
+    pub const NONE: ContactHint = ContactHint(Hint::None);
 }
 
 impl HeadCollider {
@@ -76,7 +84,9 @@ impl HeadCollider {
         let grid = DistanceGrid::bake(&head.positions, resolution.max(2), |p| signed_distance_exact(&mesh, p));
         let candidates = CandidateGrid::bake(&grid, &mesh);
         let triangles = FlatTriangles::bake(&mesh);
-        Ok(HeadCollider { mesh, grid, candidates, triangles })
+        let aabb = mesh.local_aabb();
+        let bounds = (aabb.mins.into(), aabb.maxs.into());
+        Ok(HeadCollider { mesh, grid, candidates, triangles, bounds })
     }
 
     /// The baked distance grid.
@@ -108,18 +118,38 @@ impl HeadCollider {
     /// A particle resting on the scalp touches the same triangle substep after substep. If
     /// it lies above that triangle's face within the triangle's baked clearance, no other
     /// triangle can be closer (the proof is in `collide/triangles.rs`), so one projection
-    /// settles it without the grid or the candidate list.
+    /// settles it without the grid or the candidate list. A particle the grid found far
+    /// from the head remembers where, and how far: until it has moved that far, less the
+    /// thickness, it cannot touch anything, and it is answered without any lookup.
     #[inline]
     pub fn resolve_hinted(&self, p: Vec3, thickness: f32, hint: &mut ContactHint) -> Option<Contact> {
-        if let Some(certified) = self.triangles.certify(hint.0, p) {
-            let offset = p - certified.point;
-            return self.contact(certified.point, offset, certified.distance, hint.0, thickness);
+        match hint.0 {
+            Hint::Touching(triangle) => {
+                if let Some(certified) = self.triangles.certify(triangle, p) {
+                    let offset = p - certified.point;
+                    return self.contact(certified.point, offset, certified.distance, triangle, thickness);
+                }
+            }
+            // Moved less than the clearance it had, minus the thickness: still no contact.
+            Hint::Clear { at, distance } => {
+                if (p - at).length() + thickness < distance {
+                    return None;
+                }
+            }
+            Hint::None => {}
         }
-        *hint = ContactHint::NONE;
-        let at = self.grid.locate(p)?;
+        hint.0 = Hint::None;
+        let Some(at) = self.grid.locate(p) else {
+            // Outside the grid: at least as far from the mesh as from its bounding box.
+            let local = Vec3A::from(p);
+            let outside = (self.bounds.0 - local).max(local - self.bounds.1).max(Vec3A::ZERO);
+            hint.0 = Hint::Clear { at: p, distance: outside.length() };
+            return None;
+        };
         let approx = self.grid.sample_at(at);
         let error = self.grid.max_error();
         if approx > thickness + error {
+            hint.0 = Hint::Clear { at: p, distance: approx - error };
             return None;
         }
         // Where the grid proves `p` outside, the closest triangle is within `approx + error`;
@@ -134,7 +164,7 @@ impl HeadCollider {
             Near::Beyond => return None,
             Near::Unlisted => self.closest_by_bvh(p, approx.abs() + error + thickness)?,
         };
-        *hint = ContactHint(closest.triangle);
+        hint.0 = Hint::Touching(closest.triangle);
         let offset = p - closest.point;
         let distance = offset.length();
         let signed = if closest.inside { -distance } else { distance };

@@ -194,7 +194,7 @@ impl FlatTriangle {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::collide::{ContactHint, HeadCollider};
+    use crate::collide::{ContactHint, HeadCollider, Hint};
     use crate::groom::{SplitMix64, sample_roots};
     use crate::mesh::test_head;
     use parry3d::shape::TriMeshFlags;
@@ -256,12 +256,12 @@ mod tests {
             let second = first + Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, rng.next_f32() - 0.5) * 0.002;
             let mut hint = ContactHint::NONE;
             collider.resolve_hinted(first, 0.003, &mut hint);
-            if collider.triangles.certify(hint.0, second).is_some() {
+            if matches!(hint.0, Hint::Touching(t) if collider.triangles.certify(t, second).is_some()) {
                 certified += 1;
             }
             let hinted = collider.resolve_hinted(second, 0.003, &mut hint);
             // A hint that belongs to another particle must not change the answer either.
-            let mut foreign = ContactHint((rng.next_f32() * head.triangles.len() as f32) as u32);
+            let mut foreign = ContactHint(Hint::Touching((rng.next_f32() * head.triangles.len() as f32) as u32));
             let with_foreign = collider.resolve_hinted(second, 0.003, &mut foreign);
             let exact = collider.resolve(second, 0.003);
             assert_eq!(hinted.is_some(), exact.is_some(), "at {second:?}");
@@ -277,5 +277,35 @@ mod tests {
         // Not all: some moved inside, beside their triangle's face, or sit where the head is
         // concave (ears, neck).
         assert!(certified > 1500, "most resting particles skip the search: {certified} of 3000");
+    }
+
+    #[test]
+    fn a_far_particle_is_answered_from_its_clear_ball_until_it_leaves_it() {
+        let head = test_head(4);
+        let collider = HeadCollider::new(&head, 48).unwrap();
+        let everywhere = vec![1.0; head.triangles.len()];
+        let roots = sample_roots(&head, &everywhere, 500, 8).unwrap();
+        let (mut skipped, mut touched) = (0, 0);
+        for root in &roots {
+            // Falls from 4 cm out onto the surface and into the head, 1.5 mm at a time.
+            let (surface, normal) = (root.position(&head), root.normal(&head));
+            let mut hint = ContactHint::NONE;
+            for step in 0..32 {
+                let p = surface + normal * (0.04 - 0.0015 * step as f32);
+                let before = hint;
+                let hinted = collider.resolve_hinted(p, 0.003, &mut hint);
+                let exact = collider.resolve(p, 0.003);
+                assert_eq!(hinted.is_some(), exact.is_some(), "step {step} at {p:?}");
+                if let (Some(a), Some(b)) = (hinted, exact) {
+                    touched += 1;
+                    assert!((a.position - b.position).length() < 1e-5);
+                }
+                if matches!(before.0, Hint::Clear { .. }) && before == hint {
+                    skipped += 1;
+                }
+            }
+        }
+        assert!(touched >= 500 * 7, "the last seven steps touch: {touched}");
+        assert!(skipped > 500 * 15, "most of the 25 far steps need no lookup: {skipped}");
     }
 }
