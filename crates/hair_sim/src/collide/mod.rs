@@ -4,6 +4,9 @@
 //! never rebuilt as the head moves. Per particle, the distance grid answers "far from the
 //! head" with one trilinear lookup; only particles near the surface pay for the exact BVH
 //! query, which also gives the closest point and hence the surface normal to push along.
+//! A particle's [`ContactHint`] lets most queries skip even that: a resting particle
+//! re-proves its last triangle with one projection, a far one stays inside the empty
+//! ball the grid showed it last time.
 
 mod candidates;
 mod distance_grid;

@@ -8,8 +8,10 @@
 //!    final length pass (inextensible mode);
 //! 5. velocities from the position change, plus Müller's FTL correction.
 //!
-//! A strand whose root jumped more than `teleport_distance` is reset to the rest pose
-//! instead; a strand that somehow produced a non-finite value is reset too.
+//! Strands go through this sixteen at a time, side by side in SIMD lanes
+//! ([`lanes`](super::lanes)); collision, whose path differs per particle, takes them one
+//! by one. A strand whose root jumped more than `teleport_distance` is reset to the rest
+//! pose instead; a strand that somehow produced a non-finite value is reset too.
 
 use super::lanes::{LANES, M3, PoseLanes, V3, Wide};
 use super::params::{LengthMode, SimParams, stiffness_per_application};
