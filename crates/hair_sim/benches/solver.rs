@@ -2,6 +2,7 @@
 //! minute: `cargo bench -p hair_sim` (or `-- step` to pick some).
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use hair_sim::collide::ContactHint;
 use hair_sim::groom::SplitMix64;
 use hair_sim::prelude::*;
 use std::hint::black_box;
@@ -59,6 +60,17 @@ fn collider_resolve(c: &mut Criterion) {
     for (name, points) in [("near surface", &near), ("grid reject", &grid), ("far away", &far)] {
         group.bench_function(name, |b| {
             b.iter(|| points.iter().filter(|&&p| collider.resolve(black_box(p), 0.003).is_some()).count())
+        });
+        // The same points queried again with the hints of the previous pass, as a
+        // particle that stays put (resting, or hanging clear of the head) is.
+        let mut hints = vec![ContactHint::NONE; points.len()];
+        group.bench_function(format!("{name}, hinted"), |b| {
+            b.iter(|| {
+                let hits = points.iter().zip(&mut hints);
+                hits.map(|(&p, hint)| collider.resolve_hinted(black_box(p), 0.003, hint).is_some())
+                    .filter(|&hit| hit)
+                    .count()
+            })
         });
     }
     group.finish();
