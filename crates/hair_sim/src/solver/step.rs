@@ -153,13 +153,18 @@ impl GroupState {
         self.lanes = strands.len();
         // Empty lanes repeat the first strand: finite work whose result is dropped.
         self.strands = std::array::from_fn(|l| strands.get(l).copied().unwrap_or(strands[0]));
-        let (at, global) = (self.strands.map(|k| k * n), self.strands.map(|k| (first_strand + k) * n));
-        for j in 0..n {
-            self.positions[j] = V3::from_lanes(at.map(|a| state.positions[a + j]));
-            self.velocities[j] = V3::from_lanes(at.map(|a| state.velocities[a + j]));
-            self.rest_positions[j] = V3::from_lanes(global.map(|g| rest.positions[g + j]));
-            self.rest_directions[j] = V3::from_lanes(global.map(|g| rest.local_directions[g + j]));
-            self.lengths[j] = Wide::from_array(global.map(|g| rest.lengths[g + j]));
+        // Strand by strand, so each reads its particles in order.
+        for (l, &k) in self.strands.iter().enumerate() {
+            let (at, global) = (k * n, (first_strand + k) * n);
+            let positions = state.positions[at..][..n].iter().zip(&state.velocities[at..][..n]);
+            let rest_values = rest.positions[global..][..n].iter().zip(&rest.local_directions[global..][..n]);
+            for (j, ((&x, &v), (&r, &d))) in positions.zip(rest_values).enumerate() {
+                self.positions[j].set_lane(l, x);
+                self.velocities[j].set_lane(l, v);
+                self.rest_positions[j].set_lane(l, r);
+                self.rest_directions[j].set_lane(l, d);
+                self.lengths[j].set(l, rest.lengths[global + j]);
+            }
         }
         self.root_frames = self.strands.map(|k| rest.root_frames[first_strand + k]);
         self.seeds = self.strands.map(|k| (first_strand + k) as u32);
