@@ -22,6 +22,7 @@ use candidates::{CandidateGrid, Closest, Near};
 use glam::Vec3A;
 use parry3d::query::PointQueryWithLocation;
 use parry3d::shape::{TriMesh, TriMeshFlags};
+use std::sync::atomic::{AtomicU32, Ordering};
 use triangles::FlatTriangles;
 
 /// Distance-grid cells along the longest side of the head's bounding box.
@@ -47,6 +48,8 @@ pub struct HeadCollider {
     triangles: FlatTriangles,
     /// The mesh's bounding box, lowest and highest corner.
     bounds: (Vec3A, Vec3A),
+    /// Tells colliders apart, so a hint measured on one is not trusted by another.
+    id: u32,
 }
 
 /// Per-particle memory of its last collision query, which lets the next query skip work
@@ -62,8 +65,8 @@ enum Hint {
     None,
     /// The closest triangle at the last query.
     Touching(u32),
-    /// No surface within `distance` of the head-local point `at`.
-    Clear { at: Vec3, distance: f32 },
+    /// No surface of collider `collider` within `distance` of the head-local point `at`.
+    Clear { at: Vec3, distance: f32, collider: u32 },
 }
 
 impl ContactHint {
@@ -89,7 +92,9 @@ impl HeadCollider {
         let triangles = FlatTriangles::bake(&mesh);
         let aabb = mesh.local_aabb();
         let bounds = (aabb.mins.into(), aabb.maxs.into());
-        Ok(HeadCollider { mesh, grid, candidates, triangles, bounds })
+        static NEXT_ID: AtomicU32 = AtomicU32::new(0);
+        let id = NEXT_ID.fetch_add(1, Ordering::Relaxed);
+        Ok(HeadCollider { mesh, grid, candidates, triangles, bounds, id })
     }
 
     /// The baked distance grid.
@@ -134,8 +139,10 @@ impl HeadCollider {
                 }
             }
             // Moved less than the clearance it had, minus the thickness: still no contact.
-            Hint::Clear { at, distance } => {
-                if (p - at).length() + thickness < distance {
+            // (The ball belongs to the mesh it was measured on; a triangle hint needs no such
+            // check, because the certificate proves itself on whatever mesh asks.)
+            Hint::Clear { at, distance, collider } => {
+                if collider == self.id && (p - at).length() + thickness < distance {
                     return None;
                 }
             }
@@ -146,13 +153,13 @@ impl HeadCollider {
             // Outside the grid: at least as far from the mesh as from its bounding box.
             let local = Vec3A::from(p);
             let outside = (self.bounds.0 - local).max(local - self.bounds.1).max(Vec3A::ZERO);
-            hint.0 = Hint::Clear { at: p, distance: outside.length() };
+            hint.0 = Hint::Clear { at: p, distance: outside.length(), collider: self.id };
             return None;
         };
         let approx = self.grid.sample_at(at);
         let error = self.grid.max_error();
         if approx > thickness + error {
-            hint.0 = Hint::Clear { at: p, distance: approx - error };
+            hint.0 = Hint::Clear { at: p, distance: approx - error, collider: self.id };
             return None;
         }
         // Where the grid proves `p` outside, the closest triangle is within `approx + error`;

@@ -196,7 +196,7 @@ mod tests {
     use super::*;
     use crate::collide::{ContactHint, HeadCollider, Hint};
     use crate::groom::{SplitMix64, sample_roots};
-    use crate::mesh::test_head;
+    use crate::mesh::{HeadMesh, test_head};
     use parry3d::shape::TriMeshFlags;
 
     /// A 10 cm floor triangle (up = +Y) and a wall rising 4 mm beside it.
@@ -307,5 +307,20 @@ mod tests {
         }
         assert!(touched >= 500 * 7, "the last seven steps touch: {touched}");
         assert!(skipped > 500 * 15, "most of the 25 far steps need no lookup: {skipped}");
+    }
+
+    #[test]
+    fn a_hint_from_another_collider_changes_nothing() {
+        // The same head at two sizes: a point clear of the small one is inside the big one.
+        let small = test_head(3);
+        let big = HeadMesh::from_triangles(small.positions.iter().map(|&p| p * 1.5).collect(), small.triangles.clone())
+            .unwrap();
+        let (small, big) = (HeadCollider::new(&small, 32).unwrap(), HeadCollider::new(&big, 32).unwrap());
+        let p = Vec3::new(0.0, 0.14, 0.0); // 3 cm above the small crown, 2.5 cm inside the big one
+        let mut hint = ContactHint::NONE;
+        assert!(small.resolve_hinted(p, 0.003, &mut hint).is_none());
+        assert!(matches!(hint.0, Hint::Clear { .. }));
+        let on_big = big.resolve_hinted(p, 0.003, &mut hint).expect("inside the big head");
+        assert_eq!(Some(on_big), big.resolve(p, 0.003));
     }
 }
