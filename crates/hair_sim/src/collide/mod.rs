@@ -19,7 +19,6 @@ pub use shapes::ExtraCollider;
 use crate::math::Vec3;
 use crate::mesh::{HeadMesh, MeshError};
 use candidates::{CandidateGrid, Closest, Near};
-use glam::Vec3A;
 use parry3d::query::PointQueryWithLocation;
 use parry3d::shape::{TriMesh, TriMeshFlags};
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -46,8 +45,6 @@ pub struct HeadCollider {
     grid: DistanceGrid,
     candidates: CandidateGrid,
     triangles: FlatTriangles,
-    /// The mesh's bounding box, lowest and highest corner.
-    bounds: (Vec3A, Vec3A),
     /// Tells colliders apart, so a hint measured on one is not trusted by another.
     id: u32,
 }
@@ -90,11 +87,9 @@ impl HeadCollider {
         let grid = DistanceGrid::bake(&head.positions, resolution.max(2), |p| signed_distance_exact(&mesh, p));
         let candidates = CandidateGrid::bake(&grid, &mesh);
         let triangles = FlatTriangles::bake(&mesh);
-        let aabb = mesh.local_aabb();
-        let bounds = (aabb.mins.into(), aabb.maxs.into());
         static NEXT_ID: AtomicU32 = AtomicU32::new(0);
         let id = NEXT_ID.fetch_add(1, Ordering::Relaxed);
-        Ok(HeadCollider { mesh, grid, candidates, triangles, bounds, id })
+        Ok(HeadCollider { mesh, grid, candidates, triangles, id })
     }
 
     /// The baked distance grid.
@@ -151,8 +146,8 @@ impl HeadCollider {
         hint.0 = Hint::None;
         let Some(at) = self.grid.locate(p) else {
             // Outside the grid: at least as far from the mesh as from its bounding box.
-            let local = Vec3A::from(p);
-            let outside = (self.bounds.0 - local).max(local - self.bounds.1).max(Vec3A::ZERO);
+            let bounds = self.mesh.local_aabb();
+            let outside = (bounds.mins - p).max(p - bounds.maxs).max(Vec3::ZERO);
             hint.0 = Hint::Clear { at: p, distance: outside.length(), collider: self.id };
             return None;
         };

@@ -102,8 +102,8 @@ fn clearance(mesh: &TriMesh, t: &Triangle, flat: &FlatTriangle) -> f32 {
     0.5 * nearest
 }
 
-/// A triangle as its first corner and two edges (and their cross product), the form the
-/// projection works on, in one 64-byte line.
+/// A triangle as its first corner, two edges and its unit normal, the form the projection
+/// works on, in one 64-byte line.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 pub(super) struct FlatTriangle {

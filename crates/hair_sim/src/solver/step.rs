@@ -59,6 +59,8 @@ struct Constants {
     poses: Vec<Pose>,
     /// `poses` as matrices.
     matrices: Vec<PoseMatrix>,
+    /// `matrices` splatted across the lanes.
+    lane_poses: Vec<PoseLanes>,
     drag_factor: f32,
     max_step_move: f32,
     local_alpha: f32,
@@ -79,7 +81,8 @@ impl Constants {
         let substeps = p.substeps.max(1);
         let h = dt / substeps as f32;
         let poses: Vec<Pose> = (0..=substeps).map(|s| from.lerp(&input.head_to, s as f32 / substeps as f32)).collect();
-        let matrices = poses.iter().map(PoseMatrix::new).collect();
+        let matrices: Vec<PoseMatrix> = poses.iter().map(PoseMatrix::new).collect();
+        let lane_poses = matrices.iter().map(|m| PoseLanes::new(m.rotation, m.translation)).collect();
         // Shape constraints run `iterations` times per substep.
         let applications_per_second = p.iterations.max(1) as f32 / h;
         let global_alpha = (0..n)
@@ -96,6 +99,7 @@ impl Constants {
             h,
             poses,
             matrices,
+            lane_poses,
             drag_factor: (-p.drag * h).exp(),
             max_step_move: p.max_speed * h,
             local_alpha: stiffness_per_application(p.local_stiffness, applications_per_second),
@@ -242,7 +246,7 @@ fn step_group(g: &mut GroupState, state: &mut ChunkState, c: &Constants, input: 
         let poses = SubstepPoses {
             before: &c.matrices[s - 1],
             now: &c.matrices[s],
-            now_lanes: PoseLanes::new(c.matrices[s].rotation, c.matrices[s].translation),
+            now_lanes: &c.lane_poses[s],
             frame: c.poses[s].rotation,
         };
         let time = input.time + c.h * s as f32;
@@ -255,7 +259,7 @@ struct SubstepPoses<'a> {
     before: &'a PoseMatrix,
     now: &'a PoseMatrix,
     /// `now`, for whole lanes at once.
-    now_lanes: PoseLanes,
+    now_lanes: &'a PoseLanes,
     /// The rotation of `now`, for the root frames of local shape.
     frame: Quat,
 }
@@ -304,7 +308,7 @@ fn substep(
     g.ftl_correction.fill(V3::ZERO);
     let root_frame = M3::from_lanes(g.root_frames.map(|q| Mat3A::from_quat(poses.frame * q)));
     for _ in 0..p.iterations {
-        global_shape(g, &c.global_alpha, &poses.now_lanes);
+        global_shape(g, &c.global_alpha, poses.now_lanes);
         if c.local_alpha > 0.0 {
             local_shape(g, c.local_alpha, root_frame);
         }
