@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::wild_f32;
+use common::{proptest_config, wild_f32};
 use hair_sim::groom::{child_offset, evaluate, frame_at};
 use hair_sim::prelude::*;
 use proptest::prelude::*;
@@ -45,19 +45,8 @@ fn wild_root_u() -> impl Strategy<Value = Vec3> {
     ]
 }
 
-/// 500 cases (a fraction of a second), or `PROPTEST_CASES` for a longer hunt. Failures print
-/// their minimal input; nothing is written next to the tests.
-fn config() -> ProptestConfig {
-    let mut config = ProptestConfig::default();
-    if std::env::var_os("PROPTEST_CASES").is_none() {
-        config.cases = 500;
-    }
-    config.failure_persistence = None;
-    config
-}
-
 proptest! {
-    #![proptest_config(config())]
+    #![proptest_config(proptest_config(500))]
 
     #[test]
     fn children_are_finite_and_counted_exactly(

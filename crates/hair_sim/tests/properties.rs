@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{Groom, GroomSpec, groom_on_upper_half, wild_f32};
+use common::{Groom, GroomSpec, groom_on_upper_half, proptest_config, wild_f32};
 use hair_sim::prelude::*;
 use hair_sim::solver::ParamIssue;
 use proptest::prelude::*;
@@ -246,23 +246,12 @@ fn check_wild_run(params: &SimParams, steps: &[(Pose, f32, f32)], neck: bool) ->
     Ok(())
 }
 
-/// 64 cases (a fraction of a second), or `PROPTEST_CASES` for a longer hunt. Failures print
-/// their minimal input; nothing is written next to the tests.
-fn config() -> ProptestConfig {
-    let mut config = ProptestConfig::default();
-    if std::env::var_os("PROPTEST_CASES").is_none() {
-        config.cases = 64;
-    }
-    config.failure_persistence = None;
-    config
-}
-
 fn wild_steps() -> impl Strategy<Value = Vec<(Pose, f32, f32)>> {
     prop::collection::vec((wild_pose(), wild_dt(), wild_f32()), 1..6)
 }
 
 proptest! {
-    #![proptest_config(config())]
+    #![proptest_config(proptest_config(64))]
 
     #[test]
     fn sanitized_is_idempotent_finite_and_reports_every_change(params in wild_params()) {

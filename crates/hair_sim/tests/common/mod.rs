@@ -68,3 +68,14 @@ pub fn wild_f32() -> impl Strategy<Value = f32> {
         4 => 0.0f32..100.0,
     ]
 }
+
+/// `cases` cases (a fraction of a second), or `PROPTEST_CASES` for a longer hunt. Failures
+/// print their minimal input; nothing is written next to the tests.
+pub fn proptest_config(cases: u32) -> ProptestConfig {
+    let mut config = ProptestConfig::default();
+    if std::env::var_os("PROPTEST_CASES").is_none() {
+        config.cases = cases;
+    }
+    config.failure_persistence = None;
+    config
+}
