@@ -33,7 +33,7 @@ use crate::math::Vec3;
 use glam::Vec4;
 use parry3d::bounding_volume::Aabb;
 use parry3d::query::PointQuery;
-use parry3d::shape::TriMesh;
+use parry3d::shape::{TriMesh, TrianglePointLocation};
 
 /// Collision thickness, metres, up to which every near query finds a list (thicker
 /// settings still work; some of their queries take the BVH).
@@ -62,6 +62,8 @@ pub(super) struct Closest {
     pub point: Vec3,
     pub triangle: u32,
     pub inside: bool,
+    /// The point lies inside the triangle's face, not on an edge or a corner.
+    pub on_face: bool,
 }
 
 /// Four consecutive candidates of a list, one per SIMD lane, in one cache line: the
@@ -179,7 +181,8 @@ impl CandidateGrid {
         match best {
             Some((triangle, point, location)) => {
                 let inside = flat.get(triangle).is_inside(mesh, triangle, location, p - point);
-                Near::Closest(Closest { point, triangle, inside })
+                let on_face = matches!(location, TrianglePointLocation::OnFace(..));
+                Near::Closest(Closest { point, triangle, inside, on_face })
             }
             None => Near::Beyond,
         }

@@ -20,7 +20,7 @@ use crate::math::Vec3;
 use crate::mesh::{HeadMesh, MeshError};
 use candidates::{CandidateGrid, Closest, Near};
 use parry3d::query::PointQueryWithLocation;
-use parry3d::shape::{TriMesh, TriMeshFlags};
+use parry3d::shape::{TriMesh, TriMeshFlags, TrianglePointLocation};
 use std::sync::atomic::{AtomicU32, Ordering};
 use triangles::FlatTriangles;
 
@@ -129,8 +129,7 @@ impl HeadCollider {
         match hint.0 {
             Hint::Touching(triangle) => {
                 if let Some(certified) = self.triangles.certify(triangle, p) {
-                    let offset = p - certified.point;
-                    return self.contact(certified.point, offset, certified.distance, triangle, thickness);
+                    return contact(certified.point, certified.normal, certified.distance, thickness);
                 }
             }
             // Moved less than the clearance it had, minus the thickness: still no contact.
@@ -173,31 +172,40 @@ impl HeadCollider {
         let offset = p - closest.point;
         let distance = offset.length();
         let signed = if closest.inside { -distance } else { distance };
-        self.contact(closest.point, offset, signed, closest.triangle, thickness)
-    }
-
-    /// The contact for a point at `offset` from its closest surface point `on_surface`
-    /// (on `triangle`), `signed` distance away, if that is nearer than `thickness`.
-    #[inline]
-    fn contact(&self, on_surface: Vec3, offset: Vec3, signed: f32, triangle: u32, thickness: f32) -> Option<Contact> {
         if signed >= thickness {
             return None;
         }
-        // Outward normal: away from the surface outside, towards it inside; on the surface
-        // itself the offset has no direction, so the face normal decides.
-        let normal = if signed.abs() > 1e-7 {
-            offset / signed
-        } else {
-            self.mesh.triangle(triangle).normal().unwrap_or(Vec3::Y)
+        // Outward normal. Over a face it is the face's (the offset's direction is only
+        // rounding when the point sits on the surface); off an edge or a corner it points
+        // away from the surface outside, towards it inside.
+        let face_normal = self.triangles.get(closest.triangle).normal();
+        let normal = match face_normal {
+            Some(face) if closest.on_face => face,
+            _ if signed.abs() > 1e-7 => offset / signed,
+            _ => face_normal.unwrap_or(Vec3::Y),
         };
-        Some(Contact { position: on_surface + normal * thickness, normal, depth: thickness - signed })
+        contact(closest.point, normal, signed, thickness)
     }
 
     /// The closest point by a BVH walk; the true distance is within `max_dist`.
     fn closest_by_bvh(&self, p: Vec3, max_dist: f32) -> Option<Closest> {
-        let (proj, (triangle, _)) = self.mesh.project_local_point_and_get_location_with_max_dist(p, false, max_dist)?;
-        Some(Closest { point: proj.point, triangle, inside: proj.is_inside })
+        let (proj, (triangle, location)) =
+            self.mesh.project_local_point_and_get_location_with_max_dist(p, false, max_dist)?;
+        let (point, inside, on_face) =
+            (proj.point, proj.is_inside, matches!(location, TrianglePointLocation::OnFace(..)));
+        Some(Closest { point, triangle, inside, on_face })
     }
+}
+
+/// The contact for a point `signed` distance from its closest surface point `on_surface`,
+/// along the outward `normal`, if that is nearer than `thickness`.
+#[inline]
+fn contact(on_surface: Vec3, normal: Vec3, signed: f32, thickness: f32) -> Option<Contact> {
+    (signed < thickness).then(|| Contact {
+        position: on_surface + normal * thickness,
+        normal,
+        depth: thickness - signed,
+    })
 }
 
 fn signed_distance_exact(mesh: &TriMesh, p: Vec3) -> f32 {

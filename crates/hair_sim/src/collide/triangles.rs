@@ -37,8 +37,6 @@ const DISTANCE_SLACK: f32 = 1e-5;
 #[derive(Clone, Debug)]
 pub(super) struct FlatTriangles {
     triangles: Vec<FlatTriangle>,
-    /// Per triangle: the height above it up to which the certificate holds.
-    clearances: Vec<f32>,
 }
 
 /// What the certificate settled about a point.
@@ -48,13 +46,22 @@ pub(super) struct Certified {
     pub point: Vec3,
     /// Distance from the query point to it (the point is outside).
     pub distance: f32,
+    /// The triangle's unit normal: the direction from the closest point to the query
+    /// point.
+    pub normal: Vec3,
 }
 
 impl FlatTriangles {
     pub fn bake(mesh: &TriMesh) -> Self {
-        let triangles: Vec<FlatTriangle> = mesh.triangles().map(|t| FlatTriangle::new(t.a, t.b, t.c)).collect();
-        let clearances = mesh.triangles().zip(&triangles).map(|(t, flat)| clearance(mesh, &t, flat)).collect();
-        FlatTriangles { triangles, clearances }
+        let triangles = mesh
+            .triangles()
+            .map(|t| {
+                let mut flat = FlatTriangle::new(t.a, t.b, t.c);
+                flat.clearance = clearance(mesh, &t, flat.normal);
+                flat
+            })
+            .collect();
+        FlatTriangles { triangles }
     }
 
     #[inline]
@@ -64,22 +71,35 @@ impl FlatTriangles {
 
     /// The closest point of the mesh to `p`, if the certificate of `triangle` proves it:
     /// `p` above the triangle's face, within its clearance.
+    ///
+    /// This runs for most particles resting on the head, so it skips the general
+    /// projection: the height is one dot product, and "above the face" is the sign of the
+    /// projection's barycentric coordinates, without dividing by their sum.
     #[inline]
     pub fn certify(&self, triangle: u32, p: Vec3) -> Option<Certified> {
-        let flat = self.triangles.get(triangle as usize)?;
-        let (point, location) = flat.project(p);
-        let TrianglePointLocation::OnFace(0, _) = location else {
+        let t = self.triangles.get(triangle as usize)?;
+        let ap = Vec3A::from(p) - t.a;
+        let normal = Vec3A::from(t.normal);
+        let height = normal.dot(ap);
+        // Strictly below the clearance: a sliver has none (and no normal).
+        if !(height >= 0.0 && height < t.clearance) {
             return None;
-        };
-        let distance = (p - point).length();
-        (distance <= self.clearances[triangle as usize]).then_some(Certified { point, distance })
+        }
+        // The in-plane point a + v·ab + w·ac under `p` solves the 2×2 Gram system of the
+        // edges; v, w and 1 − v − w, times its (positive) determinant, are all ≥ 0 over the face.
+        let (aa, ab_ac, cc) = (t.ab.length_squared(), t.ab.dot(t.ac), t.ac.length_squared());
+        let (d1, d2) = (t.ab.dot(ap), t.ac.dot(ap));
+        let (v, w) = (cc * d1 - ab_ac * d2, aa * d2 - ab_ac * d1);
+        if !(v >= 0.0 && w >= 0.0 && v + w <= aa * cc - ab_ac * ab_ac) {
+            return None;
+        }
+        Some(Certified { point: (Vec3A::from(p) - normal * height).into(), distance: height, normal: t.normal })
     }
 }
 
 /// Half the distance from `t` to the nearest triangle that rises above its plane, capped
 /// at [`MAX_CLEARANCE`]; zero for a sliver without a normal.
-fn clearance(mesh: &TriMesh, t: &Triangle, flat: &FlatTriangle) -> f32 {
-    let normal = Vec3::from(flat.normal);
+fn clearance(mesh: &TriMesh, t: &Triangle, normal: Vec3) -> f32 {
     if normal == Vec3::ZERO {
         return 0.0;
     }
@@ -103,7 +123,7 @@ fn clearance(mesh: &TriMesh, t: &Triangle, flat: &FlatTriangle) -> f32 {
 }
 
 /// A triangle as its first corner, two edges and its unit normal, the form the projection
-/// works on, in one 64-byte line.
+/// works on, and its clearance: one 64-byte line per query.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 pub(super) struct FlatTriangle {
@@ -111,13 +131,15 @@ pub(super) struct FlatTriangle {
     ab: Vec3A,
     ac: Vec3A,
     /// Unit face normal (zero for a sliver without one).
-    normal: Vec3A,
+    normal: Vec3,
+    /// The height above the face up to which the certificate holds, metres.
+    clearance: f32,
 }
 
 impl FlatTriangle {
     fn new(a: Vec3, b: Vec3, c: Vec3) -> Self {
         let (a, ab, ac) = (Vec3A::from(a), Vec3A::from(b - a), Vec3A::from(c - a));
-        FlatTriangle { a, ab, ac, normal: ab.cross(ac).normalize_or_zero() }
+        FlatTriangle { a, ab, ac, normal: ab.cross(ac).normalize_or_zero().into(), clearance: 0.0 }
     }
 
     /// The point of the triangle closest to `p`, and the feature it lies on (edges
@@ -167,8 +189,13 @@ impl FlatTriangle {
             return (proj.point, location);
         }
         let (v, w) = (vb / denom, vc / denom);
-        let side = if self.normal.dot(ap) >= 0.0 { 0 } else { 1 };
+        let side = if Vec3A::from(self.normal).dot(ap) >= 0.0 { 0 } else { 1 };
         ((self.a + ab * v + ac * w).into(), TrianglePointLocation::OnFace(side, [1.0 - v - w, v, w]))
+    }
+
+    /// The unit face normal, if the triangle has one.
+    pub fn normal(&self) -> Option<Vec3> {
+        (self.normal != Vec3::ZERO).then_some(self.normal)
     }
 
     /// Parry's inside test for an oriented mesh: a point behind the pseudo-normal of the
@@ -178,7 +205,7 @@ impl FlatTriangle {
             return false;
         };
         let normal = match location {
-            TrianglePointLocation::OnFace(..) | TrianglePointLocation::OnSolid => Some(self.normal.into()),
+            TrianglePointLocation::OnFace(..) | TrianglePointLocation::OnSolid => Some(self.normal),
             TrianglePointLocation::OnEdge(i, _) => {
                 pseudo.edges_pseudo_normal.get(triangle as usize).map(|n| n[i as usize])
             }
@@ -216,9 +243,9 @@ mod tests {
     #[test]
     fn clearance_is_half_the_gap_to_a_triangle_rising_above_the_plane() {
         let flat = FlatTriangles::bake(&floor_and_wall());
-        assert!((flat.clearances[0] - 0.002).abs() < 2e-5, "floor: {}", flat.clearances[0]);
+        assert!((flat.triangles[0].clearance - 0.002).abs() < 2e-5, "floor: {}", flat.triangles[0].clearance);
         // The floor lies in front of the wall, so the wall's clearance is the same.
-        assert!((flat.clearances[1] - 0.002).abs() < 2e-5, "wall: {}", flat.clearances[1]);
+        assert!((flat.triangles[1].clearance - 0.002).abs() < 2e-5, "wall: {}", flat.triangles[1].clearance);
     }
 
     #[test]
