@@ -124,6 +124,15 @@ impl Mask {
     }
 }
 
+impl Mask {
+    /// Lane `l` set where bit `l` of `bits` is.
+    #[inline]
+    pub fn from_bits(bits: u32) -> Mask {
+        let bit = |l: usize| bits & (1 << l) != 0;
+        Mask(std::array::from_fn(|i| BVec4A::new(bit(4 * i), bit(4 * i + 1), bit(4 * i + 2), bit(4 * i + 3))))
+    }
+}
+
 impl BitAnd for Mask {
     type Output = Mask;
     #[inline]
@@ -354,18 +363,30 @@ impl M3 {
 #[derive(Clone, Copy, Debug)]
 pub(super) struct PoseLanes {
     rotation: M3,
+    /// The inverse rotation (its transpose).
+    inverse: M3,
     translation: V3,
 }
 
 impl PoseLanes {
     pub fn new(rotation: Mat3A, translation: Vec3A) -> Self {
-        PoseLanes { rotation: M3::splat(rotation), translation: V3::splat(translation.into()) }
+        PoseLanes {
+            rotation: M3::splat(rotation),
+            inverse: M3::splat(rotation.transpose()),
+            translation: V3::splat(translation.into()),
+        }
     }
 
     /// Head-local points → world.
     #[inline]
     pub fn world_point(&self, p: V3) -> V3 {
         self.rotation.mul_vec(p) + self.translation
+    }
+
+    /// World points → head-local.
+    #[inline]
+    pub fn local_point(&self, p: V3) -> V3 {
+        self.inverse.mul_vec(p - self.translation)
     }
 }
 

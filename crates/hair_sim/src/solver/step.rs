@@ -13,7 +13,7 @@
 //! by one. A strand whose root jumped more than `teleport_distance` is reset to the rest
 //! pose instead; a strand that somehow produced a non-finite value is reset too.
 
-use super::lanes::{LANES, M3, PoseLanes, V3, Wide};
+use super::lanes::{LANES, M3, Mask, PoseLanes, V3, Wide};
 use super::params::{LengthMode, SimParams, stiffness_per_application};
 use super::wind::wind_at;
 use super::{ChunkState, RestShape, StepInput, StepReport};
@@ -38,12 +38,6 @@ impl PoseMatrix {
     fn new(pose: &Pose) -> Self {
         let rotation = Mat3A::from_quat(pose.rotation);
         PoseMatrix { rotation, inverse: rotation.transpose(), translation: pose.translation.into() }
-    }
-
-    /// Head-local point → world.
-    #[inline]
-    fn world_point(&self, p: Vec3) -> Vec3 {
-        (self.rotation * Vec3A::from(p) + self.translation).into()
     }
 
     /// World point → head-local.
@@ -124,6 +118,9 @@ struct GroupState {
     start: Vec<V3>,
     force: Vec<V3>,
     ftl_correction: Vec<V3>,
+    /// Head-local positions during collision, and per particle the lanes it moved.
+    local: Vec<V3>,
+    moved: Vec<u32>,
     rest_positions: Vec<V3>,
     rest_directions: Vec<V3>,
     lengths: Vec<Wide>,
@@ -143,6 +140,8 @@ impl GroupState {
             start: vec![V3::ZERO; n],
             force: vec![V3::ZERO; n],
             ftl_correction: vec![V3::ZERO; n],
+            local: vec![V3::ZERO; n],
+            moved: vec![0; n],
             rest_positions: vec![V3::ZERO; n],
             rest_directions: vec![V3::ZERO; n],
             lengths: vec![Wide::ZERO; n],
@@ -243,12 +242,7 @@ fn reset_strand(state: &mut ChunkState, k: usize, n: usize, rest_x: &[Vec3], pos
 
 fn step_group(g: &mut GroupState, state: &mut ChunkState, c: &Constants, input: &StepInput, report: &mut StepReport) {
     for s in 1..c.poses.len() {
-        let poses = SubstepPoses {
-            before: &c.matrices[s - 1],
-            now: &c.matrices[s],
-            now_lanes: &c.lane_poses[s],
-            frame: c.poses[s].rotation,
-        };
+        let poses = SubstepPoses { before: &c.matrices[s - 1], now: &c.lane_poses[s], frame: c.poses[s].rotation };
         let time = input.time + c.h * s as f32;
         substep(g, state, c, time, &poses, input, report);
     }
@@ -256,10 +250,10 @@ fn step_group(g: &mut GroupState, state: &mut ChunkState, c: &Constants, input: 
 
 /// The head at the start and end of a substep.
 struct SubstepPoses<'a> {
+    /// For one particle at a time (friction at a contact).
     before: &'a PoseMatrix,
-    now: &'a PoseMatrix,
-    /// `now`, for whole lanes at once.
-    now_lanes: &'a PoseLanes,
+    /// For whole lanes at once.
+    now: &'a PoseLanes,
     /// The rotation of `now`, for the root frames of local shape.
     frame: Quat,
 }
@@ -302,13 +296,13 @@ fn substep(
         let v = (g.velocities[j] + a * h) * drag;
         g.positions[j] += (v * h).clamp_length_max(max_move);
     }
-    g.positions[0] = poses.now_lanes.world_point(g.rest_positions[0]);
+    g.positions[0] = poses.now.world_point(g.rest_positions[0]);
 
     // 3. Shape and length.
     g.ftl_correction.fill(V3::ZERO);
     let root_frame = M3::from_lanes(g.root_frames.map(|q| Mat3A::from_quat(poses.frame * q)));
     for _ in 0..p.iterations {
-        global_shape(g, &c.global_alpha, poses.now_lanes);
+        global_shape(g, &c.global_alpha, poses.now);
         if c.local_alpha > 0.0 {
             local_shape(g, c.local_alpha, root_frame);
         }
@@ -373,26 +367,46 @@ fn collide(
     report: &mut StepReport,
 ) {
     let n = g.positions.len();
-    for l in 0..g.lanes {
-        let hints = &mut state.hints[g.strands[l] * n..][..n];
-        for (j, hint) in hints.iter_mut().enumerate().skip(1) {
-            let mut x = g.positions[j].lane(l);
-            let start = || g.start[j].lane(l);
-            if let Some(collider) = input.collider {
-                let local = poses.now.local_point(x);
-                if let Some(contact) = collider.resolve_hinted(local, p.collision_thickness, hint) {
+    let mut touch = |contact: &Contact| {
+        report.contacts += 1;
+        report.max_depth = report.max_depth.max(contact.depth);
+    };
+    if let Some(collider) = input.collider {
+        // Into head space and back for all lanes at once; most particles touch nothing and
+        // keep their position untouched.
+        for (local, &x) in g.local.iter_mut().zip(&g.positions) {
+            *local = poses.now.local_point(x);
+        }
+        g.moved.fill(0);
+        // Strand by strand: neighbouring particles query neighbouring cells and triangles.
+        for l in 0..g.lanes {
+            let hints = &mut state.hints[g.strands[l] * n..][..n];
+            for (j, hint) in hints.iter_mut().enumerate().skip(1) {
+                if let Some(contact) = collider.resolve_hinted(g.local[j].lane(l), p.collision_thickness, hint) {
                     // Friction acts on sliding relative to the head, so compare in head space.
-                    let local_start = poses.before.local_point(start());
-                    x = poses.now.world_point(with_friction(contact, local_start, p.friction));
-                    report.contacts += 1;
-                    report.max_depth = report.max_depth.max(contact.depth);
+                    let local_start = poses.before.local_point(g.start[j].lane(l));
+                    g.local[j].set_lane(l, with_friction(contact, local_start, p.friction));
+                    g.moved[j] |= 1 << l;
+                    touch(&contact);
                 }
             }
+        }
+        for ((x, &local), &moved) in g.positions.iter_mut().zip(&g.local).zip(&g.moved) {
+            if moved != 0 {
+                *x = V3::select(Mask::from_bits(moved), poses.now.world_point(local), *x);
+            }
+        }
+    }
+    if input.extra_colliders.is_empty() {
+        return;
+    }
+    for j in 1..n {
+        for l in 0..g.lanes {
+            let mut x = g.positions[j].lane(l);
             for extra in input.extra_colliders {
                 if let Some(contact) = extra.resolve(x, p.collision_thickness) {
-                    x = with_friction(contact, start(), p.friction);
-                    report.contacts += 1;
-                    report.max_depth = report.max_depth.max(contact.depth);
+                    x = with_friction(contact, g.start[j].lane(l), p.friction);
+                    touch(&contact);
                 }
             }
             g.positions[j].set_lane(l, x);
