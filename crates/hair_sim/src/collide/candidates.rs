@@ -46,6 +46,9 @@ const MAX_CANDIDATES: usize = 96;
 const SLACK: f32 = 1e-5;
 /// Marks a cell without a list.
 const NONE: u32 = u32::MAX;
+/// Bits of a cell's range word that count its blocks: enough for [`MAX_CANDIDATES`].
+const COUNT_BITS: u32 = 5;
+const _: () = assert!(MAX_CANDIDATES.div_ceil(4) < 1 << COUNT_BITS);
 
 #[derive(Clone, Copy, Debug)]
 struct Candidate {
@@ -66,28 +69,29 @@ pub(super) struct Closest {
     pub on_face: bool,
 }
 
-/// Four consecutive candidates of a list, one per SIMD lane, in one cache line: the
-/// run-time bounds test all four at once.
+/// Four consecutive candidates of a list, one per SIMD lane: the run-time bounds test
+/// all four at once, and the triangles of those that pass are in the same record.
 #[derive(Clone, Copy, Debug)]
-#[repr(C, align(64))]
+#[repr(C)]
 struct Block {
     /// Distances from the cell centre; `INFINITY` in the padding lanes of a list's last
     /// block, so they never pass a bound.
     centre_distance: Vec4,
     /// The gradients' x, y and z components.
     gradient: [Vec4; 3],
+    /// The triangle of each lane.
+    triangles: [u32; 4],
 }
 
 /// Candidate lists on the cells of the distance grid.
 #[derive(Clone, Debug)]
 pub(super) struct CandidateGrid {
     cell: f32,
-    /// Per cell, by [`GridPoint::index`]: `[first, count]` blocks, or `[NONE, 0]` for
-    /// "use the BVH".
-    ranges: Vec<[u32; 2]>,
+    /// Per cell, by [`GridPoint::index`]: its first block and (low [`COUNT_BITS`] bits)
+    /// how many, or [`NONE`] for "use the BVH". One word per cell keeps the table small
+    /// enough to stay in cache.
+    ranges: Vec<u32>,
     blocks: Vec<Block>,
-    /// The triangle of each block lane (read only for the candidates that get projected).
-    triangles: Vec<[u32; 4]>,
 }
 
 impl CandidateGrid {
@@ -97,9 +101,8 @@ impl CandidateGrid {
         let lower = -INSIDE_CELLS * grid.cell_size();
         let mut out = CandidateGrid {
             cell: grid.cell_size(),
-            ranges: vec![[NONE, 0]; dims[0] * dims[1] * dims[2]],
+            ranges: vec![NONE; dims[0] * dims[1] * dims[2]],
             blocks: Vec::new(),
-            triangles: Vec::new(),
         };
         for z in 0..dims[2] - 1 {
             for y in 0..dims[1] - 1 {
@@ -115,7 +118,11 @@ impl CandidateGrid {
                         continue;
                     }
                     let index = (z * dims[1] + y) * dims[0] + x;
-                    out.ranges[index] = [out.blocks.len() as u32, list.len().div_ceil(4) as u32];
+                    let first = u32::try_from(out.blocks.len()).ok().filter(|&f| f < NONE >> COUNT_BITS);
+                    let Some(first) = first else {
+                        continue; // a table this large is beyond any head; the BVH still answers
+                    };
+                    out.ranges[index] = (first << COUNT_BITS) | list.len().div_ceil(4) as u32;
                     for four in list.chunks(4) {
                         let lane = |i: usize, f: fn(&Candidate) -> f32, pad: f32| four.get(i).map_or(pad, f);
                         let lanes = |f: fn(&Candidate) -> f32, pad: f32| {
@@ -128,8 +135,8 @@ impl CandidateGrid {
                                 lanes(|c| c.gradient.y, 0.0),
                                 lanes(|c| c.gradient.z, 0.0),
                             ],
+                            triangles: std::array::from_fn(|i| four.get(i).map_or(0, |c| c.triangle)),
                         });
-                        out.triangles.push(std::array::from_fn(|i| four.get(i).map_or(0, |c| c.triangle)));
                     }
                 }
             }
@@ -141,18 +148,19 @@ impl CandidateGrid {
     /// `max_distance`.
     #[inline]
     pub fn closest(&self, flat: &FlatTriangles, mesh: &TriMesh, p: Vec3, at: GridPoint, max_distance: f32) -> Near {
-        let [first, count] = self.ranges[at.index];
-        if count == 0 {
+        let range = self.ranges[at.index];
+        if range == NONE {
             return Near::Unlisted;
         }
-        let range = first as usize..(first + count) as usize;
+        let first = (range >> COUNT_BITS) as usize;
+        let blocks = &self.blocks[first..][..(range & ((1 << COUNT_BITS) - 1)) as usize];
         // From the cell centre to `p`.
         let offset = (at.fraction - 0.5) * self.cell;
         let from_centre = offset.length();
         let (ox, oy, oz) = (Vec4::splat(offset.x), Vec4::splat(offset.y), Vec4::splat(offset.z));
         let mut best_distance = max_distance;
         let mut best = None;
-        for (block, triangles) in self.blocks[range.clone()].iter().zip(&self.triangles[range]) {
+        for block in blocks {
             let by_centre = block.centre_distance - (from_centre + SLACK);
             if by_centre.x >= best_distance {
                 break; // sorted: no later triangle can be closer either
@@ -168,7 +176,7 @@ impl CandidateGrid {
                 if bound[lane] >= best_distance {
                     continue; // ruled out by a winner found earlier in this block
                 }
-                let triangle = triangles[lane];
+                let triangle = block.triangles[lane];
                 let (point, location) = flat.get(triangle).project(p);
                 // Most projections lose: compare squares and take the root only for a winner.
                 let squared = (p - point).length_squared();
