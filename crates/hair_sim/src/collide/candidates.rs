@@ -44,6 +44,9 @@ const INSIDE_CELLS: f32 = 2.0;
 const MAX_CANDIDATES: usize = 96;
 /// Absorbs f32 rounding in the bake-time distances and the run-time bounds, metres.
 const SLACK: f32 = 1e-5;
+/// How far beyond a particle's distance the gap certificate looks for rising triangles,
+/// metres: the room it leaves the particle to move before the next search.
+const GAP_MARGIN: f32 = 0.002;
 /// Marks a cell without a list.
 const NONE: u32 = u32::MAX;
 /// Bits of a cell's range word that count its blocks: enough for [`MAX_CANDIDATES`].
@@ -67,6 +70,9 @@ pub(super) struct Closest {
     pub inside: bool,
     /// The point lies inside the triangle's face, not on an edge or a corner.
     pub on_face: bool,
+    /// Every triangle rising above `triangle`'s plane is at least this far from the query
+    /// point (the gap certificate in `triangles.rs`); zero when not measured.
+    pub gap: f32,
 }
 
 /// Four consecutive candidates of a list, one per SIMD lane: the run-time bounds test
@@ -186,15 +192,59 @@ impl CandidateGrid {
                 }
             }
         }
-        match best {
-            Some((triangle, point, location)) => {
-                let inside = flat.get(triangle).is_inside(mesh, triangle, location, p - point);
-                let on_face = matches!(location, TrianglePointLocation::OnFace(..));
-                Near::Closest(Closest { point, triangle, inside, on_face })
+        let Some((triangle, point, location)) = best else {
+            return Near::Beyond;
+        };
+        let inside = flat.get(triangle).is_inside(mesh, triangle, location, p - point);
+        let on_face = matches!(location, TrianglePointLocation::OnFace(..));
+        // Only a point outside, over a face with a normal, can use a gap certificate.
+        let gap = if on_face && !inside && flat.get(triangle).normal().is_some() {
+            let last = blocks.last().map_or(0.0, |b| b.centre_distance.x);
+            // Unlisted triangles are farther from the centre than any listed one.
+            let unlisted = last - from_centre - SLACK;
+            let wanted = (best_distance + GAP_MARGIN).min(unlisted);
+            rising_gap(blocks, flat, p, triangle, Bounds { from_centre, offset: offset.into() }, wanted)
+        } else {
+            0.0
+        };
+        Near::Closest(Closest { point, triangle, inside, on_face, gap })
+    }
+}
+
+/// Where a query point lies relative to its cell's centre, for the run-time bounds.
+#[derive(Clone, Copy)]
+struct Bounds {
+    from_centre: f32,
+    offset: Vec3,
+}
+
+/// The distance from `p` to the nearest listed triangle rising above `base`'s plane, or
+/// `wanted` if none is nearer: a lower bound for the gap certificate. The same skips as
+/// the search, with the gap found so far as the bar.
+fn rising_gap(blocks: &[Block], flat: &FlatTriangles, p: Vec3, base: u32, at: Bounds, wanted: f32) -> f32 {
+    let base_triangle = flat.get(base);
+    let (ox, oy, oz) = (Vec4::splat(at.offset.x), Vec4::splat(at.offset.y), Vec4::splat(at.offset.z));
+    let mut gap = wanted;
+    for block in blocks {
+        let by_centre = block.centre_distance - (at.from_centre + SLACK);
+        if by_centre.x >= gap {
+            break;
+        }
+        let [gx, gy, gz] = block.gradient;
+        let bound = by_centre.max(block.centre_distance + (gx * ox + gy * oy + gz * oz) - SLACK);
+        let mut lanes = bound.cmplt(Vec4::splat(gap)).bitmask();
+        while lanes != 0 {
+            let lane = lanes.trailing_zeros() as usize;
+            lanes &= lanes - 1;
+            let triangle = block.triangles[lane];
+            let other = flat.get(triangle);
+            if bound[lane] >= gap || triangle == base || !other.rises_above(base_triangle) {
+                continue;
             }
-            None => Near::Beyond,
+            gap = gap.min((p - other.project(p).0).length());
         }
     }
+    gap.max(0.0)
 }
 
 /// Every triangle within `D(c) + 2r` of the centre `c` of `cell`, sorted by distance.

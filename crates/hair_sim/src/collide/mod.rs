@@ -60,8 +60,9 @@ pub struct ContactHint(Hint);
 enum Hint {
     #[default]
     None,
-    /// The closest triangle at the last query.
-    Touching(u32),
+    /// The closest triangle at the last query, which was at `at`; every triangle of
+    /// collider `collider` rising above its plane was at least `gap` from there.
+    Touching { triangle: u32, at: Vec3, gap: f32, collider: u32 },
     /// No surface of collider `collider` within `distance` of the head-local point `at`.
     Clear { at: Vec3, distance: f32, collider: u32 },
 }
@@ -127,8 +128,11 @@ impl HeadCollider {
     #[inline]
     pub fn resolve_hinted(&self, p: Vec3, thickness: f32, hint: &mut ContactHint) -> Option<Contact> {
         match hint.0 {
-            Hint::Touching(triangle) => {
-                if let Some(certified) = self.triangles.certify(triangle, p) {
+            Hint::Touching { triangle, at, gap, collider } => {
+                // The gap was measured on one collider's triangles; the clearance is the
+                // triangle's own and holds on whatever mesh asks.
+                let gap = || if collider == self.id { gap - (p - at).length() } else { 0.0 };
+                if let Some(certified) = self.triangles.certify(triangle, p, gap) {
                     return contact(certified.point, certified.normal, certified.distance, thickness);
                 }
             }
@@ -168,7 +172,7 @@ impl HeadCollider {
             Near::Beyond => return None,
             Near::Unlisted => self.closest_by_bvh(p, approx.abs() + error + thickness)?,
         };
-        hint.0 = Hint::Touching(closest.triangle);
+        hint.0 = Hint::Touching { triangle: closest.triangle, at: p, gap: closest.gap, collider: self.id };
         let offset = p - closest.point;
         let distance = offset.length();
         let signed = if closest.inside { -distance } else { distance };
@@ -193,7 +197,7 @@ impl HeadCollider {
             self.mesh.project_local_point_and_get_location_with_max_dist(p, false, max_dist)?;
         let (point, inside, on_face) =
             (proj.point, proj.is_inside, matches!(location, TrianglePointLocation::OnFace(..)));
-        Some(Closest { point, triangle, inside, on_face })
+        Some(Closest { point, triangle, inside, on_face, gap: 0.0 })
     }
 }
 
@@ -301,6 +305,38 @@ mod tests {
             assert_eq!(near, exact.abs() < 0.003, "at {p:?}: {exact}");
         }
         assert!(listed > 500, "most near points have a list: {listed}");
+    }
+
+    #[test]
+    fn the_measured_gap_never_exceeds_the_nearest_rising_triangle() {
+        let collider = HeadCollider::new(&test_head(4), 48).unwrap();
+        let all: Vec<u32> = (0..collider.mesh.indices().len() as u32).collect();
+        let mut measured = 0;
+        for i in 0..3000 {
+            let f = i as f32 * 0.917;
+            let dir = Vec3::new(f.sin(), (f * 1.29).cos(), (f * 0.61).sin()).normalize();
+            let p = dir * (0.07 + 0.05 * ((f * 2.3).sin() * 0.5 + 0.5));
+            let Some(at) = collider.grid.locate(p) else { continue };
+            let Near::Closest(closest) =
+                collider.candidates.closest(&collider.triangles, &collider.mesh, p, at, f32::INFINITY)
+            else {
+                continue;
+            };
+            if closest.gap == 0.0 {
+                continue;
+            }
+            measured += 1;
+            // Brute force over the whole mesh.
+            let base = collider.triangles.get(closest.triangle);
+            let nearest_rising = all
+                .iter()
+                .filter(|&&t| t != closest.triangle && collider.triangles.get(t).rises_above(base))
+                .map(|&t| (p - collider.triangles.get(t).project(p).0).length())
+                .fold(f32::INFINITY, f32::min);
+            assert!(closest.gap <= nearest_rising + 1e-6, "at {p:?}: gap {} vs {nearest_rising}", closest.gap);
+            assert!(closest.gap >= (p - closest.point).length(), "a measured gap covers the particle's own distance");
+        }
+        assert!(measured > 300, "points over a face outside get a gap: {measured}");
     }
 
     #[test]
