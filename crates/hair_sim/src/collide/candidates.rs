@@ -197,8 +197,10 @@ impl CandidateGrid {
         };
         let inside = flat.get(triangle).is_inside(mesh, triangle, location, p - point);
         let on_face = matches!(location, TrianglePointLocation::OnFace(..));
-        // Only a point outside, over a face with a normal, can use a gap certificate.
-        let gap = if on_face && !inside && flat.get(triangle).normal().is_some() {
+        // Only a point outside, over a face with a normal, can use a gap certificate, and
+        // it needs one only where the triangle's clearance does not reach it.
+        let base = flat.get(triangle);
+        let gap = if on_face && !inside && base.normal().is_some() && best_distance >= base.clearance() {
             let last = blocks.last().map_or(0.0, |b| b.centre_distance.x);
             // Unlisted triangles are farther from the centre than any listed one.
             let unlisted = last - from_centre - SLACK;

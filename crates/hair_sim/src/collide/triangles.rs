@@ -213,6 +213,11 @@ impl FlatTriangle {
         a.max(a + normal.dot(self.ab)).max(a + normal.dot(self.ac)) > PLANE_TOLERANCE
     }
 
+    /// The height above the face up to which the clearance certificate holds, metres.
+    pub fn clearance(&self) -> f32 {
+        self.clearance
+    }
+
     /// The unit face normal, if the triangle has one.
     pub fn normal(&self) -> Option<Vec3> {
         (self.normal != Vec3::ZERO).then_some(self.normal)
