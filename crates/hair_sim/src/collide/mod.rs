@@ -51,8 +51,9 @@ pub struct HeadCollider {
 
 /// Per-particle memory of its last collision query, which lets the next query skip work
 /// (see [`HeadCollider::resolve_hinted`]): a particle resting on the head remembers the
-/// triangle it touched, one away from it a ball around the spot it was tested at that
-/// holds no surface. Only a shortcut: a stale or foreign hint changes no result.
+/// triangle it touched (and, in a crease, how far the surfaces around it were), one away
+/// from it a ball around the spot it was tested at that holds no surface. Only a
+/// shortcut: a stale or foreign hint changes no result.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ContactHint(Hint);
 
@@ -122,7 +123,10 @@ impl HeadCollider {
     /// A particle resting on the scalp touches the same triangle substep after substep. If
     /// it lies above that triangle's face within the triangle's baked clearance, no other
     /// triangle can be closer (the proof is in `collide/triangles.rs`), so one projection
-    /// settles it without the grid or the candidate list. A particle the grid found far
+    /// settles it without the grid or the candidate list. Where the clearance is too small
+    /// (a crease by an ear), the hint carries the gap the last search measured to the
+    /// triangles rising above that face, and the same projection settles the particle
+    /// while it stays within that gap of where it was. A particle the grid found far
     /// from the head remembers where, and how far: until it has moved that far, less the
     /// thickness, it cannot touch anything, and it is answered without any lookup.
     #[inline]
