@@ -8,6 +8,7 @@
 
 use hair_sim::prelude::*;
 use hair_sim::solver::{STRANDS_PER_GROUP, StrandChunk};
+use std::sync::atomic::{AtomicU32, AtomicUsize, Ordering};
 use std::time::Instant;
 
 /// Head keyframes: (time s, yaw rad, pitch rad), looped; a turn, a nod, a fast shake.
@@ -42,6 +43,20 @@ fn arg(name: &str, default: usize) -> usize {
         .and_then(|i| args.get(i + 1))
         .map(|v| v.parse().unwrap_or_else(|_| panic!("{name} takes a whole number, got {v}")))
         .unwrap_or(default)
+}
+
+/// Waits for `ready`, spinning first: a step is a few milliseconds, and waking a parked
+/// thread would be timed with it (rayon's workers, too, spin and yield before they sleep).
+fn wait_until(ready: impl Fn() -> bool) {
+    let mut spins = 0u32;
+    while !ready() {
+        if spins < 100_000 {
+            std::hint::spin_loop();
+            spins += 1;
+        } else {
+            std::thread::yield_now();
+        }
+    }
 }
 
 fn main() {
@@ -100,42 +115,45 @@ fn main() {
     let mut max_penetration = 0.0f32;
     let mut chunks = strands.chunks_mut(chunk);
     let per_thread = chunks.len().div_ceil(threads);
+    // Steps released to the workers, steps they finished (summed), and the deepest
+    // penetration they saw (f32 bits; non-negative floats order as their bits do).
+    let (released, finished, deepest) = (AtomicUsize::new(0), AtomicUsize::new(0), AtomicU32::new(0));
     std::thread::scope(|scope| {
         let mut shares = chunks.chunks_mut(per_thread);
         let own = shares.next().expect("at least one chunk");
-        let (done_tx, done_rx) = std::sync::mpsc::channel::<f32>();
-        let workers: Vec<_> = shares
-            .map(|share| {
-                let (go_tx, go_rx) = std::sync::mpsc::channel::<usize>();
-                let done = done_tx.clone();
-                scope.spawn(move || {
-                    for k in go_rx {
-                        share.iter_mut().for_each(|c| {
-                            c.step(&input_at(k));
-                        });
-                        let deepest = if k % 10 == 9 { penetration(share, k) } else { 0.0 };
-                        done.send(deepest).expect("the main thread waits");
+        let workers = shares.len();
+        for share in shares {
+            let (released, finished, deepest) = (&released, &finished, &deepest);
+            scope.spawn(move || {
+                for k in 0..steps {
+                    wait_until(|| released.load(Ordering::Acquire) > k);
+                    share.iter_mut().for_each(|c| {
+                        c.step(&input_at(k));
+                    });
+                    if k % 10 == 9 {
+                        deepest.fetch_max(penetration(share, k).max(0.0).to_bits(), Ordering::Relaxed);
                     }
-                });
-                go_tx
-            })
-            .collect();
+                    finished.fetch_add(1, Ordering::Release);
+                }
+            });
+        }
         for k in 0..steps {
             let start = Instant::now();
-            workers.iter().for_each(|w| w.send(k).expect("workers run until the end"));
+            released.store(k + 1, Ordering::Release);
             own.iter_mut().for_each(|c| {
                 c.step(&input_at(k));
             });
-            let deepest: Vec<f32> = workers.iter().map(|_| done_rx.recv().expect("a worker answers")).collect();
-            // Workers answer after their penetration check; the step itself ended earlier,
+            wait_until(|| finished.load(Ordering::Acquire) == (k + 1) * workers);
+            // Workers finish after their penetration check; the step itself ended earlier,
             // so time it only when there was no check.
             if k % 10 != 9 {
                 times.push(start.elapsed().as_secs_f64() * 1e3);
             } else {
-                max_penetration = deepest.into_iter().fold(max_penetration.max(penetration(own, k)), f32::max);
+                max_penetration = max_penetration.max(penetration(own, k));
             }
         }
     });
+    max_penetration = max_penetration.max(f32::from_bits(deepest.into_inner()));
     times.sort_by(f64::total_cmp);
     let median = times[times.len() / 2];
     let particle_steps = (guides * particles) as f64;
