@@ -432,7 +432,10 @@ fn local_shape(g: &mut GroupState, alpha: f32, root_frame: M3) {
     let alpha = Wide::splat(alpha);
     let mut frame = root_frame;
     for j in 1..g.positions.len() {
-        let expected = frame.mul_vec(g.rest_directions[j]);
+        // Unit, so the arc below is a rotation: from a frame scaled by s it would build a
+        // matrix scaled by s again, and the rounding would square itself segment by
+        // segment until a long strand's tip frame overflows.
+        let expected = frame.mul_vec(g.rest_directions[j]).normalize_or(g.rest_directions[j]);
         let parent = g.positions[j - 1];
         let target = parent + expected * g.lengths[j];
         let x = g.positions[j] + (target - g.positions[j]) * alpha;
