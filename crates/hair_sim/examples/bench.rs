@@ -118,18 +118,23 @@ fn main() {
     // Steps released to the workers, steps they finished (summed), and the deepest
     // penetration they saw (f32 bits; non-negative floats order as their bits do).
     let (released, finished, deepest) = (AtomicUsize::new(0), AtomicUsize::new(0), AtomicU32::new(0));
+    // Strands the solver had to reset (teleport, non-finite): both should stay 0 here.
+    let (teleport_resets, nan_resets) = (AtomicU32::new(0), AtomicU32::new(0));
+    let step = |chunk: &mut StrandChunk, k: usize| {
+        let report = chunk.step(&input_at(k));
+        teleport_resets.fetch_add(report.teleport_resets, Ordering::Relaxed);
+        nan_resets.fetch_add(report.nan_resets, Ordering::Relaxed);
+    };
     std::thread::scope(|scope| {
         let mut shares = chunks.chunks_mut(per_thread);
         let own = shares.next().expect("at least one chunk");
         let workers = shares.len();
         for share in shares {
-            let (released, finished, deepest) = (&released, &finished, &deepest);
+            let (released, finished, deepest, step) = (&released, &finished, &deepest, &step);
             scope.spawn(move || {
                 for k in 0..steps {
                     wait_until(|| released.load(Ordering::Acquire) > k);
-                    share.iter_mut().for_each(|c| {
-                        c.step(&input_at(k));
-                    });
+                    share.iter_mut().for_each(|c| step(c, k));
                     if k % 10 == 9 {
                         deepest.fetch_max(penetration(share, k).max(0.0).to_bits(), Ordering::Relaxed);
                     }
@@ -140,9 +145,7 @@ fn main() {
         for k in 0..steps {
             let start = Instant::now();
             released.store(k + 1, Ordering::Release);
-            own.iter_mut().for_each(|c| {
-                c.step(&input_at(k));
-            });
+            own.iter_mut().for_each(|c| step(c, k));
             wait_until(|| finished.load(Ordering::Acquire) == (k + 1) * workers);
             // Workers finish after their penetration check; the step itself ended earlier,
             // so time it only when there was no check.
@@ -160,10 +163,12 @@ fn main() {
     println!(
         "{{\"guides\":{guides},\"particles_per_strand\":{particles},\"steps\":{steps},\"threads\":{threads},\
          \"head_triangles\":{},\"ms_per_step\":{median:.4},\"ns_per_particle_step\":{:.2},\
-         \"max_stretch\":{:.6},\"max_penetration_m\":{:.6}}}",
+         \"max_stretch\":{:.6},\"max_penetration_m\":{:.6},\"teleport_resets\":{},\"nan_resets\":{}}}",
         head.triangles.len(),
         median * 1e6 / particle_steps,
         strands.max_stretch(),
-        max_penetration.max(0.0)
+        max_penetration.max(0.0),
+        teleport_resets.into_inner(),
+        nan_resets.into_inner()
     );
 }
