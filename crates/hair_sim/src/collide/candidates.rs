@@ -161,37 +161,19 @@ impl CandidateGrid {
         let first = (range >> COUNT_BITS) as usize;
         let blocks = &self.blocks[first..][..(range & ((1 << COUNT_BITS) - 1)) as usize];
         // From the cell centre to `p`.
-        let offset = (at.fraction - 0.5) * self.cell;
-        let from_centre = offset.length();
-        let (ox, oy, oz) = (Vec4::splat(offset.x), Vec4::splat(offset.y), Vec4::splat(offset.z));
+        let offset = Vec3::from((at.fraction - 0.5) * self.cell);
+        let from = FromCentre { offset, distance: offset.length() };
         let mut best_distance = max_distance;
         let mut best = None;
-        for block in blocks {
-            let by_centre = block.centre_distance - (from_centre + SLACK);
-            if by_centre.x >= best_distance {
-                break; // sorted: no later triangle can be closer either
+        from.visit(blocks, &mut best_distance, |triangle, best_distance| {
+            let (point, location) = flat.get(triangle).project(p);
+            // Most projections lose: compare squares and take the root only for a winner.
+            let squared = (p - point).length_squared();
+            if squared < *best_distance * *best_distance {
+                *best_distance = squared.sqrt();
+                best = Some((triangle, point, location));
             }
-            let [gx, gy, gz] = block.gradient;
-            // The tangent-plane bound, and the larger (tighter) of the two.
-            let by_plane = block.centre_distance + (gx * ox + gy * oy + gz * oz) - SLACK;
-            let bound = by_centre.max(by_plane);
-            let mut lanes = bound.cmplt(Vec4::splat(best_distance)).bitmask();
-            while lanes != 0 {
-                let lane = lanes.trailing_zeros() as usize;
-                lanes &= lanes - 1;
-                if bound[lane] >= best_distance {
-                    continue; // ruled out by a winner found earlier in this block
-                }
-                let triangle = block.triangles[lane];
-                let (point, location) = flat.get(triangle).project(p);
-                // Most projections lose: compare squares and take the root only for a winner.
-                let squared = (p - point).length_squared();
-                if squared < best_distance * best_distance {
-                    best_distance = squared.sqrt();
-                    best = Some((triangle, point, location));
-                }
-            }
-        }
+        });
         let Some((triangle, point, location)) = best else {
             return Near::Beyond;
         };
@@ -203,9 +185,15 @@ impl CandidateGrid {
         let gap = if on_face && !inside && base.normal().is_some() && best_distance >= base.clearance() {
             let last = blocks.last().map_or(0.0, |b| b.centre_distance.x);
             // Unlisted triangles are farther from the centre than any listed one.
-            let unlisted = last - from_centre - SLACK;
-            let wanted = (best_distance + GAP_MARGIN).min(unlisted);
-            rising_gap(blocks, flat, p, triangle, Bounds { from_centre, offset: offset.into() }, wanted)
+            let unlisted = last - from.distance - SLACK;
+            let mut gap = (best_distance + GAP_MARGIN).min(unlisted);
+            from.visit(blocks, &mut gap, |other, gap| {
+                let other_triangle = flat.get(other);
+                if other != triangle && other_triangle.rises_above(base) {
+                    *gap = gap.min((p - other_triangle.project(p).0).length());
+                }
+            });
+            gap.max(0.0)
         } else {
             0.0
         };
@@ -215,38 +203,38 @@ impl CandidateGrid {
 
 /// Where a query point lies relative to its cell's centre, for the run-time bounds.
 #[derive(Clone, Copy)]
-struct Bounds {
-    from_centre: f32,
+struct FromCentre {
     offset: Vec3,
+    distance: f32,
 }
 
-/// The distance from `p` to the nearest listed triangle rising above `base`'s plane, or
-/// `wanted` if none is nearer: a lower bound for the gap certificate. The same skips as
-/// the search, with the gap found so far as the bar.
-fn rising_gap(blocks: &[Block], flat: &FlatTriangles, p: Vec3, base: u32, at: Bounds, wanted: f32) -> f32 {
-    let base_triangle = flat.get(base);
-    let (ox, oy, oz) = (Vec4::splat(at.offset.x), Vec4::splat(at.offset.y), Vec4::splat(at.offset.z));
-    let mut gap = wanted;
-    for block in blocks {
-        let by_centre = block.centre_distance - (at.from_centre + SLACK);
-        if by_centre.x >= gap {
-            break;
-        }
-        let [gx, gy, gz] = block.gradient;
-        let bound = by_centre.max(block.centre_distance + (gx * ox + gy * oy + gz * oz) - SLACK);
-        let mut lanes = bound.cmplt(Vec4::splat(gap)).bitmask();
-        while lanes != 0 {
-            let lane = lanes.trailing_zeros() as usize;
-            lanes &= lanes - 1;
-            let triangle = block.triangles[lane];
-            let other = flat.get(triangle);
-            if bound[lane] >= gap || triangle == base || !other.rises_above(base_triangle) {
-                continue;
+impl FromCentre {
+    /// Calls `visit` on each candidate of `blocks`, in list order, whose lower bound on
+    /// the distance to the query point is below `bar`; `visit` may lower the bar (the
+    /// best distance of a search, the gap found so far), and later candidates face it.
+    #[inline]
+    fn visit(self, blocks: &[Block], bar: &mut f32, mut visit: impl FnMut(u32, &mut f32)) {
+        let (ox, oy, oz) = (Vec4::splat(self.offset.x), Vec4::splat(self.offset.y), Vec4::splat(self.offset.z));
+        for block in blocks {
+            let by_centre = block.centre_distance - (self.distance + SLACK);
+            if by_centre.x >= *bar {
+                break; // sorted: no later triangle can be nearer either
             }
-            gap = gap.min((p - other.project(p).0).length());
+            let [gx, gy, gz] = block.gradient;
+            // The tangent-plane bound, and the larger (tighter) of the two.
+            let by_plane = block.centre_distance + (gx * ox + gy * oy + gz * oz) - SLACK;
+            let bound = by_centre.max(by_plane);
+            let mut lanes = bound.cmplt(Vec4::splat(*bar)).bitmask();
+            while lanes != 0 {
+                let lane = lanes.trailing_zeros() as usize;
+                lanes &= lanes - 1;
+                // A bar lowered earlier in this block may rule the lane out.
+                if bound[lane] < *bar {
+                    visit(block.triangles[lane], bar);
+                }
+            }
         }
     }
-    gap.max(0.0)
 }
 
 /// Every triangle within `D(c) + 2r` of the centre `c` of `cell`, sorted by distance.
