@@ -121,8 +121,8 @@ impl HeadCollider {
     /// queries; the same result, to within 1 µm (the certificate's plane tolerance).
     ///
     /// A particle resting on the scalp touches the same triangle substep after substep. If
-    /// it lies above that triangle's face within the triangle's baked clearance, no other
-    /// triangle can be closer (the proof is in `collide/triangles.rs`), so one projection
+    /// it lies above that triangle's face within the triangle's baked clearance (or beside
+    /// it, over a convex edge, within the edge's), no other triangle can be closer (the proof is in `collide/triangles.rs`), so one projection
     /// settles it without the grid or the candidate list. Where the clearance is too small
     /// (a crease by an ear), the hint carries the gap the last search measured to the
     /// triangles rising above that face, and the same projection settles the particle

@@ -22,6 +22,19 @@
 //! again. A particle resting in a crease, where the clearance is too small for its
 //! thickness, keeps that proof as long as it stays near where it was measured.
 //!
+//! # The edge certificate
+//!
+//! A particle beside a face, over an edge that `T` shares with `U`, is closest to a point
+//! `q` of that edge. Where the edge is convex (neither triangle rises above the other's
+//! plane), every triangle below both planes lies in the wedge under them. If `p`'s
+//! projections onto both planes fall outside both triangles across the edge, `p` lies in
+//! the cone of the two normals, whose nearest point of the wedge is `q`: those
+//! triangles are all at least `d = |p − q|` away. Any other triangle rises above a
+//! plane and is at least `dist(edge, T') − d` away, so a baked edge clearance `c` (half the
+//! distance from the edge to the nearest such triangle) proves `q` closest while `d < c`.
+//! On a convex scalp, a particle resting over a ridge between two triangles then needs no
+//! search either.
+//!
 //! A triangle counts as lying below the plane when no corner rises more than
 //! [`PLANE_TOLERANCE`] above it (rounding on flat patches); a certified distance may
 //! therefore exceed the true one by at most that much.
@@ -31,7 +44,8 @@ use glam::Vec3A;
 use parry3d::bounding_volume::Aabb;
 use parry3d::math::Pose as Isometry;
 use parry3d::query::PointQueryWithLocation;
-use parry3d::shape::{TriMesh, Triangle, TrianglePointLocation};
+use parry3d::shape::{Segment, Shape, TriMesh, Triangle, TrianglePointLocation};
+use std::collections::HashMap;
 
 /// How far a neighbour's corner may rise above a triangle's plane and still count as
 /// below it, metres.
@@ -42,10 +56,28 @@ const MAX_CLEARANCE: f32 = 0.01;
 /// Taken off every baked triangle–triangle distance, metres, so it stays a lower bound.
 const DISTANCE_SLACK: f32 = 1e-5;
 
-/// Every triangle of the head as a [`FlatTriangle`], with its clearance.
+/// Every triangle of the head as a [`FlatTriangle`], with its clearance, and its edges.
 #[derive(Clone, Debug)]
 pub(super) struct FlatTriangles {
     triangles: Vec<FlatTriangle>,
+    /// Per triangle, its edges in parry's order (0 = ab, 1 = bc, 2 = ca).
+    edges: Vec<[Edge; 3]>,
+}
+
+/// An edge as the edge certificate needs it.
+#[derive(Clone, Copy, Debug)]
+struct Edge {
+    /// The triangle on the other side.
+    neighbour: u32,
+    /// The neighbour's corner opposite the edge (0, 1 or 2).
+    opposite: u32,
+    /// The distance from the edge up to which the certificate holds, metres; zero on a
+    /// concave, open or non-manifold edge.
+    clearance: f32,
+}
+
+impl Edge {
+    const NONE: Edge = Edge { neighbour: u32::MAX, opposite: 0, clearance: 0.0 };
 }
 
 /// What the certificate settled about a point.
@@ -62,15 +94,18 @@ pub(super) struct Certified {
 
 impl FlatTriangles {
     pub fn bake(mesh: &TriMesh) -> Self {
-        let triangles = mesh
+        let triangles: Vec<FlatTriangle> = mesh
             .triangles()
             .map(|t| {
                 let mut flat = FlatTriangle::new(t.a, t.b, t.c);
-                flat.clearance = clearance(mesh, &t, flat.normal);
+                if flat.normal != Vec3::ZERO {
+                    flat.clearance = clearance(mesh, &t, corner_bounds(&[t.a, t.b, t.c]), &[(t.a, flat.normal)]);
+                }
                 flat
             })
             .collect();
-        FlatTriangles { triangles }
+        let edges = bake_edges(mesh, &triangles);
+        FlatTriangles { triangles, edges }
     }
 
     #[inline]
@@ -92,8 +127,9 @@ impl FlatTriangles {
         let ap = Vec3A::from(p) - t.a;
         let normal = Vec3A::from(t.normal);
         let height = normal.dot(ap);
-        // Strict bounds: a sliver has no clearance, no gap and no normal.
-        if !(height >= 0.0 && (height < t.clearance || height < gap())) {
+        // Written to refuse a NaN height too.
+        let outside = height >= 0.0;
+        if !outside {
             return None;
         }
         // The in-plane point a + v·ab + w·ac under `p` solves the 2×2 Gram system of the
@@ -102,35 +138,99 @@ impl FlatTriangles {
         let (d1, d2) = (t.ab.dot(ap), t.ac.dot(ap));
         let (v, w) = (cc * d1 - ab_ac * d2, aa * d2 - ab_ac * d1);
         if !(v >= 0.0 && w >= 0.0 && v + w <= aa * cc - ab_ac * ab_ac) {
+            return self.certify_edge(triangle, p);
+        }
+        // Strict bounds: a sliver has no clearance, no gap and no normal.
+        if !(height < t.clearance || height < gap()) {
             return None;
         }
         Some(Certified { point: (Vec3A::from(p) - normal * height).into(), distance: height, normal: t.normal })
     }
+
+    /// The edge certificate (module docs) for `p` beside `triangle`'s face.
+    fn certify_edge(&self, triangle: u32, p: Vec3) -> Option<Certified> {
+        let t = &self.triangles[triangle as usize];
+        let (q, TrianglePointLocation::OnEdge(i, _)) = t.project(p) else {
+            return None;
+        };
+        let edge = self.edges[triangle as usize][i as usize];
+        let offset = p - q;
+        let distance = offset.length();
+        // Strict: an edge without a certificate has no clearance (and NaN is refused).
+        let within = distance < edge.clearance;
+        if !within {
+            return None;
+        }
+        // `p` over the neighbour's face (its projection on the near side of the edge) is
+        // the neighbour's face certificate's business, not this one's.
+        let neighbour = &self.triangles[edge.neighbour as usize];
+        if offset.dot(Vec3::from(neighbour.corner(edge.opposite)) - q) > 0.0 {
+            return None;
+        }
+        // Right on the edge the offset has no direction; the edge's pseudo-normal is out.
+        let normal =
+            if distance > 1e-7 { offset / distance } else { (t.normal + neighbour.normal).normalize_or(t.normal) };
+        Some(Certified { point: q, distance, normal })
+    }
 }
 
-/// Half the distance from `t` to the nearest triangle that rises above its plane, capped
-/// at [`MAX_CLEARANCE`]; zero for a sliver without a normal.
-fn clearance(mesh: &TriMesh, t: &Triangle, normal: Vec3) -> f32 {
-    if normal == Vec3::ZERO {
-        return 0.0;
-    }
+/// Half the distance from `shape` (a triangle or an edge, within `bounds`) to the nearest
+/// triangle that rises above any of the `planes` (point, unit normal), capped at
+/// [`MAX_CLEARANCE`].
+fn clearance(mesh: &TriMesh, shape: &dyn Shape, bounds: (Vec3, Vec3), planes: &[(Vec3, Vec3)]) -> f32 {
     let reach = 2.0 * MAX_CLEARANCE;
-    let (lo, hi) = (t.a.min(t.b).min(t.c), t.a.max(t.b).max(t.c));
-    let aabb = Aabb::new(lo - Vec3::splat(reach), hi + Vec3::splat(reach));
-    let above = |other: &Triangle| [other.a, other.b, other.c].iter().any(|&v| (v - t.a).dot(normal) > PLANE_TOLERANCE);
+    let aabb = Aabb::new(bounds.0 - Vec3::splat(reach), bounds.1 + Vec3::splat(reach));
+    let rises = |other: &Triangle| {
+        let corners = [other.a, other.b, other.c];
+        planes.iter().any(|&(at, normal)| corners.iter().any(|&v| (v - at).dot(normal) > PLANE_TOLERANCE))
+    };
     let nearest = mesh
         .bvh()
         .intersect_aabb(&aabb)
         .map(|i| mesh.triangle(i))
-        .filter(above)
+        .filter(rises)
         .map(|other| {
             // GJK converges to within rounding; the slack keeps the result a lower bound.
             let identity = Isometry::IDENTITY;
-            parry3d::query::distance(&identity, t, &identity, &other)
+            parry3d::query::distance(&identity, shape, &identity, &other)
                 .map_or(0.0, |d| (d.distance - DISTANCE_SLACK).max(0.0))
         })
         .fold(reach, f32::min);
     0.5 * nearest
+}
+
+fn corner_bounds(corners: &[Vec3]) -> (Vec3, Vec3) {
+    corners.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), &c| (lo.min(c), hi.max(c)))
+}
+
+/// Pairs the triangles across each edge and bakes the edge clearances. An edge with one
+/// triangle (an open mesh) or more than two gets none.
+fn bake_edges(mesh: &TriMesh, triangles: &[FlatTriangle]) -> Vec<[Edge; 3]> {
+    let mut sides: HashMap<[u32; 2], Vec<(u32, u32)>> = HashMap::new();
+    for (t, corners) in mesh.indices().iter().enumerate() {
+        for i in 0..3 {
+            let (a, b) = (corners[i], corners[(i + 1) % 3]);
+            sides.entry([a.min(b), a.max(b)]).or_default().push((t as u32, i as u32));
+        }
+    }
+    let mut edges = vec![[Edge::NONE; 3]; triangles.len()];
+    for pair in sides.values() {
+        let &[(t, i), (u, j)] = pair.as_slice() else {
+            continue;
+        };
+        let (ft, fu) = (&triangles[t as usize], &triangles[u as usize]);
+        // Concave or folded: the neighbour itself rises above the plane.
+        let convex = ft.normal != Vec3::ZERO && fu.normal != Vec3::ZERO && !fu.rises_above(ft) && !ft.rises_above(fu);
+        let clearance = if convex {
+            let (a, b) = (ft.corner(i).into(), ft.corner((i + 1) % 3).into());
+            clearance(mesh, &Segment::new(a, b), corner_bounds(&[a, b]), &[(a, ft.normal), (a, fu.normal)])
+        } else {
+            0.0
+        };
+        edges[t as usize][i as usize] = Edge { neighbour: u, opposite: (j + 2) % 3, clearance };
+        edges[u as usize][j as usize] = Edge { neighbour: t, opposite: (i + 2) % 3, clearance };
+    }
+    edges
 }
 
 /// A triangle as its first corner, two edges and its unit normal, the form the projection
@@ -202,6 +302,16 @@ impl FlatTriangle {
         let (v, w) = (vb / denom, vc / denom);
         let side = if Vec3A::from(self.normal).dot(ap) >= 0.0 { 0 } else { 1 };
         ((self.a + ab * v + ac * w).into(), TrianglePointLocation::OnFace(side, [1.0 - v - w, v, w]))
+    }
+
+    /// Corner 0, 1 or 2 (a, b, c).
+    #[inline]
+    fn corner(&self, k: u32) -> Vec3A {
+        match k {
+            0 => self.a,
+            1 => self.a + self.ab,
+            _ => self.a + self.ac,
+        }
     }
 
     /// Whether a corner of this triangle lies more than [`PLANE_TOLERANCE`] above the plane
@@ -289,6 +399,35 @@ mod tests {
         assert!(flat.certify(0, Vec3::new(0.02, -0.001, -0.02), || 0.0).is_none());
         assert!(flat.certify(0, Vec3::new(-0.01, 0.001, 0.01), || 0.0).is_none());
         assert!(flat.certify(7, Vec3::ZERO, || 0.0).is_none(), "an unknown triangle proves nothing");
+    }
+
+    /// Two 10 cm triangles meeting along the X axis, sloping down to −Z (`t`) and +Z (`u`):
+    /// a ridge, or with `rise` > 0 a valley.
+    fn ridge(rise: f32) -> TriMesh {
+        let vertices =
+            vec![Vec3::ZERO, Vec3::new(0.1, 0.0, 0.0), Vec3::new(0.05, rise, -0.1), Vec3::new(0.05, rise, 0.1)];
+        TriMesh::with_flags(vertices, vec![[0, 1, 2], [1, 0, 3]], TriMeshFlags::empty()).unwrap()
+    }
+
+    #[test]
+    fn edge_certificate_holds_over_a_ridge_and_nowhere_else() {
+        let flat = FlatTriangles::bake(&ridge(-0.02));
+        // 5 mm straight above the ridge: beside both faces, closest to the edge.
+        let above = Vec3::new(0.05, 0.005, 0.0);
+        for triangle in [0, 1] {
+            let c = flat.certify(triangle, above, || 0.0).expect("over the ridge");
+            assert!((c.point - Vec3::new(0.05, 0.0, 0.0)).length() < 1e-7, "{:?}", c.point);
+            assert!((c.distance - 0.005).abs() < 1e-7 && (c.normal - Vec3::Y).length() < 1e-5);
+        }
+        // Beside `t` but over `u`'s face: `u` is closer, and `t`'s edge claims nothing.
+        let over_u = Vec3::new(0.05, 0.0, 0.03);
+        assert!(matches!(flat.get(0).project(over_u).1, TrianglePointLocation::OnEdge(0, _)));
+        assert!(flat.certify(0, over_u, || 0.0).is_none());
+        assert!(flat.certify(1, over_u, || 0.0).is_some(), "u's face certificate takes it");
+        // Beyond the (capped) edge clearance, and over a valley: no claim.
+        assert!(flat.certify(0, Vec3::new(0.05, 0.011, 0.0), || 0.0).is_none());
+        let valley = FlatTriangles::bake(&ridge(0.02));
+        assert!(valley.certify(0, Vec3::new(0.05, 0.005, 0.0), || 0.0).is_none());
     }
 
     #[test]
