@@ -63,6 +63,11 @@ impl Pose {
     }
 }
 
+/// The smallest and largest coordinates of `points`, per axis (`MAX` and `MIN` for none).
+pub(crate) fn bounds(points: &[Vec3]) -> (Vec3, Vec3) {
+    points.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), &p| (lo.min(p), hi.max(p)))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,6 +1,6 @@
 //! A signed distance grid baked from the exact mesh distance, for the cheap far reject.
 
-use crate::math::Vec3;
+use crate::math::{Vec3, bounds};
 use glam::Vec3A;
 
 /// Signed distances sampled on a regular grid around the head (negative inside).
@@ -37,8 +37,7 @@ impl DistanceGrid {
     /// Samples `distance` on a grid with `resolution` cells along the longest side of the
     /// bounding box of `points`, padded on every side by a quarter of that side.
     pub fn bake(points: &[Vec3], resolution: u32, distance: impl Fn(Vec3) -> f32) -> Self {
-        let (min, max) =
-            points.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+        let (min, max) = bounds(points);
         let margin = 0.25 * (max - min).max_element().max(1e-3);
         let (min, max) = (min - Vec3::splat(margin), max + Vec3::splat(margin));
         let cell = (max - min).max_element() / resolution as f32;

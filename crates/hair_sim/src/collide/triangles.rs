@@ -39,12 +39,12 @@
 //! [`PLANE_TOLERANCE`] above it (rounding on flat patches); a certified distance may
 //! therefore exceed the true one by at most that much.
 
-use crate::math::Vec3;
+use crate::math::{Vec3, bounds};
 use glam::Vec3A;
 use parry3d::bounding_volume::Aabb;
 use parry3d::math::Pose as Isometry;
 use parry3d::query::PointQueryWithLocation;
-use parry3d::shape::{Segment, Shape, TriMesh, Triangle, TrianglePointLocation};
+use parry3d::shape::{Segment, Shape, TriMesh, TrianglePointLocation};
 use std::collections::HashMap;
 
 /// How far a neighbour's corner may rise above a triangle's plane and still count as
@@ -87,23 +87,20 @@ pub(super) struct Certified {
     pub point: Vec3,
     /// Distance from the query point to it (the point is outside).
     pub distance: f32,
-    /// The triangle's unit normal: the direction from the closest point to the query
-    /// point.
+    /// The unit direction from the closest point to the query point (over a face, the
+    /// face normal).
     pub normal: Vec3,
 }
 
 impl FlatTriangles {
     pub fn bake(mesh: &TriMesh) -> Self {
-        let triangles: Vec<FlatTriangle> = mesh
-            .triangles()
-            .map(|t| {
-                let mut flat = FlatTriangle::new(t.a, t.b, t.c);
-                if flat.normal != Vec3::ZERO {
-                    flat.clearance = clearance(mesh, &t, corner_bounds(&[t.a, t.b, t.c]), &[(t.a, flat.normal)]);
-                }
-                flat
-            })
-            .collect();
+        let mut triangles: Vec<FlatTriangle> = mesh.triangles().map(|t| FlatTriangle::new(t.a, t.b, t.c)).collect();
+        for (i, t) in mesh.triangles().enumerate() {
+            let base = triangles[i];
+            if base.normal != Vec3::ZERO {
+                triangles[i].clearance = clearance(mesh, &triangles, &t, bounds(&[t.a, t.b, t.c]), &[&base]);
+            }
+        }
         let edges = bake_edges(mesh, &triangles);
         FlatTriangles { triangles, edges }
     }
@@ -175,20 +172,22 @@ impl FlatTriangles {
 }
 
 /// Half the distance from `shape` (a triangle or an edge, within `bounds`) to the nearest
-/// triangle that rises above any of the `planes` (point, unit normal), capped at
+/// of the mesh's `triangles` that rises above the plane of any of `bases`, capped at
 /// [`MAX_CLEARANCE`].
-fn clearance(mesh: &TriMesh, shape: &dyn Shape, bounds: (Vec3, Vec3), planes: &[(Vec3, Vec3)]) -> f32 {
+fn clearance(
+    mesh: &TriMesh,
+    triangles: &[FlatTriangle],
+    shape: &dyn Shape,
+    bounds: (Vec3, Vec3),
+    bases: &[&FlatTriangle],
+) -> f32 {
     let reach = 2.0 * MAX_CLEARANCE;
     let aabb = Aabb::new(bounds.0 - Vec3::splat(reach), bounds.1 + Vec3::splat(reach));
-    let rises = |other: &Triangle| {
-        let corners = [other.a, other.b, other.c];
-        planes.iter().any(|&(at, normal)| corners.iter().any(|&v| (v - at).dot(normal) > PLANE_TOLERANCE))
-    };
     let nearest = mesh
         .bvh()
         .intersect_aabb(&aabb)
+        .filter(|&i| bases.iter().any(|base| triangles[i as usize].rises_above(base)))
         .map(|i| mesh.triangle(i))
-        .filter(rises)
         .map(|other| {
             // GJK converges to within rounding; the slack keeps the result a lower bound.
             let identity = Isometry::IDENTITY;
@@ -197,10 +196,6 @@ fn clearance(mesh: &TriMesh, shape: &dyn Shape, bounds: (Vec3, Vec3), planes: &[
         })
         .fold(reach, f32::min);
     0.5 * nearest
-}
-
-fn corner_bounds(corners: &[Vec3]) -> (Vec3, Vec3) {
-    corners.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), &c| (lo.min(c), hi.max(c)))
 }
 
 /// Pairs the triangles across each edge and bakes the edge clearances. An edge with one
@@ -223,7 +218,7 @@ fn bake_edges(mesh: &TriMesh, triangles: &[FlatTriangle]) -> Vec<[Edge; 3]> {
         let convex = ft.normal != Vec3::ZERO && fu.normal != Vec3::ZERO && !fu.rises_above(ft) && !ft.rises_above(fu);
         let clearance = if convex {
             let (a, b) = (ft.corner(i).into(), ft.corner((i + 1) % 3).into());
-            clearance(mesh, &Segment::new(a, b), corner_bounds(&[a, b]), &[(a, ft.normal), (a, fu.normal)])
+            clearance(mesh, triangles, &Segment::new(a, b), bounds(&[a, b]), &[ft, fu])
         } else {
             0.0
         };
