@@ -122,13 +122,14 @@ impl HeadCollider {
     ///
     /// A particle resting on the scalp touches the same triangle substep after substep. If
     /// it lies above that triangle's face within the triangle's baked clearance (or beside
-    /// it, over a convex edge, within the edge's), no other triangle can be closer (the proof is in `collide/triangles.rs`), so one projection
-    /// settles it without the grid or the candidate list. Where the clearance is too small
-    /// (a crease by an ear), the hint carries the gap the last search measured to the
-    /// triangles rising above that face, and the same projection settles the particle
-    /// while it stays within that gap of where it was. A particle the grid found far
-    /// from the head remembers where, and how far: until it has moved that far, less the
-    /// thickness, it cannot touch anything, and it is answered without any lookup.
+    /// it, over a convex edge, within the edge's), no other triangle can be closer (the
+    /// proof is in `collide/triangles.rs`), so one projection settles it without the grid
+    /// or the candidate list. Where the clearance is too small (a crease by an ear), the
+    /// hint carries the gap the last search measured to the triangles rising above that
+    /// face, and the same projection settles the particle while it stays within that gap
+    /// of where it was. A particle the grid found far from the head remembers where, and
+    /// how far: until it has moved that far, less the thickness, it cannot touch anything,
+    /// and it is answered without any lookup.
     #[inline]
     pub fn resolve_hinted(&self, p: Vec3, thickness: f32, hint: &mut ContactHint) -> Option<Contact> {
         match hint.0 {
