@@ -8,7 +8,7 @@ use bevy::time::TimeUpdateStrategy;
 use bevy_hair::hair_sim::math::Vec3 as SimVec3;
 use bevy_hair::prelude::*;
 use bevy_hair::procedural_head_mesh;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 /// One frame: a hair longer than 1/60 s, so every update runs exactly one 60 Hz step.
 pub const FRAME: Duration = Duration::from_nanos(16_666_667);
@@ -32,9 +32,12 @@ pub fn spawn_head(app: &mut App, groom: HairGroom, transform: Transform) -> Enti
     app.world_mut().spawn((Mesh3d(mesh), transform, groom)).id()
 }
 
-/// Updates until the groom is simulating (growth runs on a background task).
+/// Updates until the groom is simulating (growth runs on a background task). The wait is
+/// wall-clock time, not a count of updates: test binaries run their tests side by side on
+/// few cores, and a growth (collider bake and settle) then takes several seconds.
 pub fn wait_until_ready(app: &mut App, head: Entity) {
-    for _ in 0..2000 {
+    let start = Instant::now();
+    while start.elapsed() < GROWTH_TIMEOUT {
         app.update();
         match app.world().get::<GroomStatus>(head) {
             Some(GroomStatus::Ready { .. }) if app.world().get::<HairState>(head).is_some() => return,
@@ -42,8 +45,11 @@ pub fn wait_until_ready(app: &mut App, head: Entity) {
             _ => std::thread::sleep(Duration::from_millis(2)),
         }
     }
-    panic!("the groom did not finish growing");
+    panic!("the groom did not finish growing in {GROWTH_TIMEOUT:?}");
 }
+
+/// How long [`wait_until_ready`] waits.
+const GROWTH_TIMEOUT: Duration = Duration::from_secs(60);
 
 /// An app with a grown groom on a head at the origin.
 pub fn grown(groom: HairGroom) -> (App, Entity) {
