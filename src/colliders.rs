@@ -6,6 +6,11 @@ use hair_sim::collide::ExtraCollider;
 
 /// A simple shape hair collides with, placed by this entity's [`GlobalTransform`]
 /// (its largest scale axis scales the radius).
+///
+/// Scope: a collider on a top-level entity touches every groom. A collider inside a
+/// hierarchy (a child of a character, of its shoulder bone…) touches only the grooms of
+/// that hierarchy, those whose head has the same root ancestor, so one character's
+/// shoulders never push another character's hair.
 #[derive(Component, Reflect, Clone, Copy, Debug, PartialEq)]
 #[reflect(Component)]
 #[require(Transform)]

@@ -5,7 +5,9 @@ use crate::convert::{pose_and_scale, to_sim};
 use crate::head_mesh::{read_head_mesh, scalp_weights};
 use crate::settings::{HairSettings, HairSettingsOverride, effective};
 use crate::simulation::HairState;
+use crate::skinning::ScalpJoint;
 use bevy::asset::LoadState;
+use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
 use bevy::prelude::*;
 use bevy::tasks::{AsyncComputeTaskPool, Task, block_on, futures_lite::future};
 use hair_sim::collide::{DEFAULT_GRID_RESOLUTION, HeadCollider};
@@ -150,25 +152,57 @@ pub(crate) struct Grown {
 }
 
 #[derive(Component)]
-pub(crate) struct GrowthTask(Task<Result<Grown, String>>);
+pub(crate) struct GrowthTask {
+    task: Task<Result<Grown, String>>,
+    /// A skinned head's scalp joint, found before the task started.
+    joint: Option<ScalpJoint>,
+}
 
-/// A new or changed groom (or a new mesh) starts over: waiting for its mesh. A change
-/// that only touches the children keeps the grown guides.
+/// Where the head is drawn this frame: its own transform, or for a skinned head where its
+/// scalp joint puts the bind-pose mesh.
+pub(crate) fn head_frame(
+    transform: &GlobalTransform,
+    joint: Option<&ScalpJoint>,
+    joints: &Query<&GlobalTransform>,
+) -> Result<GlobalTransform, String> {
+    match joint {
+        None => Ok(*transform),
+        Some(joint) => joint.frame(joints).ok_or_else(|| format!("the scalp joint {} has no transform", joint.joint)),
+    }
+}
+
+/// A new or changed groom, a replaced mesh or a modified (hot-reloaded) mesh asset starts
+/// over: waiting for its mesh. A change that only touches the children keeps the grown
+/// guides.
 #[allow(clippy::type_complexity)] // a query's filter list
 pub(crate) fn request_growth(
     mut commands: Commands,
-    changed: Query<(Entity, &HairGroom, Option<&HairState>, Ref<Mesh3d>), Or<(Changed<HairGroom>, Changed<Mesh3d>)>>,
+    mut mesh_events: MessageReader<AssetEvent<Mesh>>,
+    heads: Query<(Entity, Ref<HairGroom>, Option<&HairState>, Ref<Mesh3d>)>,
     changed_without_mesh: Query<Entity, (Changed<HairGroom>, Without<Mesh3d>)>,
 ) {
-    for (entity, groom, state, mesh) in &changed {
-        if !mesh.is_changed() && state.is_some_and(|s| s.grown_from().grows_like(groom)) {
-            continue;
+    let modified: Vec<AssetId<Mesh>> = mesh_events
+        .read()
+        .filter_map(|event| match event {
+            AssetEvent::Modified { id } => Some(*id),
+            _ => None,
+        })
+        .collect();
+    for (entity, groom, state, mesh) in &heads {
+        let new_guides = groom.is_changed() && !state.is_some_and(|s| s.grown_from().grows_like(&groom));
+        let regrow = new_guides || mesh.is_changed() || modified.contains(&mesh.id());
+        if regrow {
+            commands.entity(entity).remove::<(HairState, GrowthTask)>().insert(GroomStatus::WaitingForMesh);
         }
-        commands.entity(entity).remove::<(HairState, GrowthTask)>().insert(GroomStatus::WaitingForMesh);
     }
     for entity in &changed_without_mesh {
         commands.entity(entity).remove::<(HairState, GrowthTask)>().insert(GroomStatus::WaitingForMesh);
     }
+}
+
+/// A head that loses its [`HairGroom`] loses its strands, its growth task and its status.
+pub(crate) fn forget_groom(removed: On<Remove, HairGroom>, mut commands: Commands) {
+    commands.entity(removed.entity).try_remove::<(HairState, GrowthTask, GroomStatus)>();
 }
 
 /// Once the head mesh is available, reads it and starts growing on the async pool.
@@ -178,6 +212,8 @@ pub(crate) fn start_growth(
     meshes: Option<Res<Assets<Mesh>>>,
     server: Option<Res<AssetServer>>,
     settings: Res<HairSettings>,
+    bindposes: Option<Res<Assets<SkinnedMeshInverseBindposes>>>,
+    joints: Query<&GlobalTransform>,
     mut grooms: Query<(
         Entity,
         &HairGroom,
@@ -186,10 +222,11 @@ pub(crate) fn start_growth(
         &GlobalTransform,
         Option<&HairSettingsOverride>,
         Option<&ScalpPredicate>,
+        Option<&SkinnedMesh>,
     )>,
     mut errors: MessageWriter<HairError>,
 ) {
-    for (entity, groom, mut status, mesh3d, transform, local, predicate) in &mut grooms {
+    for (entity, groom, mut status, mesh3d, transform, local, predicate, skin) in &mut grooms {
         if *status != GroomStatus::WaitingForMesh {
             continue;
         }
@@ -212,20 +249,51 @@ pub(crate) fn start_growth(
             }
             continue; // still loading
         };
-        let (pose, scale) = pose_and_scale(transform);
+        // A skinned head also waits for its inverse bind matrices.
+        let skin = match skin.map(|s| (s, bindposes.as_deref().and_then(|b| b.get(&s.inverse_bindposes)))) {
+            None => None,
+            Some((skin, Some(bindposes))) => Some((skin, bindposes)),
+            Some((skin, None)) => {
+                match server.as_ref().map(|s| s.load_state(&skin.inverse_bindposes)) {
+                    Some(LoadState::Loading) => {}
+                    Some(LoadState::Failed(e)) => fail(format!("the head's inverse bind matrices failed to load: {e}")),
+                    _ => fail("the head's SkinnedMesh names inverse bind matrices that are not in Assets".into()),
+                }
+                continue;
+            }
+        };
+        let predicate = predicate.map(|p| p.0);
         let prepared = check_groom(groom).and_then(|()| {
+            // A skinned head's frame is its scalp joint's, found on the bind-pose mesh.
+            let joint = match skin {
+                None => None,
+                Some((skin, bindposes)) => {
+                    let bind = read_head_mesh(mesh, Vec3::ONE)?;
+                    let weights = scalp_weights(mesh, &bind, groom.scalp, predicate, Vec3::ONE)?;
+                    Some(ScalpJoint::find(mesh, skin, bindposes, &bind, &weights)?)
+                }
+            };
+            let frame = head_frame(transform, joint.as_ref(), &joints)?;
+            let (pose, scale) = pose_and_scale(&frame);
             let head = read_head_mesh(mesh, scale)?;
-            let weights = scalp_weights(mesh, &head, groom.scalp, predicate.map(|p| p.0), scale)?;
-            Ok((head, weights))
+            let weights = scalp_weights(mesh, &head, groom.scalp, predicate, scale)?;
+            Ok((head, weights, pose, scale, joint))
         });
         match prepared {
             Err(reason) => fail(reason),
-            Ok((head, weights)) => {
+            Ok((head, weights, pose, scale, joint)) => {
+                if let Some(joint) = joint.filter(|j| j.share < 0.999) {
+                    info!(
+                        "hair on {entity}: joint {} carries {:.1}% of the scalp's skin weights; blended roots follow it rigidly",
+                        joint.joint,
+                        joint.share * 100.0
+                    );
+                }
                 let (params, _) = effective(&settings, local).sanitized();
                 let groom = groom.clone();
                 let task =
                     AsyncComputeTaskPool::get().spawn(async move { grow(head, weights, groom, params, pose, scale) });
-                commands.entity(entity).insert(GrowthTask(task));
+                commands.entity(entity).insert(GrowthTask { task, joint });
                 *status = GroomStatus::Growing;
             }
         }
@@ -289,22 +357,24 @@ fn grow(
 pub(crate) fn finish_growth(
     mut commands: Commands,
     mut tasks: Query<(Entity, &mut GrowthTask, &mut GroomStatus, &GlobalTransform)>,
+    joints: Query<&GlobalTransform>,
     mut errors: MessageWriter<HairError>,
 ) {
     for (entity, mut task, mut status, transform) in &mut tasks {
-        let Some(result) = block_on(future::poll_once(&mut task.0)) else {
+        let Some(result) = block_on(future::poll_once(&mut task.task)) else {
             continue;
         };
         commands.entity(entity).remove::<GrowthTask>();
+        // The head may have moved while the task ran: start from where it is now.
+        let result = result.and_then(|grown| Ok((grown, head_frame(transform, task.joint.as_ref(), &joints)?)));
         match result {
-            Ok(grown) => {
+            Ok((grown, frame)) => {
                 *status = GroomStatus::Ready {
                     guides: grown.strands.strand_count(),
                     particles_per_strand: grown.strands.particles_per_strand(),
                 };
-                // The head may have moved while the task ran: start from where it is now.
-                let (pose, _) = pose_and_scale(transform);
-                commands.entity(entity).insert(HairState::new(grown, pose));
+                let (pose, _) = pose_and_scale(&frame);
+                commands.entity(entity).insert(HairState::new(grown, pose, task.joint));
             }
             Err(reason) => {
                 warn!("hair on {entity}: {reason}");

@@ -15,14 +15,15 @@
 //! # }
 //! ```
 //!
-//! The plugin grows guide strands on the painted scalp (on a background task), then each
-//! fixed step ([`HairSystems`], in `FixedPostUpdate` by default) moves the roots with the
-//! head, steps the solver of the `hair_sim` crate in parallel, and keeps the last two
-//! steps' positions in [`HairState`] for drawing.
-//!
-//! The head pose a step sees is the head's [`GlobalTransform`] at the start of the frame:
-//! animation runs in `PostUpdate`, after the fixed steps, so hair lags the head by one
-//! frame. Within a step the roots follow the pose interpolated across substeps.
+//! The plugin grows guide strands on the painted scalp (on a background task). Then, in
+//! `PostUpdate` after animation and transform propagation, the hair clock (`Time<Hair>`,
+//! [`HairTime`]) runs as many hair steps ([`HairSchedule`]) as the frame's time holds, at
+//! the plugin's own timestep ([`HairPlugin::timestep`], 60 Hz by default; the app's
+//! `Time<Fixed>` is left alone). Each step moves the roots with the head pose interpolated
+//! between the last two frames over that step's own interval, steps the solver of the
+//! `hair_sim` crate in parallel, and keeps the positions in head space in [`HairState`].
+//! Drawing interpolates between the last two steps in head space and places the result on
+//! the head as posed in the frame, so the roots sit on the drawn scalp at any frame rate.
 //!
 //! Errors a user can cause — a head without a mesh, an empty mesh, no painted scalp,
 //! NaN settings — never panic: they arrive as [`HairError`] messages, a `warn!`, and a
@@ -30,6 +31,7 @@
 
 #![warn(missing_docs)]
 
+mod clock;
 mod colliders;
 mod convert;
 mod diagnostics;
@@ -39,7 +41,9 @@ mod head_mesh;
 pub mod render;
 mod settings;
 mod simulation;
+mod skinning;
 
+pub use clock::{Hair, HairSchedule, HairTime};
 pub use colliders::HairCollider;
 pub use diagnostics::HairDiagnostics;
 pub use groom::{GroomStatus, HairGroom, RootDistribution, ScalpPredicate, ScalpSource};
@@ -51,11 +55,9 @@ pub use head_mesh::{ATTRIBUTE_SCALP, is_procedural_scalp, procedural_head_mesh};
 pub use render::{HairLook, HairRenderStats, SpecularLobe};
 pub use settings::{HairSettings, HairSettingsOverride};
 pub use simulation::HairState;
+pub use skinning::ScalpJoint;
 
-use bevy::app::FixedPostUpdate;
 use bevy::diagnostic::{Diagnostic, RegisterDiagnostic};
-use bevy::ecs::intern::Interned;
-use bevy::ecs::schedule::ScheduleLabel;
 use bevy::prelude::*;
 use bevy::transform::TransformSystems;
 use std::time::Duration;
@@ -63,9 +65,9 @@ use std::time::Duration;
 /// Everything needed to add hair to an app.
 pub mod prelude {
     pub use crate::{
-        ChildParams, GroomStatus, HairCollider, HairDiagnostics, HairError, HairGroom, HairPlugin, HairSettings,
-        HairSettingsOverride, HairState, HairSystems, LengthMode, RootDistribution, ScalpPredicate, ScalpSource,
-        SimParams, Spiral, Wind,
+        ChildParams, GroomStatus, Hair, HairCollider, HairDiagnostics, HairError, HairGroom, HairPlugin, HairSchedule,
+        HairSettings, HairSettingsOverride, HairState, HairSystems, HairTime, LengthMode, RootDistribution,
+        ScalpPredicate, ScalpSource, SimParams, Spiral, Wind,
     };
     #[cfg(feature = "render")]
     pub use crate::{HairLook, HairRenderStats, SpecularLobe};
@@ -76,40 +78,47 @@ pub mod prelude {
 /// pool: `DefaultPlugins` has them all, and so do `MinimalPlugins` + `TransformPlugin` +
 /// `AssetPlugin` + `MeshPlugin` for headless apps. Add it after `DefaultPlugins`: it draws
 /// only if Bevy's `RenderPlugin` is already there.
+#[derive(Clone, Debug)]
 pub struct HairPlugin {
-    /// The schedule the simulation steps in: `FixedPostUpdate` by default.
-    pub schedule: Interned<dyn ScheduleLabel>,
+    /// The length of one hair step (60 Hz by default). Hair keeps a clock of its own,
+    /// `Time<Hair>` ([`HairTime`]), so this never changes the app's `Time<Fixed>`; change
+    /// it at run time with [`HairTime::set_timestep`].
+    pub timestep: Duration,
 }
 
 impl Default for HairPlugin {
     fn default() -> Self {
-        HairPlugin { schedule: FixedPostUpdate.intern() }
+        HairPlugin { timestep: Hair::DEFAULT_TIMESTEP }
     }
 }
 
 impl HairPlugin {
-    /// Simulate in `schedule` instead of `FixedPostUpdate`.
-    pub fn new(schedule: impl ScheduleLabel) -> Self {
-        HairPlugin { schedule: schedule.intern() }
+    /// Hair steps `hz` times per second of virtual time (60 if `hz` is not a positive,
+    /// finite rate).
+    pub fn from_hz(hz: f64) -> Self {
+        let timestep = Duration::try_from_secs_f64(1.0 / hz).ok().filter(|_| hz > 0.0);
+        HairPlugin { timestep: timestep.unwrap_or(Hair::DEFAULT_TIMESTEP) }
     }
 }
 
-/// The hair systems, in order. In the simulation schedule, chained:
-/// [`SyncRoots`](HairSystems::SyncRoots) → [`Simulate`](HairSystems::Simulate) →
-/// [`Writeback`](HairSystems::Writeback). [`Grow`](HairSystems::Grow) runs in `PostUpdate`
-/// after transform propagation.
+/// The hair systems, in order. In `PostUpdate`, after transform propagation:
+/// [`Grow`](HairSystems::Grow) → [`Step`](HairSystems::Step) → [`Draw`](HairSystems::Draw).
+/// In [`HairSchedule`], once per hair step, chained: [`SyncRoots`](HairSystems::SyncRoots)
+/// → [`Simulate`](HairSystems::Simulate) → [`Writeback`](HairSystems::Writeback).
 #[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum HairSystems {
     /// Starts and collects background growth of new or changed grooms.
     Grow,
-    /// Reads each head's pose for this step.
+    /// Advances the hair clock, records each head's pose of the frame, and runs
+    /// [`HairSchedule`] once per whole hair step.
+    Step,
+    /// Moves the roots to the head pose at the end of the step.
     SyncRoots,
     /// Steps the solver.
     Simulate,
-    /// Publishes the new positions (previous and current, for interpolation).
+    /// Publishes the new positions (the last two steps', in head space, for drawing).
     Writeback,
-    /// Uploads interpolated guide positions for drawing (`PostUpdate`, after `Grow`;
-    /// feature `render`).
+    /// Uploads interpolated guide positions for drawing (feature `render`).
     Draw,
 }
 
@@ -129,42 +138,53 @@ impl std::fmt::Display for HairError {
     }
 }
 
-/// Bevy's default fixed timestep (64 Hz): replaced by 60 Hz unless the app chose another.
-const BEVY_DEFAULT_TIMESTEP: Duration = Duration::from_micros(15625);
-
 impl Plugin for HairPlugin {
     fn build(&self, app: &mut App) {
-        match app.world_mut().get_resource_mut::<Time<Fixed>>() {
-            Some(mut fixed) if fixed.timestep() == BEVY_DEFAULT_TIMESTEP => fixed.set_timestep_hz(60.0),
-            Some(_) => {}
-            None => {
-                app.insert_resource(Time::<Fixed>::from_hz(60.0));
-            }
-        }
+        let timestep = if self.timestep.is_zero() {
+            warn!("HairPlugin: a timestep of zero was replaced by {:?}", Hair::DEFAULT_TIMESTEP);
+            Hair::DEFAULT_TIMESTEP
+        } else {
+            self.timestep
+        };
+        app.insert_resource(Time::<Hair>::new_with(Hair::from_timestep(timestep)));
+        app.init_schedule(HairSchedule);
         app.init_resource::<HairSettings>()
             .register_type::<HairSettings>()
             .register_type::<HairSettingsOverride>()
             .register_type::<HairGroom>()
             .register_type::<HairCollider>()
+            .register_type::<Hair>()
             .add_message::<HairError>()
+            // Read to regrow hot-reloaded heads; present with `MeshPlugin`, added here so a
+            // missing one is reported by growth instead of failing the system.
+            .add_message::<AssetEvent<Mesh>>()
+            .add_observer(groom::forget_groom)
             .configure_sets(
-                self.schedule,
+                HairSchedule,
                 (HairSystems::SyncRoots, HairSystems::Simulate, HairSystems::Writeback).chain(),
             )
             .add_systems(
-                self.schedule,
+                HairSchedule,
                 (
                     simulation::sync_roots.in_set(HairSystems::SyncRoots),
                     simulation::simulate.in_set(HairSystems::Simulate),
                     simulation::writeback.in_set(HairSystems::Writeback),
                 ),
             )
+            .configure_sets(
+                PostUpdate,
+                (HairSystems::Grow, HairSystems::Step, HairSystems::Draw).chain().after(TransformSystems::Propagate),
+            )
             .add_systems(
                 PostUpdate,
-                (groom::request_growth, groom::start_growth, groom::finish_growth)
-                    .chain()
-                    .in_set(HairSystems::Grow)
-                    .after(TransformSystems::Propagate),
+                (
+                    (groom::request_growth, groom::start_growth, groom::finish_growth)
+                        .chain()
+                        .in_set(HairSystems::Grow),
+                    (clock::advance_clock, simulation::track_heads, clock::run_hair_schedule)
+                        .chain()
+                        .in_set(HairSystems::Step),
+                ),
             );
         for path in HairDiagnostics::ALL {
             app.register_diagnostic(Diagnostic::new(path));

@@ -1,21 +1,30 @@
-//! The fixed-step simulation: head pose in, strands stepped in parallel, positions out.
+//! The simulation: head poses in, strands stepped in parallel, positions out.
+//!
+//! Each frame [`track_heads`] stamps every head's final pose with the hair clock's time;
+//! each hair step ([`HairSchedule`](crate::HairSchedule)) moves the roots to the pose
+//! interpolated for the step's end ([`sync_roots`]), steps the solver ([`simulate`]) and
+//! keeps the positions in head space ([`writeback`]) for drawing on the head as it is
+//! posed in the frame.
 
 use crate::HairError;
+use crate::clock::{Hair, HairTime};
 use crate::colliders::HairCollider;
-use crate::convert::{from_sim, pose_and_scale};
+use crate::convert::{from_sim, pose_and_scale, to_sim};
 use crate::diagnostics::HairDiagnostics;
-use crate::groom::{GroomStatus, Grown, HairGroom};
+use crate::groom::{GroomStatus, Grown, HairGroom, head_frame};
 use crate::settings::{HairSettings, HairSettingsOverride, effective};
+use crate::skinning::ScalpJoint;
 use bevy::diagnostic::Diagnostics;
 use bevy::platform::time::Instant;
 use bevy::prelude::*;
 use bevy::tasks::{ComputeTaskPool, TaskPool};
 use hair_sim::collide::{ExtraCollider, HeadCollider};
 use hair_sim::groom::RootBinding;
-use hair_sim::math::Pose;
+use hair_sim::math::{Pose, Vec3 as SimVec3};
 use hair_sim::mesh::HeadMesh;
 use hair_sim::solver::{STRANDS_PER_GROUP, StepInput, StepReport, Strands};
 use std::sync::Arc;
+use std::time::Duration;
 
 /// Fewest strands worth a task of their own.
 const MIN_STRANDS_PER_TASK: usize = 64;
@@ -32,21 +41,34 @@ pub struct HairState {
     grown_from: HairGroom,
     /// The head scale baked into `head` and `collider`.
     baked_scale: Vec3,
+    /// The head pose at the start and the end of the last step.
     pose_from: Pose,
     pose_to: Pose,
+    /// The head's final pose in the frame before this one and in this one, stamped with
+    /// the hair clock's time: each step interpolates its head pose between them.
+    frame_before: StampedPose,
+    frame_now: StampedPose,
     time: f32,
-    previous: Vec<Vec3>,
+    /// Positions after the step before the last and after the last, in head space.
+    previous_local: Vec<Vec3>,
+    current_local: Vec<Vec3>,
+    /// Positions after the last step, world space.
     current: Vec<Vec3>,
     last_report: StepReport,
+    last_step_time: Duration,
+    /// A skinned head's scalp joint: the head's frame is the joint's.
+    joint: Option<ScalpJoint>,
     /// Fields of the settings last reported as unusable (names, not values: NaN ≠ NaN).
     reported_issues: Vec<&'static str>,
 }
 
 impl HairState {
-    pub(crate) fn new(grown: Grown, pose: Pose) -> Self {
+    pub(crate) fn new(grown: Grown, pose: Pose, joint: Option<ScalpJoint>) -> Self {
         let Grown { mut strands, collider, head, roots, scale, groom } = grown;
         strands.reset(pose);
         let current: Vec<Vec3> = strands.positions().iter().map(|&p| from_sim(p)).collect();
+        let current_local: Vec<Vec3> = to_head_space(strands.positions(), pose).collect();
+        let frame = StampedPose { time: 0.0, pose };
         HairState {
             strands,
             collider,
@@ -56,10 +78,15 @@ impl HairState {
             baked_scale: scale,
             pose_from: pose,
             pose_to: pose,
+            frame_before: frame,
+            frame_now: frame,
             time: 0.0,
-            previous: current.clone(),
+            previous_local: current_local.clone(),
+            current_local,
             current,
             last_report: StepReport::default(),
+            last_step_time: Duration::ZERO,
+            joint,
             reported_issues: Vec::new(),
         }
     }
@@ -99,16 +126,36 @@ impl HairState {
         &self.current
     }
 
-    /// Particle positions after the step before the last.
-    pub fn previous_positions(&self) -> &[Vec3] {
-        &self.previous
+    /// Particle positions after the last step, head space (the head's rotation and
+    /// translation undone; its scale stays, as in [`Self::head_mesh`]).
+    pub fn current_local_positions(&self) -> &[Vec3] {
+        &self.current_local
     }
 
-    /// Positions between the last two steps, for drawing between fixed steps: pass
-    /// `Time<Fixed>::overstep_fraction()`.
+    /// Particle positions after the step before the last, head space.
+    pub fn previous_local_positions(&self) -> &[Vec3] {
+        &self.previous_local
+    }
+
+    /// The positions to draw this frame, world space: interpolated between the last two
+    /// steps in head space, then placed on the head as posed this frame
+    /// ([`Self::drawn_head_pose`]), so the roots sit on the drawn scalp whatever the frame
+    /// rate. Pass `Time<Hair>::overstep_fraction()` ([`HairTime::overstep_fraction`]).
     pub fn interpolated_positions(&self, overstep_fraction: f32) -> impl Iterator<Item = Vec3> + '_ {
+        let pose = self.frame_now.pose;
+        self.interpolated_local_positions(overstep_fraction).map(move |p| from_sim(pose.transform_point(to_sim(p))))
+    }
+
+    /// [`Self::interpolated_positions`] in head space.
+    pub fn interpolated_local_positions(&self, overstep_fraction: f32) -> impl Iterator<Item = Vec3> + '_ {
         let t = overstep_fraction.clamp(0.0, 1.0);
-        self.previous.iter().zip(&self.current).map(move |(a, b)| a.lerp(*b, t))
+        self.previous_local.iter().zip(&self.current_local).map(move |(a, b)| a.lerp(*b, t))
+    }
+
+    /// The head's scale, baked into [`Self::head_mesh`], the collider and the head-space
+    /// positions.
+    pub fn head_scale(&self) -> Vec3 {
+        self.baked_scale
     }
 
     /// The head pose (rotation and translation, scale baked into the mesh) the last step
@@ -117,41 +164,114 @@ impl HairState {
         self.pose_to
     }
 
+    /// The head's pose as drawn this frame (its final `GlobalTransform`, without scale).
+    pub fn drawn_head_pose(&self) -> Pose {
+        self.frame_now.pose
+    }
+
+    /// The head pose at hair-clock time `seconds`, interpolated between the poses of the
+    /// last two frames (the newest one from then on).
+    fn head_pose_at(&self, seconds: f64) -> Pose {
+        let (before, now) = (self.frame_before, self.frame_now);
+        let span = now.time - before.time;
+        if !(span > 0.0) || seconds >= now.time {
+            return now.pose;
+        }
+        before.pose.lerp(&now.pose, ((seconds - before.time) / span).clamp(0.0, 1.0) as f32)
+    }
+
     /// What the last step did: contacts, resets.
     pub fn last_report(&self) -> StepReport {
         self.last_report
     }
 
+    /// For a head that is a skinned mesh, the joint its hair follows.
+    pub fn scalp_joint(&self) -> Option<&ScalpJoint> {
+        self.joint.as_ref()
+    }
+
+    /// Wall time of this groom's last hair step (solver and collision, all threads
+    /// together). The sum over grooms is published as [`HairDiagnostics::STEP_TIME`] per
+    /// step; a frame costs this times the steps the hair clock ran in it.
+    pub fn last_step_time(&self) -> Duration {
+        self.last_step_time
+    }
+
     /// Puts every strand back at rest on the head, motionless.
     pub fn reset(&mut self) {
         self.strands.reset(self.pose_to);
+        self.publish();
+        self.previous_local.clone_from(&self.current_local);
+    }
+
+    /// Copies the solver's positions out: world space, and head space for drawing.
+    fn publish(&mut self) {
+        std::mem::swap(&mut self.previous_local, &mut self.current_local);
         self.current.clear();
         self.current.extend(self.strands.positions().iter().map(|&p| from_sim(p)));
-        self.previous.clone_from(&self.current);
+        self.current_local.clear();
+        self.current_local.extend(to_head_space(self.strands.positions(), self.pose_to));
     }
 }
 
-/// [`HairSystems::SyncRoots`](crate::HairSystems): the head pose this step moves the
-/// roots to. A changed head scale regrows the groom (the scale is baked into the collider).
-pub(crate) fn sync_roots(mut commands: Commands, mut grooms: Query<(Entity, &mut HairState, &GlobalTransform)>) {
+/// A head pose and the hair-clock time it was seen at.
+#[derive(Clone, Copy, Debug)]
+struct StampedPose {
+    /// Seconds on the hair clock.
+    time: f64,
+    pose: Pose,
+}
+
+/// World positions → head space.
+fn to_head_space(positions: &[SimVec3], pose: Pose) -> impl Iterator<Item = Vec3> + '_ {
+    positions.iter().map(move |&p| from_sim(pose.inverse_transform_point(p)))
+}
+
+/// [`HairSystems::Step`](crate::HairSystems), before the steps: stamps each head's final
+/// pose of this frame with the hair clock's present. A changed head scale regrows the
+/// groom (the scale is baked into the collider).
+pub(crate) fn track_heads(
+    mut commands: Commands,
+    clock: Res<Time<Hair>>,
+    mut grooms: Query<(Entity, &mut HairState, &GlobalTransform)>,
+    joints: Query<&GlobalTransform>,
+) {
+    let now = clock.now().as_secs_f64();
     for (entity, mut state, transform) in &mut grooms {
-        let (pose, scale) = pose_and_scale(transform);
+        // A skinned head whose joint is gone keeps its last pose.
+        let Ok(frame) = head_frame(transform, state.joint.as_ref(), &joints) else { continue };
+        let (pose, scale) = pose_and_scale(&frame);
         if !scale.abs_diff_eq(state.baked_scale, 1e-4 * state.baked_scale.abs().max_element()) {
             info!("hair on {entity}: the head scale changed from {} to {scale}; regrowing", state.baked_scale);
             commands.entity(entity).remove::<HairState>().insert(GroomStatus::WaitingForMesh);
             continue;
         }
-        state.pose_from = state.pose_to;
-        state.pose_to = pose;
+        let frame = StampedPose { time: now, pose };
+        // A new groom has no earlier frame: it starts from where the head is now.
+        state.frame_before = if state.is_added() { frame } else { state.frame_now };
+        state.frame_now = frame;
     }
 }
 
-/// [`HairSystems::Simulate`](crate::HairSystems): one solver step per groom, its strands
-/// split into chunks on the [`ComputeTaskPool`].
+/// [`HairSystems::SyncRoots`](crate::HairSystems): the head pose at the end of this step,
+/// interpolated between the frames around it, so every step moves the roots by the
+/// head's motion over its own interval.
+pub(crate) fn sync_roots(time: Res<Time>, mut grooms: Query<&mut HairState>) {
+    let step_end = time.elapsed_secs_f64();
+    for mut state in &mut grooms {
+        state.pose_from = state.pose_to;
+        state.pose_to = state.head_pose_at(step_end);
+    }
+}
+
+/// [`HairSystems::Simulate`](crate::HairSystems): one solver step per groom, over the
+/// hair clock's timestep (the generic `Time` inside [`HairSchedule`](crate::HairSchedule)),
+/// its strands split into chunks on the [`ComputeTaskPool`].
 pub(crate) fn simulate(
     time: Res<Time>,
     settings: Res<HairSettings>,
-    colliders: Query<(&HairCollider, &GlobalTransform)>,
+    colliders: Query<(Entity, &HairCollider, &GlobalTransform)>,
+    parents: Query<&ChildOf>,
     mut grooms: Query<(Entity, &mut HairState, Option<&HairSettingsOverride>)>,
     mut errors: MessageWriter<HairError>,
     mut diagnostics: Diagnostics,
@@ -159,9 +279,18 @@ pub(crate) fn simulate(
     let started = Instant::now();
     let (mut guides, mut particles) = (0, 0);
     let dt = time.delta_secs();
-    let extra: Vec<ExtraCollider> = colliders.iter().map(|(c, t)| c.to_world(t)).collect();
+    // A collider in a hierarchy belongs to the character at its root; a top-level one to all.
+    let scoped: Vec<(Option<Entity>, ExtraCollider)> = colliders
+        .iter()
+        .map(|(e, c, t)| (parents.contains(e).then(|| parents.root_ancestor(e)), c.to_world(t)))
+        .collect();
+    let mut extra = Vec::with_capacity(scoped.len());
     let pool = ComputeTaskPool::get_or_init(TaskPool::default);
     for (entity, mut state, local) in &mut grooms {
+        let groom_started = Instant::now();
+        let character = parents.root_ancestor(entity);
+        extra.clear();
+        extra.extend(scoped.iter().filter(|(scope, _)| scope.is_none_or(|s| s == character)).map(|(_, c)| *c));
         let (params, issues) = effective(&settings, local).sanitized();
         let fields: Vec<&'static str> = issues.iter().map(|i| i.field).collect();
         if fields != state.reported_issues {
@@ -198,6 +327,7 @@ pub(crate) fn simulate(
             warn!("hair on {entity}: {} strands produced non-finite values and were reset", report.nan_resets);
         }
         state.last_report = report;
+        state.last_step_time = groom_started.elapsed();
         state.time += dt;
         guides += state.strands.strand_count();
         particles += state.strands.positions().len();
@@ -209,12 +339,9 @@ pub(crate) fn simulate(
 }
 
 /// [`HairSystems::Writeback`](crate::HairSystems): keeps the last two steps' positions
-/// for interpolated drawing.
+/// (in head space) for interpolated drawing.
 pub(crate) fn writeback(mut grooms: Query<&mut HairState>) {
     for mut state in &mut grooms {
-        let state = &mut *state;
-        std::mem::swap(&mut state.previous, &mut state.current);
-        state.current.clear();
-        state.current.extend(state.strands.positions().iter().map(|&p| from_sim(p)));
+        state.publish();
     }
 }

@@ -551,3 +551,52 @@ fn strands_cast_shadows() {
     assert!(both > 5000, "only {both} wall pixels");
     assert!(darker > 300, "the strands' shadows darken only {darker} of {both} wall pixels");
 }
+
+fn red_pixels(picture: &Picture) -> usize {
+    picture.pixels.iter().filter(|c| c[0] > 1.5 * c[1] && c[0] > 1.5 * c[2] && c[0] > 0.05).count()
+}
+
+#[test]
+fn hair_follows_its_head_through_visibility_layers_and_despawn() {
+    use bevy::camera::visibility::RenderLayers;
+    use bevy_hair::render::{HairDrawing, HairDrawnBy};
+    require_adapter!();
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let mut scene = Scene::new();
+    let head = scene.spawn_head(short_groom());
+    scene.wait_until_ready(head);
+    let drawing = scene.app.world().get::<HairDrawnBy>(head).expect("a drawing").0;
+    assert_eq!(scene.app.world().get::<ChildOf>(drawing).map(ChildOf::parent), Some(head), "drawn by a child");
+    let mut look = |scene: &mut Scene, name: &str| {
+        let picture = scene.capture(name);
+        let counts = (picture.hair_pixels(), red_pixels(&picture));
+        println!("{name}: {} hair pixels, {} skin pixels", counts.0, counts.1);
+        counts
+    };
+    let (hair, skin) = look(&mut scene, "lifecycle-visible");
+    assert!(hair > 500 && skin > 500);
+
+    *scene.app.world_mut().get_mut::<Visibility>(head).unwrap() = Visibility::Hidden;
+    assert_eq!(look(&mut scene, "lifecycle-head-hidden"), (0, 0), "hidden head, hidden hair");
+
+    *scene.app.world_mut().get_mut::<Visibility>(head).unwrap() = Visibility::Inherited;
+    *scene.app.world_mut().get_mut::<Visibility>(drawing).unwrap() = Visibility::Hidden;
+    let (hair, skin) = look(&mut scene, "lifecycle-hair-hidden");
+    assert!(hair == 0 && skin > 500, "the hair alone can be hidden");
+
+    *scene.app.world_mut().get_mut::<Visibility>(drawing).unwrap() = Visibility::Inherited;
+    scene.app.world_mut().entity_mut(head).insert(RenderLayers::layer(1));
+    assert_eq!(look(&mut scene, "lifecycle-other-layer"), (0, 0), "the hair is on its head's layer");
+    scene.app.world_mut().entity_mut(scene.camera).insert(RenderLayers::layer(1));
+    let (hair, skin) = look(&mut scene, "lifecycle-camera-on-layer");
+    assert!(hair > 500 && skin > 500, "a camera on the head's layer sees the hair");
+
+    scene.app.world_mut().entity_mut(head).despawn();
+    scene.frames(3);
+    let world = scene.app.world_mut();
+    let drawings = world.query::<&HairDrawing>().iter(world).count();
+    let buffers = world.resource::<Assets<ShaderBuffer>>().len();
+    let materials = world.resource::<Assets<HairMaterial>>().len();
+    println!("after despawning the head: {drawings} drawings, {buffers} guide buffers, {materials} hair materials");
+    assert_eq!((drawings, buffers, materials), (0, 0, 0), "the hair outlived its head");
+}

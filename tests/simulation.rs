@@ -5,51 +5,124 @@ mod common;
 use bevy::animation::{AnimatedBy, AnimationTargetId, animated_field, prelude::*};
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
-use bevy_hair::hair_sim::math::Pose;
 use bevy_hair::prelude::*;
 use common::*;
 use std::f32::consts::TAU;
 use std::time::Duration;
 
-fn root_error(app: &App, head: Entity, pose: Pose) -> f32 {
+/// The head of [`spin_and_travel`]: 2 turns per second about a tilted axis while moving at
+/// 1 m/s, a function of the app's virtual time.
+#[derive(Resource)]
+struct Spinning(Entity);
+
+fn spin_and_travel(time: Res<Time>, head: Res<Spinning>, mut transforms: Query<&mut Transform>) {
+    let t = time.elapsed_secs_f64();
+    let mut transform = transforms.get_mut(head.0).unwrap();
+    transform.rotation = Quat::from_axis_angle(Vec3::new(0.3, 1.0, 0.2).normalize(), (2.0 * TAU as f64 * t) as f32);
+    transform.translation = Vec3::new(t as f32, 0.2, -0.1);
+}
+
+/// Each root's point on the head as Bevy draws it this frame: the head's final
+/// `GlobalTransform` (scale included) applied to the root's rest position, with the scale
+/// the groom baked into it taken back out. Nothing of the plugin's pose handling is used.
+fn roots_on_drawn_head(app: &App, head: Entity) -> Vec<Vec3> {
     let state = state(app, head);
+    let global = app.world().get::<GlobalTransform>(head).unwrap();
+    let unscale = global.scale().recip();
     let n = state.particles_per_strand();
     let rest = &state.strands().rest().positions;
-    state
-        .current_positions()
-        .iter()
-        .step_by(n)
-        .zip(rest.iter().step_by(n))
-        .map(|(root, &r)| root.distance(Vec3::from_array(pose.transform_point(r).to_array())))
-        .fold(0.0, f32::max)
+    rest.iter().step_by(n).map(|r| global.transform_point(Vec3::from_array(r.to_array()) * unscale)).collect()
+}
+
+/// The drawn root of each guide: what the renderer uploads this frame.
+fn drawn_roots(app: &App, head: Entity) -> Vec<Vec3> {
+    let state = state(app, head);
+    let fraction = app.world().resource::<Time<Hair>>().overstep_fraction();
+    state.interpolated_positions(fraction).step_by(state.particles_per_strand()).collect()
 }
 
 #[test]
-fn roots_follow_a_moving_head() {
-    let (mut app, head) = grown(groom());
-    let pose_of = |app: &App| {
-        let global = app.world().get::<GlobalTransform>(head).unwrap();
-        Pose::new(
-            bevy_hair::hair_sim::math::Quat::from_array(global.rotation().to_array()),
-            bevy_hair::hair_sim::math::Vec3::from_array(global.translation().to_array()),
-        )
-    };
-    let mut worst = 0.0f32;
-    for frame in 0..120 {
-        // The fixed step runs before this frame's transform propagation, so it sees the
-        // head where the previous frame left it: one frame of lag, by design.
-        let seen = pose_of(&app);
-        let t = frame as f32 / 60.0;
-        let mut transform = app.world_mut().get_mut::<Transform>(head).unwrap();
-        transform.translation = Vec3::new(0.3 * (TAU * t).sin(), 0.1 * t, 0.0);
-        transform.rotation = Quat::from_rotation_y(1.5 * (TAU * 0.5 * t).sin());
-        app.update();
-        worst = worst.max(root_error(&app, head, seen));
+fn roots_sit_on_the_drawn_head_at_every_frame_rate() {
+    // A non-uniform scale, so the baked scale is part of what is checked.
+    let mut app = app();
+    let head = spawn_head(&mut app, groom(), Transform::from_scale(Vec3::new(1.1, 0.95, 1.0)));
+    wait_until_ready(&mut app, head);
+    app.insert_resource(Spinning(head)).add_systems(Update, spin_and_travel);
+    for hz in [30.0, 60.0, 120.0] {
+        app.world_mut().resource_mut::<Time<Hair>>().set_timestep_hz(hz);
+        for fps in [20.0, 30.0, 60.0, 144.0] {
+            app.insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(1.0 / fps)));
+            let (mut worst, mut resets) = (0.0f32, 0);
+            for _ in 0..(fps as usize / 2) {
+                app.update();
+                let expected = roots_on_drawn_head(&app, head);
+                let drawn = drawn_roots(&app, head);
+                worst = drawn.iter().zip(&expected).map(|(a, b)| a.distance(*b)).fold(worst, f32::max);
+                resets += state(&app, head).last_report().teleport_resets;
+            }
+            println!("{fps} fps, {hz} Hz hair: drawn roots within {:.4} mm of the drawn scalp", worst * 1e3);
+            assert!(worst <= 2e-4, "{fps} fps / {hz} Hz: a drawn root is {} mm off the drawn scalp", worst * 1e3);
+            assert_eq!(resets, 0, "{fps} fps / {hz} Hz: the head's motion was taken for a teleport");
+            assert!(all_finite(&app, head));
+        }
     }
-    let moved = pose_of(&app).translation.length();
-    println!("head moved {moved:.3} m; worst root error {worst:e} m");
-    assert!(moved > 0.1);
-    assert!(worst <= 1e-4, "roots are {worst} m from where the head puts them");
+}
+
+/// The hair-clock time and the head translation of every hair step.
+#[derive(Resource, Default)]
+struct StepLog(Vec<(f64, Vec3)>);
+
+fn log_step(time: Res<Time>, head: Res<Spinning>, states: Query<&HairState>, mut log: ResMut<StepLog>) {
+    let pose = states.get(head.0).unwrap().head_pose();
+    log.0.push((time.elapsed_secs_f64(), Vec3::from_array(pose.translation.to_array())));
+}
+
+#[test]
+fn every_step_moves_the_roots_by_its_own_interval() {
+    let (mut app, head) = grown(groom());
+    app.insert_resource(Spinning(head))
+        .init_resource::<StepLog>()
+        .add_systems(Update, spin_and_travel)
+        .add_systems(HairSchedule, log_step.after(HairSystems::SyncRoots));
+    for (fps, hz) in [(20.0, 60.0), (144.0, 60.0), (30.0, 120.0), (60.0, 30.0), (50.0, 60.0)] {
+        app.world_mut().resource_mut::<Time<Hair>>().set_timestep_hz(hz);
+        app.insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(1.0 / fps)));
+        app.world_mut().resource_mut::<StepLog>().0.clear();
+        run(&mut app, fps as usize / 2);
+        let log = std::mem::take(&mut app.world_mut().resource_mut::<StepLog>().0);
+        let step = 1.0 / hz;
+        // The head is at x = t (1 m/s): each step's pose is the head's at the step's end...
+        let off = log.iter().map(|&(t, p)| (p.x as f64 - t).abs()).fold(0.0, f64::max);
+        // ...so every step moves it by one step's worth, never by none or by two.
+        let moves: Vec<f64> = log.windows(2).map(|w| (w[1].1.x - w[0].1.x) as f64).collect();
+        let (least, most) = moves.iter().fold((f64::MAX, f64::MIN), |(lo, hi), &m| (lo.min(m), hi.max(m)));
+        println!(
+            "{fps} fps, {hz} Hz: {} steps, head pose within {:.4} mm of its path, moves {:.3}-{:.3} mm (step {:.3} mm)",
+            log.len(),
+            off * 1e3,
+            least * 1e3,
+            most * 1e3,
+            step * 1e3
+        );
+        assert!((log.len() as f64 - 0.5 * hz).abs() <= 1.0, "{} steps in 0.5 s at {hz} Hz", log.len());
+        assert!(off <= 1e-4, "a step saw the head {off} m from where it was at the step's time");
+        assert!((least - step).abs() <= 1e-4 && (most - step).abs() <= 1e-4, "moves {least}..{most}, step {step}");
+    }
+}
+
+#[test]
+fn the_app_keeps_its_fixed_timestep() {
+    let mut app = app();
+    app.update();
+    let fixed = app.world().resource::<Time<Fixed>>().timestep();
+    assert_eq!(fixed, Time::<Fixed>::default().timestep(), "HairPlugin changed Time<Fixed>");
+    let hair = app.world().resource::<Time<Hair>>().timestep();
+    assert_eq!(hair, Hair::DEFAULT_TIMESTEP);
+    let mut app = App::new();
+    app.add_plugins((MinimalPlugins, TransformPlugin, AssetPlugin::default()));
+    app.add_plugins((bevy::mesh::MeshPlugin, HairPlugin::from_hz(120.0)));
+    assert_eq!(app.world().resource::<Time<Hair>>().timestep(), Duration::from_secs_f64(1.0 / 120.0));
+    assert_eq!(app.world().resource::<Time<Fixed>>().timestep(), Time::<Fixed>::default().timestep());
 }
 
 #[test]

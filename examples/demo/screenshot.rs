@@ -155,18 +155,19 @@ fn drive(
 /// Where the roots whose surface faces the camera land in the window, in physical pixels.
 fn facing_root_pixels(state: &HairState, camera: &Camera, camera_transform: &GlobalTransform) -> Vec<UVec2> {
     let eye = camera_transform.translation();
-    let rotation = Quat::from_array(state.head_pose().rotation.to_array());
+    // The head as drawn in this frame; roots do not depend on the interpolation fraction.
+    let rotation = Quat::from_array(state.drawn_head_pose().rotation.to_array());
     let n = state.particles_per_strand();
     let scale = camera.target_scaling_factor().unwrap_or(1.0);
     state
         .roots()
         .iter()
-        .zip(state.current_positions().chunks_exact(n))
-        .filter(|(root, strand)| {
+        .zip(state.interpolated_positions(1.0).step_by(n))
+        .filter(|(root, drawn_root)| {
             let normal = rotation * Vec3::from_array(root.normal(state.head_mesh()).to_array());
-            normal.dot((eye - strand[0]).normalize_or_zero()) > 0.3
+            normal.dot((eye - *drawn_root).normalize_or_zero()) > 0.3
         })
-        .filter_map(|(_, strand)| camera.world_to_viewport(camera_transform, strand[0]).ok())
+        .filter_map(|(_, drawn_root)| camera.world_to_viewport(camera_transform, drawn_root).ok())
         .map(|p| (p * scale).as_uvec2())
         .collect()
 }

@@ -1,11 +1,13 @@
 //! Drawing grooms: GPU-tessellated strands with a Kajiya-Kay material (feature `render`).
 //!
-//! Each groom gets a drawing entity of its own (world space, so its transform is the
-//! identity) with a static [`StrandLayout`] mesh and a [`HairMaterial`]. Every frame only
-//! the guide particles, interpolated between the last two fixed steps, and each particle's
+//! Each groom gets a drawing entity of its own, a child of its head ([`ChildOf`], so it
+//! inherits the head's visibility and goes when the head is despawned; its own
+//! [`Visibility`] hides the hair alone), with a static [`StrandLayout`] mesh and a
+//! [`HairMaterial`]. Every frame only the guide particles, interpolated between the last
+//! two hair steps and placed on the head as posed in the frame, and each particle's
 //! parallel-transport frame vector are written into the material's storage buffer; the
 //! vertex shader tessellates the guides with Bézier curves and places the children around
-//! them.
+//! them. The head's [`RenderLayers`] are copied to the drawing.
 
 mod layout;
 mod material;
@@ -15,10 +17,10 @@ pub use material::{HairMaterial, HairUniform};
 
 use crate::convert::{from_sim, quat_from_sim, to_sim};
 use crate::diagnostics::HairDiagnostics;
-use crate::{HairGroom, HairState, HairSystems};
+use crate::{Hair, HairGroom, HairState, HairSystems, HairTime};
 use bevy::asset::embedded_asset;
 use bevy::camera::primitives::Aabb;
-use bevy::camera::visibility::{NoAutoAabb, VisibilitySystems};
+use bevy::camera::visibility::{NoAutoAabb, RenderLayers, VisibilitySystems};
 use bevy::diagnostic::Diagnostics;
 use bevy::light::NotShadowCaster;
 use bevy::prelude::*;
@@ -41,9 +43,10 @@ impl Plugin for HairRenderPlugin {
                 (sync_drawing, upload_guides, update_materials)
                     .chain()
                     .in_set(HairSystems::Draw)
-                    .after(HairSystems::Grow)
+                    .after(VisibilitySystems::VisibilityPropagate)
                     .before(VisibilitySystems::CheckVisibility),
-            );
+            )
+            .add_observer(forget_drawing);
     }
 }
 
@@ -122,7 +125,7 @@ pub struct HairRenderStats {
     pub uploaded_bytes: u64,
 }
 
-/// On a groom's drawing entity: which head it draws and with what.
+/// On a groom's drawing entity (a child of the head): which head it draws and with what.
 #[derive(Component, Debug)]
 pub struct HairDrawing {
     /// The head entity (with [`HairGroom`] and [`HairState`]).
@@ -137,9 +140,18 @@ pub struct HairDrawing {
     root_u: Vec<Vec3>,
 }
 
-/// On a head: the entity that draws its hair.
+/// On a head: the entity that draws its hair. Set that entity's [`Visibility`] to hide
+/// the hair alone.
 #[derive(Component, Debug)]
 pub struct HairDrawnBy(pub Entity);
+
+/// A head that loses its [`HairGroom`] loses its drawing.
+fn forget_drawing(removed: On<Remove, HairGroom>, mut commands: Commands, heads: Query<&HairDrawnBy>) {
+    if let Ok(drawn_by) = heads.get(removed.entity) {
+        commands.entity(drawn_by.0).try_despawn();
+        commands.entity(removed.entity).try_remove::<HairDrawnBy>();
+    }
+}
 
 fn layout_of(state: &HairState, groom: &HairGroom, look: &HairLook) -> StrandLayout {
     StrandLayout {
@@ -150,36 +162,40 @@ fn layout_of(state: &HairState, groom: &HairGroom, look: &HairLook) -> StrandLay
     }
 }
 
-/// Spawns (or rebuilds) the drawing entity of each grown groom, hides it while the groom
-/// regrows, and despawns it with its head.
+/// Spawns the drawing entity of each grown groom as a child of its head, rebuilds its
+/// mesh, buffer and material when the groom regrew or its layout changed, stops drawing
+/// while the groom regrows, and keeps its render layers those of the head. Its
+/// [`Visibility`] is left to the user.
 #[allow(clippy::type_complexity)] // a query's component list
 fn sync_drawing(
     mut commands: Commands,
-    heads: Query<(Entity, Option<&HairState>, &HairGroom, &HairLook, Option<&HairDrawnBy>)>,
-    mut drawings: Query<(Entity, &mut HairDrawing, &mut Visibility)>,
+    heads: Query<(Entity, Option<Ref<HairState>>, &HairGroom, &HairLook, Option<&HairDrawnBy>, Option<&RenderLayers>)>,
+    drawings: Query<(&HairDrawing, Has<Mesh3d>, Option<&RenderLayers>)>,
     mut meshes: ResMut<Assets<Mesh>>,
     mut buffers: ResMut<Assets<ShaderBuffer>>,
     mut materials: ResMut<Assets<HairMaterial>>,
 ) {
-    for (drawing_entity, drawing, _) in &drawings {
-        if !heads.contains(drawing.head) {
-            commands.entity(drawing_entity).despawn();
+    for (head, state, groom, look, drawn_by, layers) in &heads {
+        let existing = drawn_by.and_then(|d| Some(d.0).zip(drawings.get(d.0).ok()));
+        if let Some((entity, (_, _, drawing_layers))) = existing
+            && drawing_layers != layers
+        {
+            match layers {
+                Some(layers) => _ = commands.entity(entity).insert(layers.clone()),
+                None => _ = commands.entity(entity).remove::<RenderLayers>(),
+            }
         }
-    }
-    for (head, state, groom, look, drawn_by) in &heads {
-        let existing = drawn_by.and_then(|d| drawings.get_mut(d.0).ok());
         let Some(state) = state else {
-            if let Some((_, _, mut visibility)) = existing {
-                *visibility = Visibility::Hidden;
+            if let Some((entity, (_, true, _))) = existing {
+                commands.entity(entity).remove::<Mesh3d>();
             }
             continue;
         };
-        let layout = layout_of(state, groom, look);
-        if let Some((_, drawing, mut visibility)) = existing
+        let layout = layout_of(&state, groom, look);
+        if let Some((_, (drawing, true, _))) = existing
             && drawing.layout == layout
-            && drawing.root_u.len() == state.roots().len()
+            && !state.is_added()
         {
-            visibility.set_if_neq(Visibility::Inherited);
             continue;
         }
         let root_u: Vec<Vec3> = state.roots().iter().map(|r| from_sim(r.tangent(state.head_mesh()))).collect();
@@ -187,15 +203,23 @@ fn sync_drawing(
         let guides = buffers.add(ShaderBuffer::with_size(bytes, default()));
         let material = materials.add(HairMaterial { guides: guides.clone(), uniform: uniform(&layout, groom, look) });
         let drawing = HairDrawing { head, guides, material: material.clone(), layout, root_u };
-        let bundle = (Mesh3d(meshes.add(layout.mesh())), MeshMaterial3d(material), drawing, Visibility::Inherited);
-        match drawn_by {
-            Some(d) if drawings.contains(d.0) => {
-                commands.entity(d.0).insert(bundle);
-            }
-            _ => {
+        let bundle = (Mesh3d(meshes.add(layout.mesh())), MeshMaterial3d(material), drawing, Transform::IDENTITY);
+        match existing {
+            Some((entity, _)) => _ = commands.entity(entity).insert(bundle),
+            None => {
                 // The box is fitted to the moving strands every frame ([`upload_guides`]).
-                let entity =
-                    commands.spawn((Name::new("hair"), bundle, Transform::IDENTITY, NoAutoAabb, Aabb::default())).id();
+                let mut entity = commands.spawn((
+                    Name::new("hair"),
+                    bundle,
+                    ChildOf(head),
+                    Visibility::Inherited,
+                    NoAutoAabb,
+                    Aabb::default(),
+                ));
+                if let Some(layers) = layers {
+                    entity.insert(layers.clone());
+                }
+                let entity = entity.id();
                 commands.entity(head).insert(HairDrawnBy(entity));
             }
         }
@@ -207,30 +231,34 @@ fn guide_buffer_len(layout: &StrandLayout) -> usize {
     2 * (layout.guides * layout.particles) as usize
 }
 
-/// Writes this frame's guide particles (interpolated between the last two fixed steps)
-/// and their transport frames into each drawing's storage buffer, and fits its bounding box.
+/// Writes this frame's guide particles (interpolated between the last two hair steps, on
+/// the head as posed this frame) and their transport frames into each drawing's storage
+/// buffer, and fits its bounding box (in the drawing's own frame: it is a child of the
+/// head, and a skinned head's hair follows a joint instead).
 fn upload_guides(
-    fixed: Res<Time<Fixed>>,
+    clock: Res<Time<Hair>>,
     heads: Query<(&HairState, &HairGroom, &HairLook)>,
-    mut drawings: Query<(&HairDrawing, &mut Aabb, &Visibility)>,
+    mut drawings: Query<(&HairDrawing, &GlobalTransform, &mut Aabb, &InheritedVisibility, &Visibility), With<Mesh3d>>,
     mut buffers: ResMut<Assets<ShaderBuffer>>,
     mut stats: ResMut<HairRenderStats>,
     mut diagnostics: Diagnostics,
 ) {
     let mut frame = HairRenderStats::default();
-    let overstep = fixed.overstep_fraction();
-    let mut write = |drawing: &HairDrawing, frame: &mut HairRenderStats| -> Option<Aabb> {
+    let overstep = clock.overstep_fraction();
+    let mut write = |drawing: &HairDrawing, placed: &GlobalTransform, frame: &mut HairRenderStats| -> Option<Aabb> {
         let (state, groom, look) = heads.get(drawing.head).ok()?;
         if state.roots().len() != drawing.root_u.len() {
             return None; // regrown with another guide count; sync_drawing rebuilds next frame
         }
-        let rotation = quat_from_sim(state.head_pose().rotation);
+        let rotation = quat_from_sim(state.drawn_head_pose().rotation);
         let positions: Vec<Vec3> = state.interpolated_positions(overstep).collect();
-        let mut data: Vec<Vec4> = Vec::with_capacity(guide_buffer_len(&drawing.layout));
+        let to_drawing = placed.affine().inverse();
         let (mut min, mut max) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+        let mut data: Vec<Vec4> = Vec::with_capacity(guide_buffer_len(&drawing.layout));
         for &p in &positions {
-            min = min.min(p);
-            max = max.max(p);
+            let local = to_drawing.transform_point3(p);
+            min = min.min(local);
+            max = max.max(local);
             data.push(p.extend(1.0));
         }
         // The frames are one root → tip pass per guide here, instead of a walk from the
@@ -248,16 +276,19 @@ fn upload_guides(
         frame.rendered_vertices += drawing.layout.vertices() as u64;
         buffers.get_mut(&drawing.guides)?.set_data(data);
         // Children sit at most the spiral's outer radius plus the tip spread from their
-        // guide, and ribbons add half their width.
-        let reach = child_reach(&groom.children.sanitized().0) + look.root_width.max(look.tip_width);
+        // guide, and ribbons add half their width; in the drawing's frame that length is
+        // stretched at most by the inverse's Frobenius norm (1.7 for a rigid frame).
+        let stretch = to_drawing.matrix3.to_cols_array().iter().map(|c| c * c).sum::<f32>().sqrt();
+        let reach = (child_reach(&groom.children.sanitized().0) + look.root_width.max(look.tip_width)) * stretch;
         (min.is_finite() && max.is_finite())
             .then(|| Aabb::from_min_max(min - Vec3::splat(reach), max + Vec3::splat(reach)))
     };
-    for (drawing, mut aabb, visibility) in &mut drawings {
-        if *visibility == Visibility::Hidden {
+    for (drawing, placed, mut aabb, inherited, visibility) in &mut drawings {
+        // The head or the hair is hidden: nothing is drawn, so nothing is uploaded.
+        if *visibility == Visibility::Hidden || !inherited.get() {
             continue;
         }
-        if let Some(fitted) = write(drawing, &mut frame) {
+        if let Some(fitted) = write(drawing, placed, &mut frame) {
             *aabb = fitted;
         }
     }
