@@ -169,15 +169,24 @@ impl HairState {
         self.frame_now.pose
     }
 
-    /// The head pose at hair-clock time `seconds`, interpolated between the poses of the
-    /// last two frames (the newest one from then on).
-    fn head_pose_at(&self, seconds: f64) -> Pose {
+    /// The head pose at hair-clock time `step_end`, the end of a step that starts from the
+    /// last step's pose at `step_start`: interpolated between the known poses around it (the
+    /// last two frames' and, after the timestep was shortened, the last step's).
+    fn head_pose_at(&self, step_start: f64, step_end: f64) -> Pose {
         let (before, now) = (self.frame_before, self.frame_now);
-        let span = now.time - before.time;
-        if !(span > 0.0) || seconds >= now.time {
-            return now.pose;
+        let between = |a: StampedPose, b: StampedPose| {
+            let s = ((step_end - a.time) / (b.time - a.time)).clamp(0.0, 1.0);
+            a.pose.lerp(&b.pose, s as f32)
+        };
+        if step_end >= now.time {
+            now.pose
+        } else if step_end > before.time {
+            between(before, now)
+        } else if before.time > step_start {
+            between(StampedPose { time: step_start, pose: self.pose_to }, before)
+        } else {
+            before.pose
         }
-        before.pose.lerp(&now.pose, ((seconds - before.time) / span).clamp(0.0, 1.0) as f32)
     }
 
     /// What the last step did: contacts, resets.
@@ -258,9 +267,11 @@ pub(crate) fn track_heads(
 /// head's motion over its own interval.
 pub(crate) fn sync_roots(time: Res<Time>, mut grooms: Query<&mut HairState>) {
     let step_end = time.elapsed_secs_f64();
+    let step_start = step_end - time.delta_secs_f64();
     for mut state in &mut grooms {
+        let pose = state.head_pose_at(step_start, step_end);
         state.pose_from = state.pose_to;
-        state.pose_to = state.head_pose_at(step_end);
+        state.pose_to = pose;
     }
 }
 

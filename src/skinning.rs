@@ -32,7 +32,7 @@ impl ScalpJoint {
     pub(crate) fn find(
         mesh: &Mesh,
         skin: &SkinnedMesh,
-        bindposes: Option<&SkinnedMeshInverseBindposes>,
+        bindposes: &SkinnedMeshInverseBindposes,
         head: &HeadMesh,
         scalp: &[f32],
     ) -> Result<ScalpJoint, String> {
@@ -42,9 +42,6 @@ impl ScalpJoint {
             return Err("the head has a SkinnedMesh but its mesh has no joint indices and weights (JOINTS_0, \
                         WEIGHTS_0 as Uint16x4 and Float32x4)"
                 .into());
-        };
-        let Some(bindposes) = bindposes else {
-            return Err("the head's SkinnedMesh inverse bind matrices are not loaded".into());
         };
         let mut per_joint = vec![0.0f64; skin.joints.len()];
         for (triangle, &w) in head.triangles.iter().zip(scalp).filter(|(_, w)| **w > 0.0) {

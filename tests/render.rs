@@ -567,7 +567,7 @@ fn hair_follows_its_head_through_visibility_layers_and_despawn() {
     scene.wait_until_ready(head);
     let drawing = scene.app.world().get::<HairDrawnBy>(head).expect("a drawing").0;
     assert_eq!(scene.app.world().get::<ChildOf>(drawing).map(ChildOf::parent), Some(head), "drawn by a child");
-    let mut look = |scene: &mut Scene, name: &str| {
+    let look = |scene: &mut Scene, name: &str| {
         let picture = scene.capture(name);
         let counts = (picture.hair_pixels(), red_pixels(&picture));
         println!("{name}: {} hair pixels, {} skin pixels", counts.0, counts.1);
