@@ -301,7 +301,8 @@ fn hair_on_a_skinned_head_rides_the_skin() {
         };
         for (i, p) in drawn.iter().enumerate().filter(|(i, _)| i % n != 0) {
             let local = head_frame.transform_point3(*p);
-            let depth = -state.collider().signed_distance(bevy_hair::hair_sim::math::Vec3::from_array(local.to_array()));
+            let depth =
+                -state.collider().signed_distance(bevy_hair::hair_sim::math::Vec3::from_array(local.to_array()));
             deepest = deepest.max(depth);
             assert!(p.is_finite(), "particle {i}");
         }

@@ -25,6 +25,7 @@ fn panel(
     diagnostics: Res<DiagnosticsStore>,
     stats: Res<HairRenderStats>,
     mut head: Single<(&mut HairGroom, &mut HairLook, &GroomStatus, Option<&mut HairState>), With<Head>>,
+    mut clock: ResMut<Time<Hair>>,
     // The groom being edited: applied to the head (which regrows) when an edit is finished.
     mut draft: Local<Option<HairGroom>>,
 ) -> Result {
@@ -45,6 +46,7 @@ fn panel(
             ui.separator();
             egui::CollapsingHeader::new("Simulation").default_open(true).show(ui, |ui| {
                 simulation_section(ui, &mut settings.0);
+                clock_section(ui, &mut clock);
                 if ui.button("Reset hair to rest (R)").clicked()
                     && let Some(state) = state
                 {
@@ -66,6 +68,19 @@ fn panel(
         });
     });
     Ok(())
+}
+
+/// The hair clock: its step rate (independent of the frame rate and of `Time<Fixed>`) and
+/// a pause that freezes the hair on the moving head.
+fn clock_section(ui: &mut egui::Ui, clock: &mut Time<Hair>) {
+    let mut hz = 1.0 / clock.timestep().as_secs_f64();
+    if ui.add(egui::Slider::new(&mut hz, 30.0..=240.0).text("hair steps per second")).changed() {
+        clock.set_timestep_hz(hz);
+    }
+    let mut paused = clock.is_paused();
+    if ui.checkbox(&mut paused, "pause the hair clock").changed() {
+        if paused { clock.pause() } else { clock.unpause() }
+    }
 }
 
 fn apply_preset(preset: Preset, groom: &mut HairGroom, look: &mut HairLook, settings: &mut HairSettings) {
