@@ -30,9 +30,14 @@ impl Hair {
     /// The default hair step: 60 Hz.
     pub const DEFAULT_TIMESTEP: Duration = Duration::from_nanos(16_666_667);
 
-    /// A clock stepping every `timestep` (the default if `timestep` is zero).
+    /// The shortest hair step: 1 ms (1,000 steps per second). Shorter ones would run
+    /// hundreds of steps a frame for no visible gain.
+    pub const MIN_TIMESTEP: Duration = Duration::from_millis(1);
+
+    /// A clock stepping every `timestep` (the default if `timestep` is below
+    /// [`Self::MIN_TIMESTEP`]).
     pub fn from_timestep(timestep: Duration) -> Self {
-        let timestep = if timestep.is_zero() { Self::DEFAULT_TIMESTEP } else { timestep };
+        let timestep = if timestep < Self::MIN_TIMESTEP { Self::DEFAULT_TIMESTEP } else { timestep };
         Hair { timestep, overstep: Duration::ZERO, paused: false, relative_speed: 1.0 }
     }
 }
@@ -47,10 +52,11 @@ impl Default for Hair {
 pub trait HairTime {
     /// The length of one hair step.
     fn timestep(&self) -> Duration;
-    /// Sets the length of one hair step. Zero is refused with a warning (the step stays).
+    /// Sets the length of one hair step. A step shorter than [`Hair::MIN_TIMESTEP`] is
+    /// refused with a warning (the step stays).
     fn set_timestep(&mut self, timestep: Duration);
-    /// Sets the step rate in steps per second. A rate that is not a positive finite number
-    /// is refused with a warning.
+    /// Sets the step rate in steps per second. A rate that is not a positive finite number,
+    /// or above 1,000, is refused with a warning.
     fn set_timestep_hz(&mut self, hz: f64);
     /// Time accumulated toward the next step.
     fn overstep(&self) -> Duration;
@@ -80,8 +86,12 @@ impl HairTime for Time<Hair> {
     }
 
     fn set_timestep(&mut self, timestep: Duration) {
-        if timestep.is_zero() {
-            warn!("hair clock: a timestep of zero was refused; it stays {:?}", self.timestep());
+        if timestep < Hair::MIN_TIMESTEP {
+            warn!(
+                "hair clock: a timestep of {timestep:?} was refused (at least {:?}); it stays {:?}",
+                Hair::MIN_TIMESTEP,
+                self.timestep()
+            );
             return;
         }
         self.context_mut().timestep = timestep;
@@ -179,6 +189,8 @@ mod tests {
         time.set_timestep_hz(-30.0);
         time.set_timestep_hz(0.0);
         time.set_timestep(Duration::ZERO);
+        time.set_timestep(Duration::from_micros(999));
+        time.set_timestep_hz(1e6);
         assert_eq!(time.timestep(), Hair::DEFAULT_TIMESTEP);
         time.set_timestep_hz(120.0);
         assert_eq!(time.timestep(), Duration::from_secs_f64(1.0 / 120.0));

@@ -268,20 +268,23 @@ pub(crate) fn start_growth(
             let joint = match skin {
                 None => None,
                 Some((skin, bindposes)) => {
-                    let bind = read_head_mesh(mesh, Vec3::ONE)?;
+                    let (bind, _) = read_head_mesh(mesh, Vec3::ONE)?;
                     let weights = scalp_weights(mesh, &bind, groom.scalp, predicate, Vec3::ONE)?;
                     Some(ScalpJoint::find(mesh, skin, bindposes, &bind, &weights)?)
                 }
             };
             let frame = head_frame(transform, joint.as_ref(), &joints)?;
             let (pose, scale) = pose_and_scale(&frame);
-            let head = read_head_mesh(mesh, scale)?;
+            let (head, repairs) = read_head_mesh(mesh, scale)?;
             let weights = scalp_weights(mesh, &head, groom.scalp, predicate, scale)?;
-            Ok((head, weights, pose, scale, joint))
+            Ok((head, repairs, weights, pose, scale, joint))
         });
         match prepared {
             Err(reason) => fail(reason),
-            Ok((head, weights, pose, scale, joint)) => {
+            Ok((head, repairs, weights, pose, scale, joint)) => {
+                if repairs.any() {
+                    warn!("hair on {entity}: the head mesh was repaired: {repairs}");
+                }
                 if let Some(joint) = joint.filter(|j| j.share < 0.999) {
                     info!(
                         "hair on {entity}: joint {} carries {:.1}% of the scalp's skin weights; blended roots follow it rigidly",
@@ -344,8 +347,8 @@ fn grow(
         curl: groom.curl,
         comb: to_sim(groom.comb),
     };
-    let rest = RestShape::new(grow_guides(&head, &roots, &guide_params, groom.seed), groom.segments + 1)
-        .map_err(|e| e.to_string())?;
+    let guides = grow_guides(&head, &roots, &guide_params, groom.seed).map_err(|e| e.to_string())?;
+    let rest = RestShape::new(guides, groom.segments + 1).map_err(|e| e.to_string())?;
     let collider = HeadCollider::new(&head, DEFAULT_GRID_RESOLUTION).map_err(|e| e.to_string())?;
     let rest = settle(rest, Some(&collider), &params, groom.settle_steps as usize, guide_params.comb)
         .map_err(|e| e.to_string())?;

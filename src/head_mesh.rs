@@ -6,7 +6,7 @@ use bevy::asset::RenderAssetUsages;
 use bevy::math::Vec3;
 use bevy::mesh::{Indices, Mesh, MeshVertexAttribute, PrimitiveTopology, VertexAttributeValues, VertexFormat};
 use hair_sim::groom::{labels_from_colors, triangle_weights};
-use hair_sim::mesh::{HeadMesh, test_head};
+use hair_sim::mesh::{HeadMesh, MeshRepairs, test_head};
 
 /// Optional per-vertex scalp density (0..1) a head mesh may carry instead of painted
 /// colours. In glTF it is the custom attribute `_SCALP`; register it with
@@ -17,8 +17,10 @@ pub const ATTRIBUTE_SCALP: MeshVertexAttribute =
 /// Skin colour of the procedural head (linear RGBA); the scalp is painted black.
 const SKIN: [f32; 4] = [0.8, 0.55, 0.45, 1.0];
 
-/// Why a Bevy mesh could not be read as a head.
-pub(crate) fn read_head_mesh(mesh: &Mesh, scale: Vec3) -> Result<HeadMesh, String> {
+/// Reads a Bevy mesh as a head (scaled by `scale`), repairing what can be repaired
+/// (triangles without area, inside-out winding: see [`HeadMesh::repaired`]), or says why
+/// it cannot be read.
+pub(crate) fn read_head_mesh(mesh: &Mesh, scale: Vec3) -> Result<(HeadMesh, MeshRepairs), String> {
     if mesh.primitive_topology() != PrimitiveTopology::TriangleList {
         return Err(format!("the head mesh is a {:?}; a TriangleList is needed", mesh.primitive_topology()));
     }
@@ -39,7 +41,7 @@ pub(crate) fn read_head_mesh(mesh: &Mesh, scale: Vec3) -> Result<HeadMesh, Strin
         Err(e) => return Err(format!("cannot read the head mesh indices ({e})")),
     };
     let triangles = indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
-    let mut head = HeadMesh::from_triangles(positions, triangles).map_err(|e| e.to_string())?;
+    let (mut head, repairs) = HeadMesh::repaired(positions, triangles).map_err(|e| e.to_string())?;
     // Authored normals are smoother than recomputed ones across UV seams: prefer them.
     // Under non-uniform scale a normal transforms by the inverse scale.
     if let Ok(VertexAttributeValues::Float32x3(normals)) = mesh.try_attribute(Mesh::ATTRIBUTE_NORMAL)
@@ -47,11 +49,12 @@ pub(crate) fn read_head_mesh(mesh: &Mesh, scale: Vec3) -> Result<HeadMesh, Strin
     {
         let authored: Vec<_> =
             normals.iter().map(|&n| to_sim((Vec3::from_array(n) / scale).normalize_or_zero())).collect();
-        if authored.iter().all(|n| n.is_finite() && n.length() > 0.5) {
+        // Authored normals of a mesh that was wound inside out point in: keep ours then.
+        if authored.iter().all(|n| n.is_finite() && n.length() > 0.5) && !repairs.flipped_winding {
             head.normals = authored;
         }
     }
-    Ok(head)
+    Ok((head, repairs))
 }
 
 /// Per-triangle scalp weights (0..1) from the labels `source` names, or why there are

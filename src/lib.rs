@@ -94,9 +94,9 @@ impl Default for HairPlugin {
 
 impl HairPlugin {
     /// Hair steps `hz` times per second of virtual time (60 if `hz` is not a positive,
-    /// finite rate).
+    /// finite rate of at most 1,000).
     pub fn from_hz(hz: f64) -> Self {
-        let timestep = Duration::try_from_secs_f64(1.0 / hz).ok().filter(|_| hz > 0.0);
+        let timestep = Duration::try_from_secs_f64(1.0 / hz).ok().filter(|t| hz > 0.0 && *t >= Hair::MIN_TIMESTEP);
         HairPlugin { timestep: timestep.unwrap_or(Hair::DEFAULT_TIMESTEP) }
     }
 }
@@ -140,8 +140,13 @@ impl std::fmt::Display for HairError {
 
 impl Plugin for HairPlugin {
     fn build(&self, app: &mut App) {
-        let timestep = if self.timestep.is_zero() {
-            warn!("HairPlugin: a timestep of zero was replaced by {:?}", Hair::DEFAULT_TIMESTEP);
+        let timestep = if self.timestep < Hair::MIN_TIMESTEP {
+            warn!(
+                "HairPlugin: a timestep of {:?} (below {:?}) was replaced by {:?}",
+                self.timestep,
+                Hair::MIN_TIMESTEP,
+                Hair::DEFAULT_TIMESTEP
+            );
             Hair::DEFAULT_TIMESTEP
         } else {
             self.timestep

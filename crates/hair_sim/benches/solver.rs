@@ -81,7 +81,7 @@ fn strand_step(c: &mut Criterion) {
     let collider = HeadCollider::new(&head, DEFAULT_GRID_RESOLUTION).unwrap();
     let roots = sample_roots(&head, &scalp(&head), 512, 1).unwrap();
     let guide = GuideParams { segments: 15, length: 0.25, ..GuideParams::default() };
-    let rest = RestShape::new(grow_guides(&head, &roots, &guide, 1), 16).unwrap();
+    let rest = RestShape::new(grow_guides(&head, &roots, &guide, 1).unwrap(), 16).unwrap();
     let rest = settle(rest, Some(&collider), &SimParams::default(), 120, Vec3::ZERO).unwrap();
     let mut group = c.benchmark_group("Strands::step 512x16");
     group.throughput(Throughput::Elements(512 * 16));
@@ -116,7 +116,7 @@ fn groom(c: &mut Criterion) {
     c.bench_function("sample_roots + grow_guides 2048", |b| {
         b.iter(|| {
             let roots = sample_roots(&head, black_box(&weights), 2048, 5).unwrap();
-            grow_guides(&head, &roots, &params, 5)
+            grow_guides(&head, &roots, &params, 5).unwrap()
         })
     });
 }

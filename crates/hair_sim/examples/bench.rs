@@ -77,7 +77,8 @@ fn main() {
         .collect();
     let roots = sample_roots(&head, &scalp, guides, 1).expect("scalp");
     let guide_params = GuideParams { segments: particles - 1, length: 0.25, ..GuideParams::default() };
-    let rest = RestShape::new(grow_guides(&head, &roots, &guide_params, 1), particles).expect("guides");
+    let rest = RestShape::new(grow_guides(&head, &roots, &guide_params, 1).expect("roots on the head"), particles)
+        .expect("guides");
     let params = SimParams::default();
     let rest = settle(rest, Some(&collider), &params, 120, Vec3::ZERO).expect("settle");
     // `--no-collision` measures the solver alone (the groom still settles on the head).

@@ -12,7 +12,7 @@
 //!     .map(|t| if head.corners(t).iter().all(|p| p.y > 0.05) { 1.0 } else { 0.0 })
 //!     .collect();
 //! let roots = sample_roots(&head, &crown, 100, 1).unwrap();
-//! let guides = grow_guides(&head, &roots, &GuideParams::default(), 1);
+//! let guides = grow_guides(&head, &roots, &GuideParams::default(), 1).unwrap();
 //! let mut strands = Strands::new(RestShape::new(guides, 11).unwrap(), Pose::IDENTITY);
 //! let params = SimParams::default();
 //! for k in 0..60 {

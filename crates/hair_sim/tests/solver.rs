@@ -273,6 +273,31 @@ fn a_ten_metre_jump_resets_every_strand_to_rest() {
     assert!(strands.velocities().iter().all(|v| *v == Vec3::ZERO));
 }
 
+#[test]
+fn tiny_steps_are_skipped_without_resets_or_fast_particles() {
+    let g = groom();
+    let params = SimParams::default();
+    let mut strands = Strands::new(g.rest.clone(), Pose::IDENTITY);
+    run_still(&mut strands, &params, 30, Some(&g.collider));
+    let (before, speeds) = (strands.positions().to_vec(), strands.velocities().to_vec());
+    // The head moved 1 mm: a 1e-40 s step reset every strand as non-finite, and a 1e-9 s
+    // one turned a 1.3 mm push-out into 15 m/s. Both are skipped now.
+    let moved = Pose::from_translation(Vec3::new(0.001, 0.0, 0.0));
+    for dt in [1e-40, 1e-9, 5e-7] {
+        let step = StepInput { dt, ..input(30, Pose::IDENTITY, moved, Some(&g.collider), &params) };
+        let report = strands.step(&step);
+        println!("dt = {dt:e} s: {report:?}");
+        assert_eq!((report.teleport_resets, report.nan_resets), (0, 0), "dt = {dt:e}");
+        assert_eq!(strands.positions(), &before[..], "dt = {dt:e}: skipped, nothing moves");
+        assert_eq!(strands.velocities(), &speeds[..], "dt = {dt:e}: skipped, no velocity changes");
+    }
+    // From MIN_STEP up, steps run.
+    let step = StepInput { dt: 2e-6, ..input(30, Pose::IDENTITY, moved, Some(&g.collider), &params) };
+    strands.step(&step);
+    assert!(strands.positions() != &before[..]);
+    assert!(strands.positions().iter().all(|p| p.is_finite()));
+}
+
 /// `LengthMode::Springs` promises that every segment stays within `length_tolerance`,
 /// also when collision pushes particles around: a head moving at 3 m/s through its own
 /// hair once left segments 93% long, before the clamp ran again after collision.

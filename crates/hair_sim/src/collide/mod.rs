@@ -27,6 +27,42 @@ use triangles::FlatTriangles;
 /// Distance-grid cells along the longest side of the head's bounding box.
 pub const DEFAULT_GRID_RESOLUTION: u32 = 64;
 
+/// The grid resolutions [`HeadCollider::new`] accepts. Below 8 cells the grid rejects
+/// almost nothing and every query goes to the triangles; at 256 the grid alone holds up to
+/// 256³ distances (64 MB), and finer buys nothing for a head.
+pub const GRID_RESOLUTIONS: std::ops::RangeInclusive<u32> = 8..=256;
+
+/// Why a collider cannot be built.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ColliderError {
+    /// The mesh is unusable.
+    Mesh(MeshError),
+    /// The grid resolution is outside [`GRID_RESOLUTIONS`].
+    GridResolution(u32),
+}
+
+impl std::fmt::Display for ColliderError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ColliderError::Mesh(e) => e.fmt(f),
+            ColliderError::GridResolution(r) => write!(
+                f,
+                "a collider grid of {r} cells per side was asked for; use {} to {} (default {DEFAULT_GRID_RESOLUTION})",
+                GRID_RESOLUTIONS.start(),
+                GRID_RESOLUTIONS.end()
+            ),
+        }
+    }
+}
+
+impl std::error::Error for ColliderError {}
+
+impl From<MeshError> for ColliderError {
+    fn from(e: MeshError) -> Self {
+        ColliderError::Mesh(e)
+    }
+}
+
 /// A contact found by a collision query: where to put the particle and which way is out.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Contact {
@@ -75,18 +111,25 @@ impl ContactHint {
 
 impl HeadCollider {
     /// Builds the BVH and bakes the distance grid (`resolution` cells along the longest
-    /// side). The mesh should be closed and wound outward; on an open mesh the inside test
-    /// still works locally, near each surface, through parry's pseudo-normals.
-    pub fn new(head: &HeadMesh, resolution: u32) -> Result<Self, MeshError> {
+    /// side, within [`GRID_RESOLUTIONS`]). The mesh should be closed and wound outward
+    /// ([`HeadMesh::repaired`] turns an inside-out one over); on an open mesh the inside
+    /// test still works locally, near each surface, through parry's pseudo-normals.
+    /// Triangles without area are left out: their normal is noise and would read points
+    /// far away as inside.
+    pub fn new(head: &HeadMesh, resolution: u32) -> Result<Self, ColliderError> {
+        if !GRID_RESOLUTIONS.contains(&resolution) {
+            return Err(ColliderError::GridResolution(resolution));
+        }
         head.validate()?;
+        let triangles: Vec<[u32; 3]> =
+            head.triangles.iter().copied().filter(|t| !crate::mesh::is_degenerate(head.corners(t))).collect();
         let flags =
             TriMeshFlags::ORIENTED | TriMeshFlags::MERGE_DUPLICATE_VERTICES | TriMeshFlags::DELETE_DEGENERATE_TRIANGLES;
-        let mesh = TriMesh::with_flags(head.positions.clone(), head.triangles.clone(), flags)
-            .map_err(|_| MeshError::Degenerate)?;
+        let mesh = TriMesh::with_flags(head.positions.clone(), triangles, flags).map_err(|_| MeshError::Degenerate)?;
         if mesh.indices().is_empty() {
-            return Err(MeshError::Degenerate);
+            return Err(MeshError::Degenerate.into());
         }
-        let grid = DistanceGrid::bake(&head.positions, resolution.max(2), |p| signed_distance_exact(&mesh, p));
+        let grid = DistanceGrid::bake(&head.positions, resolution, |p| signed_distance_exact(&mesh, p));
         let candidates = CandidateGrid::bake(&grid, &mesh);
         let triangles = FlatTriangles::bake(&mesh);
         static NEXT_ID: AtomicU32 = AtomicU32::new(0);
@@ -345,7 +388,61 @@ mod tests {
     }
 
     #[test]
-    fn empty_mesh_is_an_error() {
-        assert_eq!(HeadCollider::new(&HeadMesh::default(), 8).err(), Some(MeshError::Empty));
+    fn empty_mesh_and_bad_resolutions_are_errors() {
+        assert_eq!(HeadCollider::new(&HeadMesh::default(), 8).err(), Some(MeshError::Empty.into()));
+        for bad in [0, 1, 7, 257, u32::MAX] {
+            let err = HeadCollider::new(&test_head(1), bad).err();
+            assert_eq!(err, Some(ColliderError::GridResolution(bad)));
+            assert!(err.unwrap().to_string().contains("use 8 to 256"));
+        }
+    }
+
+    /// Counts crossings of a ray from `p` along +X with the triangles: odd is inside. An
+    /// inside test that shares nothing with the collider.
+    fn inside_by_parity(head: &HeadMesh, p: Vec3) -> bool {
+        let dir = Vec3::new(1.0, 0.000_123, 0.000_0457).normalize(); // off-axis: no edge hits
+        let crossings = head.triangles.iter().filter(|t| {
+            let [a, b, c] = head.corners(t);
+            let (e1, e2) = (b - a, c - a);
+            let q = dir.cross(e2);
+            let det = e1.dot(q);
+            if det.abs() < 1e-12 {
+                return false;
+            }
+            let s = (p - a) / det;
+            let u = s.dot(q);
+            let r = s.cross(e1);
+            let v = dir.dot(r);
+            u >= 0.0 && v >= 0.0 && u + v <= 1.0 && e2.dot(r) > 0.0
+        });
+        crossings.count() % 2 == 1
+    }
+
+    #[test]
+    fn a_sliver_does_not_make_far_points_inside() {
+        // A zero-area sliver (three distinct collinear corners) on the skull, as a user's
+        // mesh may have: kept, its zero normal read points up to 0.47 m away as inside.
+        let mut head = test_head(3);
+        let base = head.positions.len() as u32;
+        let top = Vec3::new(0.0, 0.11, 0.0);
+        head.positions.extend([top, top + Vec3::X * 0.01, top + Vec3::X * 0.02]);
+        head.normals.extend([Vec3::Y; 3]);
+        head.triangles.push([base, base + 1, base + 2]);
+        let collider = HeadCollider::new(&head, 32).unwrap();
+        let mut wrong = 0;
+        for i in 0..400 {
+            // Points on a shell from 1 mm to 0.5 m around the head, and inside it.
+            let t = i as f32 * 0.618_034;
+            let dir = Vec3::new(t.sin() * (3.1 * t).cos(), (1.7 * t).cos(), t.cos() * (2.3 * t).sin()).normalize();
+            for reach in [-0.02, 0.001, 0.05, 0.47] {
+                let surface = dir * 0.1;
+                let p = surface + dir * reach;
+                let inside = collider.signed_distance(p) < 0.0;
+                if inside != inside_by_parity(&head, p) {
+                    wrong += 1;
+                }
+            }
+        }
+        assert_eq!(wrong, 0, "points whose inside/outside the collider gets wrong");
     }
 }

@@ -22,7 +22,7 @@ pub use rng::SplitMix64;
 
 use crate::collide::HeadCollider;
 use crate::math::{Pose, Vec3};
-use crate::mesh::HeadMesh;
+use crate::mesh::{HeadMesh, MeshError};
 use crate::solver::{RestShape, SimParams, StepInput, Strands, StrandsError};
 use std::fmt;
 
@@ -70,6 +70,22 @@ pub enum GroomError {
     },
     /// The strands could not be built.
     Strands(StrandsError),
+    /// The head mesh is unusable.
+    Mesh(MeshError),
+    /// A root names a triangle the mesh does not have (roots from another mesh?).
+    RootOutOfRange {
+        /// The root's index.
+        root: usize,
+        /// The triangle it names.
+        triangle: u32,
+        /// Triangles in the mesh.
+        triangles: usize,
+    },
+    /// A root's barycentric coordinates are not finite.
+    NonFiniteRoot {
+        /// The root's index.
+        root: usize,
+    },
 }
 
 impl fmt::Display for GroomError {
@@ -80,11 +96,22 @@ impl fmt::Display for GroomError {
                 write!(f, "{weights} scalp weights for {triangles} triangles")
             }
             GroomError::Strands(e) => e.fmt(f),
+            GroomError::Mesh(e) => e.fmt(f),
+            GroomError::RootOutOfRange { root, triangle, triangles } => {
+                write!(f, "root {root} is on triangle {triangle}, but the mesh has {triangles} triangles")
+            }
+            GroomError::NonFiniteRoot { root } => write!(f, "root {root} has non-finite barycentric coordinates"),
         }
     }
 }
 
 impl std::error::Error for GroomError {}
+
+impl From<MeshError> for GroomError {
+    fn from(e: MeshError) -> Self {
+        GroomError::Mesh(e)
+    }
+}
 
 impl From<StrandsError> for GroomError {
     fn from(e: StrandsError) -> Self {
@@ -112,6 +139,7 @@ struct AreaSampler {
 
 impl AreaSampler {
     fn new(mesh: &HeadMesh, weights: &[f32]) -> Result<Self, GroomError> {
+        mesh.validate()?;
         if weights.len() != mesh.triangles.len() {
             return Err(GroomError::WeightCountMismatch { triangles: mesh.triangles.len(), weights: weights.len() });
         }
@@ -179,8 +207,24 @@ impl Default for GuideParams {
 /// Grows one guide per root along the interpolated surface normal (the reference's
 /// initial direction), tilted by `comb` and bending by `curl` per segment. Returns
 /// head-local rest positions, strand-major, `segments + 1` per strand. Non-finite `comb`
-/// components count as zero.
-pub fn grow_guides(mesh: &HeadMesh, roots: &[RootBinding], params: &GuideParams, seed: u64) -> Vec<Vec3> {
+/// components count as zero. The mesh and the roots are checked first: roots must lie on
+/// this mesh's triangles.
+pub fn grow_guides(
+    mesh: &HeadMesh,
+    roots: &[RootBinding],
+    params: &GuideParams,
+    seed: u64,
+) -> Result<Vec<Vec3>, GroomError> {
+    mesh.validate()?;
+    for (root, binding) in roots.iter().enumerate() {
+        if binding.triangle as usize >= mesh.triangles.len() {
+            let triangles = mesh.triangles.len();
+            return Err(GroomError::RootOutOfRange { root, triangle: binding.triangle, triangles });
+        }
+        if !binding.barycentric.iter().all(|b| b.is_finite()) {
+            return Err(GroomError::NonFiniteRoot { root });
+        }
+    }
     let segments = params.segments.max(1);
     let mut rng = SplitMix64::new(seed ^ 0x6775_6964_6573);
     let comb = finite_or_zero(params.comb);
@@ -199,7 +243,7 @@ pub fn grow_guides(mesh: &HeadMesh, roots: &[RootBinding], params: &GuideParams,
             direction = crate::math::Quat::from_axis_angle(across, params.curl) * direction;
         }
     }
-    positions
+    Ok(positions)
 }
 
 /// `v` with its non-finite components replaced by zero.
@@ -296,6 +340,29 @@ mod tests {
     }
 
     #[test]
+    fn bad_meshes_and_foreign_roots_are_errors_not_panics() {
+        let mesh = test_head(2);
+        let weights = vec![1.0; mesh.triangles.len()];
+        // A triangle index out of range, and a mesh without normals.
+        let mut broken = mesh.clone();
+        broken.triangles[3] = [0, 1, 99_999];
+        let no_normals = HeadMesh { normals: Vec::new(), ..mesh.clone() };
+        for bad in [&broken, &no_normals] {
+            assert!(matches!(sample_roots(bad, &weights, 10, 0), Err(GroomError::Mesh(_))));
+            assert!(matches!(poisson::sample_roots_poisson(bad, &weights, 10, 0), Err(GroomError::Mesh(_))));
+        }
+        // Roots grown on a finer mesh handed to a coarser one.
+        let finer = test_head(3);
+        let foreign = sample_roots(&finer, &vec![1.0; finer.triangles.len()], 200, 1).unwrap();
+        let err = grow_guides(&mesh, &foreign, &GuideParams::default(), 1).unwrap_err();
+        assert!(matches!(err, GroomError::RootOutOfRange { .. }), "{err:?}");
+        assert!(err.to_string().contains("but the mesh has 320 triangles"), "{err}");
+        let nan = [RootBinding { triangle: 0, barycentric: [f32::NAN, 0.5, 0.5] }];
+        assert_eq!(grow_guides(&mesh, &nan, &GuideParams::default(), 1), Err(GroomError::NonFiniteRoot { root: 0 }));
+        assert!(matches!(grow_guides(&no_normals, &[], &GuideParams::default(), 1), Err(GroomError::Mesh(_))));
+    }
+
+    #[test]
     fn the_root_tangent_lies_in_the_surface_along_the_first_edge() {
         let flat = HeadMesh::from_triangles(vec![Vec3::ZERO, Vec3::X, Vec3::new(0.0, 0.0, -2.0)], vec![[0, 1, 2]]);
         let flat = flat.unwrap();
@@ -317,7 +384,7 @@ mod tests {
         let mesh = test_head(3);
         let roots = sample_roots(&mesh, &top_half(&mesh), 50, 3).unwrap();
         let params = GuideParams { segments: 10, length: 0.2, length_variation: 0.0, ..GuideParams::default() };
-        let guides = grow_guides(&mesh, &roots, &params, 3);
+        let guides = grow_guides(&mesh, &roots, &params, 3).unwrap();
         assert_eq!(guides.len(), 50 * 11);
         for (strand, root) in guides.chunks_exact(11).zip(&roots) {
             assert!((strand[0] - root.position(&mesh)).length() < 1e-6);
@@ -334,8 +401,8 @@ mod tests {
         let back = Vec3::new(0.0, 0.0, -1.0);
         let combed = GuideParams { length_variation: 0.0, comb: back, ..GuideParams::default() };
         let bad = GuideParams { comb: Vec3::new(f32::NAN, f32::INFINITY, 0.0), ..combed };
-        let guides = grow_guides(&mesh, &roots, &combed, 3);
-        let unharmed = grow_guides(&mesh, &roots, &bad, 3);
+        let guides = grow_guides(&mesh, &roots, &combed, 3).unwrap();
+        let unharmed = grow_guides(&mesh, &roots, &bad, 3).unwrap();
         for ((strand, bad), root) in guides.chunks_exact(11).zip(unharmed.chunks_exact(11)).zip(&roots) {
             let n = root.normal(&mesh);
             let dir = (strand[1] - strand[0]).normalize();
@@ -356,7 +423,7 @@ mod tests {
         let mesh = test_head(3);
         let collider = HeadCollider::new(&mesh, 32).unwrap();
         let roots = sample_roots(&mesh, &top_half(&mesh), 40, 5).unwrap();
-        let grown = grow_guides(&mesh, &roots, &GuideParams::default(), 5);
+        let grown = grow_guides(&mesh, &roots, &GuideParams::default(), 5).unwrap();
         let rest = RestShape::new(grown, 11).unwrap();
         let mean_tip_y = |r: &RestShape| r.positions.chunks_exact(11).map(|s| s[10].y).sum::<f32>() / 40.0;
         let before = mean_tip_y(&rest);
@@ -373,7 +440,7 @@ mod tests {
         let collider = HeadCollider::new(&mesh, 32).unwrap();
         let roots = sample_roots(&mesh, &top_half(&mesh), 40, 5).unwrap();
         let mean_tip_z = |comb: Vec3| {
-            let grown = grow_guides(&mesh, &roots, &GuideParams { comb, ..GuideParams::default() }, 5);
+            let grown = grow_guides(&mesh, &roots, &GuideParams { comb, ..GuideParams::default() }, 5).unwrap();
             let settled = settle(RestShape::new(grown, 11).unwrap(), Some(&collider), &SimParams::default(), 240, comb);
             let settled = settled.unwrap();
             let deepest = settled.positions.iter().map(|&p| collider.signed_distance(p)).fold(f32::MAX, f32::min);

@@ -2,7 +2,9 @@
 //!
 //! [`HeadMesh`] is a plain indexed triangle list in head-local space (metres). Everything
 //! that can be wrong with a mesh a user hands us is caught here, once, as a [`MeshError`]
-//! with a readable reason, so the solver and the collider can assume clean input.
+//! with a readable reason, so the solver and the collider can assume clean input. What can
+//! be repaired is ([`HeadMesh::repaired`]): triangles without area are dropped and a mesh
+//! wound inside out is turned the right way, and the caller is told ([`MeshRepairs`]).
 
 mod procedural;
 
@@ -72,6 +74,41 @@ impl fmt::Display for MeshError {
 
 impl std::error::Error for MeshError {}
 
+/// What [`HeadMesh::repaired`] changed. A user's mesh should not need either: report them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct MeshRepairs {
+    /// Triangles dropped for having no area: repeated corners, three corners on a line,
+    /// or a triangle so thin that its normal is rounding noise.
+    pub degenerate_triangles: usize,
+    /// The mesh enclosed negative volume (wound clockwise seen from outside, so inside and
+    /// outside were swapped); every triangle was turned over.
+    pub flipped_winding: bool,
+}
+
+impl MeshRepairs {
+    /// Whether anything was repaired.
+    pub fn any(&self) -> bool {
+        self.degenerate_triangles > 0 || self.flipped_winding
+    }
+}
+
+impl fmt::Display for MeshRepairs {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let mut parts = Vec::new();
+        if self.degenerate_triangles > 0 {
+            parts.push(format!("dropped {} triangles without area", self.degenerate_triangles));
+        }
+        if self.flipped_winding {
+            parts.push("turned the mesh right side out (it was wound inside out: negative volume)".to_owned());
+        }
+        if parts.is_empty() { write!(f, "nothing repaired") } else { write!(f, "{}", parts.join("; ")) }
+    }
+}
+
+/// A triangle is degenerate when twice its area is below this fraction of its longest
+/// edge squared: its height is under 1e-6 of its length, so its normal is rounding noise.
+const DEGENERATE_ASPECT: f32 = 1e-6;
+
 impl HeadMesh {
     /// Builds a mesh and computes area-weighted vertex normals from the triangles.
     pub fn from_triangles(positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Result<Self, MeshError> {
@@ -80,6 +117,47 @@ impl HeadMesh {
         mesh.recompute_normals();
         mesh.validate()?;
         Ok(mesh)
+    }
+
+    /// Like [`Self::from_triangles`], after repairing what can be repaired: triangles
+    /// without area (repeated or collinear corners, slivers thinner than 1e-6 of their
+    /// length, NaN corners) are dropped, and a closed mesh that encloses negative volume
+    /// (wound inside out) has every triangle turned over. Returns what was repaired so the
+    /// caller can report it.
+    pub fn repaired(positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Result<(Self, MeshRepairs), MeshError> {
+        let mut mesh = HeadMesh { normals: vec![Vec3::ZERO; positions.len()], positions, triangles };
+        if mesh.positions.is_empty() || mesh.triangles.is_empty() {
+            return Err(MeshError::Empty);
+        }
+        mesh.check_indices()?;
+        let before = mesh.triangles.len();
+        let positions = &mesh.positions;
+        mesh.triangles.retain(|t| !is_degenerate(t.map(|i| positions[i as usize])));
+        let mut repairs = MeshRepairs { degenerate_triangles: before - mesh.triangles.len(), flipped_winding: false };
+        if mesh.triangles.is_empty() {
+            return Err(MeshError::Degenerate);
+        }
+        if mesh.signed_volume() < 0.0 {
+            mesh.triangles.iter_mut().for_each(|t| t.swap(1, 2));
+            repairs.flipped_winding = true;
+        }
+        mesh.recompute_normals();
+        mesh.validate()?;
+        Ok((mesh, repairs))
+    }
+
+    /// The volume the triangles enclose, m³: positive for a closed mesh wound
+    /// counter-clockwise seen from outside, negative for one wound inside out.
+    pub fn signed_volume(&self) -> f32 {
+        let sum: f64 = self
+            .triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = self.corners(t).map(|p| p.as_dvec3());
+                a.dot(b.cross(c))
+            })
+            .sum();
+        (sum / 6.0) as f32
     }
 
     /// Checks that the mesh is usable: non-empty, indices in range, finite values, and
@@ -168,6 +246,13 @@ impl HeadMesh {
     }
 }
 
+/// No area to speak of (see [`DEGENERATE_ASPECT`]), or not finite.
+pub(crate) fn is_degenerate([a, b, c]: [Vec3; 3]) -> bool {
+    let twice_area = (b - a).cross(c - a).length();
+    let longest = (b - a).length_squared().max((c - b).length_squared()).max((a - c).length_squared());
+    !(twice_area.is_finite() && twice_area > DEGENERATE_ASPECT * longest)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -195,6 +280,30 @@ mod tests {
         );
         let nan = HeadMesh::from_triangles(vec![Vec3::ZERO, Vec3::NAN, Vec3::Y], vec![[0, 1, 2]]);
         assert_eq!(nan, Err(MeshError::NonFinite { vertex: 1 }));
+    }
+
+    #[test]
+    fn slivers_are_dropped_and_inside_out_meshes_turned_over() {
+        let head = test_head(2);
+        let mut positions = head.positions.clone();
+        let mut triangles = head.triangles.clone();
+        // Three distinct collinear corners, a repeated corner, and a sliver 1e-8 thick.
+        let base = positions.len() as u32;
+        positions.extend([Vec3::ZERO, Vec3::new(0.01, 0.0, 0.0), Vec3::new(0.02, 0.0, 0.0)]);
+        positions.push(Vec3::new(0.01, 1e-8, 0.0));
+        triangles.extend([[base, base + 1, base + 2], [base, base, base + 1], [base, base + 2, base + 3]]);
+        let (mesh, repairs) = HeadMesh::repaired(positions.clone(), triangles.clone()).unwrap();
+        assert_eq!(repairs, MeshRepairs { degenerate_triangles: 3, flipped_winding: false });
+        assert_eq!(mesh.triangles, head.triangles, "only the degenerate ones go");
+        assert!(mesh.signed_volume() > 0.0);
+
+        let inverted: Vec<[u32; 3]> = triangles.iter().map(|&[a, b, c]| [a, c, b]).collect();
+        let (mesh, repairs) = HeadMesh::repaired(positions, inverted).unwrap();
+        assert!(repairs.flipped_winding && repairs.degenerate_triangles == 3, "{repairs:?}");
+        assert_eq!(mesh.triangles, head.triangles, "turned back to the original winding");
+        assert!((mesh.signed_volume() - head.signed_volume()).abs() < 1e-9);
+        assert!(repairs.to_string().contains("inside out"));
+        assert_eq!(HeadMesh::repaired(vec![Vec3::ZERO; 3], vec![[0, 1, 2]]), Err(MeshError::Degenerate));
     }
 
     #[test]

@@ -8,6 +8,8 @@
 mod lanes;
 mod params;
 mod step;
+
+pub use step::MIN_STEP;
 mod wind;
 
 pub use params::{LengthMode, ParamIssue, SimParams, Wind, stiffness_per_application};

@@ -25,6 +25,11 @@ use glam::{Mat3A, Vec3A};
 /// because the head's motion over them is unknown anyway.
 const MAX_STEP: f32 = 1.0 / 15.0;
 
+/// Shortest step the solver takes. Shorter ones are skipped: nothing moves measurably in
+/// a microsecond, and dividing a push-out by such a step would make huge velocities (and
+/// below ~1e-38 s, non-finite ones).
+pub const MIN_STEP: f32 = 1e-6;
+
 /// A head pose as matrices: per particle a matrix–vector product is cheaper than a
 /// quaternion rotation, and the inverse is a transpose computed once.
 #[derive(Clone, Copy)]
@@ -67,7 +72,7 @@ struct Constants {
 impl Constants {
     fn new(input: &StepInput, n: usize) -> Option<Self> {
         let p = input.params;
-        if !(input.dt > 0.0 && input.dt.is_finite() && input.head_to.is_valid()) {
+        if !(input.dt >= MIN_STEP && input.dt.is_finite() && input.head_to.is_valid()) {
             return None;
         }
         let dt = input.dt.min(MAX_STEP);

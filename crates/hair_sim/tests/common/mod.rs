@@ -36,7 +36,9 @@ pub fn groom_on_upper_half(spec: GroomSpec) -> Groom {
         curl: spec.curl,
         ..GuideParams::default()
     };
-    let rest = RestShape::new(grow_guides(&head, &roots, &guide, spec.seed), spec.particles).expect("guides");
+    let rest =
+        RestShape::new(grow_guides(&head, &roots, &guide, spec.seed).expect("roots on the head"), spec.particles)
+            .expect("guides");
     Groom { collider, rest }
 }
 
