@@ -205,8 +205,9 @@ pub(crate) fn forget_groom(removed: On<Remove, HairGroom>, mut commands: Command
     commands.entity(removed.entity).try_remove::<(HairState, GrowthTask, GroomStatus)>();
 }
 
-/// Once the head mesh is available, reads it and starts growing on the async pool.
-#[allow(clippy::type_complexity)] // a query's filter list
+/// Once the head mesh (and a skinned head's inverse bind matrices) is available, reads it
+/// and starts growing on the async pool.
+#[allow(clippy::type_complexity, clippy::too_many_arguments)] // the head, its skin and their assets
 pub(crate) fn start_growth(
     mut commands: Commands,
     meshes: Option<Res<Assets<Mesh>>>,

@@ -63,7 +63,7 @@ impl ScalpJoint {
         let Some((index, &best)) = per_joint.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)) else {
             return Err("the head's SkinnedMesh has no joints".into());
         };
-        if !(total > 0.0) {
+        if total <= 0.0 {
             return Err("no scalp vertex of the skinned head has a joint weight above 0".into());
         }
         let inverse_bind = bindposes.get(index).ok_or_else(|| {

@@ -6,6 +6,8 @@ use bevy::asset::RenderAssetUsages;
 use bevy::ecs::message::Messages;
 use bevy::mesh::{Indices, PrimitiveTopology};
 use bevy::prelude::*;
+use bevy_hair::hair_sim::math::Vec3 as SimVec3;
+use bevy_hair::hair_sim::mesh::HeadMesh;
 use bevy_hair::prelude::*;
 use common::*;
 
@@ -100,35 +102,17 @@ fn nan_settings_are_named_once_and_never_simulated() {
     assert!(state(&app, head).strands().max_stretch() < 1e-3);
 }
 
-/// Ray parity against `mesh`'s own triangles (a ray toward +X, slightly off-axis so it
-/// misses edges): inside when it crosses an odd number of times. Shares nothing with the
-/// collider.
-fn inside_by_parity(positions: &[[f32; 3]], indices: &[u32], p: Vec3) -> bool {
-    let dir = Vec3::new(1.0, 0.000_123, 0.000_045_7).normalize();
-    let crossings = indices.chunks_exact(3).filter(|t| {
-        let [a, b, c] = [t[0], t[1], t[2]].map(|i| Vec3::from_array(positions[i as usize]));
-        let (e1, e2) = (b - a, c - a);
-        let q = dir.cross(e2);
-        let det = e1.dot(q);
-        if det.abs() < 1e-12 {
-            return false;
-        }
-        let s = (p - a) / det;
-        let r = s.cross(e1);
-        let (u, v) = (s.dot(q), dir.dot(r));
-        u >= 0.0 && v >= 0.0 && u + v <= 1.0 && e2.dot(r) > 0.0
-    });
-    crossings.count() % 2 == 1
-}
-
 #[test]
 fn a_head_wound_inside_out_is_turned_over_and_keeps_its_hair_outside() {
     let mut app = app();
     let mut mesh = bevy_hair::procedural_head_mesh(4);
     let Some(Indices::U32(indices)) = mesh.indices_mut() else { panic!("u32 indices") };
     indices.chunks_exact_mut(3).for_each(|t| t.swap(1, 2));
-    let indices = indices.clone();
-    let positions = mesh.attribute(Mesh::ATTRIBUTE_POSITION).unwrap().as_float3().unwrap().to_vec();
+    // The mesh as given, for an inside test of its own (ray parity ignores the winding).
+    let triangles = indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
+    let positions = mesh.attribute(Mesh::ATTRIBUTE_POSITION).unwrap().as_float3().unwrap();
+    let given =
+        HeadMesh { positions: positions.iter().map(|&p| SimVec3::from_array(p)).collect(), normals: vec![], triangles };
     let mesh = app.world_mut().resource_mut::<Assets<Mesh>>().add(mesh);
     let head = app.world_mut().spawn((Mesh3d(mesh), Transform::default(), groom())).id();
     wait_until_ready(&mut app, head);
@@ -137,7 +121,7 @@ fn a_head_wound_inside_out_is_turned_over_and_keeps_its_hair_outside() {
     let n = state.particles_per_strand();
     let particles: Vec<Vec3> =
         state.current_positions().iter().enumerate().filter(|(i, _)| i % n != 0).map(|(_, p)| *p).collect();
-    let inside = particles.iter().filter(|&&p| inside_by_parity(&positions, &indices, p)).count();
+    let inside = particles.iter().filter(|p| given.contains_by_ray_parity(SimVec3::from_array(p.to_array()))).count();
     println!("inside-out head: {inside} of {} particles inside after 1 s", particles.len());
     assert_eq!(inside, 0, "the collider took the inside for the outside");
     assert!(state.head_mesh().signed_volume() > 0.0, "the mesh the plugin uses is wound outward");

@@ -397,27 +397,6 @@ mod tests {
         }
     }
 
-    /// Counts crossings of a ray from `p` along +X with the triangles: odd is inside. An
-    /// inside test that shares nothing with the collider.
-    fn inside_by_parity(head: &HeadMesh, p: Vec3) -> bool {
-        let dir = Vec3::new(1.0, 0.000_123, 0.000_0457).normalize(); // off-axis: no edge hits
-        let crossings = head.triangles.iter().filter(|t| {
-            let [a, b, c] = head.corners(t);
-            let (e1, e2) = (b - a, c - a);
-            let q = dir.cross(e2);
-            let det = e1.dot(q);
-            if det.abs() < 1e-12 {
-                return false;
-            }
-            let s = (p - a) / det;
-            let u = s.dot(q);
-            let r = s.cross(e1);
-            let v = dir.dot(r);
-            u >= 0.0 && v >= 0.0 && u + v <= 1.0 && e2.dot(r) > 0.0
-        });
-        crossings.count() % 2 == 1
-    }
-
     #[test]
     fn a_sliver_does_not_make_far_points_inside() {
         // A zero-area sliver (three distinct collinear corners) on the skull, as a user's
@@ -438,7 +417,7 @@ mod tests {
                 let surface = dir * 0.1;
                 let p = surface + dir * reach;
                 let inside = collider.signed_distance(p) < 0.0;
-                if inside != inside_by_parity(&head, p) {
+                if inside != head.contains_by_ray_parity(p) {
                     wrong += 1;
                 }
             }

@@ -160,6 +160,29 @@ impl HeadMesh {
         (sum / 6.0) as f32
     }
 
+    /// Whether `p` is inside the closed mesh, by ray parity: a ray from `p` (along +X,
+    /// tilted slightly so it misses edges and vertices) crosses the surface an odd number of
+    /// times. Slow (every triangle) and independent of winding and of the collider: it is
+    /// the inside test that checks the collider's.
+    pub fn contains_by_ray_parity(&self, p: Vec3) -> bool {
+        let dir = Vec3::new(1.0, 0.000_123, 0.000_045_7).normalize();
+        let crossings = self.triangles.iter().filter(|t| {
+            let [a, b, c] = self.corners(t);
+            let (e1, e2) = (b - a, c - a);
+            let q = dir.cross(e2);
+            let det = e1.dot(q);
+            if det.abs() < 1e-12 {
+                return false; // the ray runs along the triangle's plane
+            }
+            // Möller–Trumbore: barycentric (u, v) of the hit and its distance along the ray.
+            let s = (p - a) / det;
+            let r = s.cross(e1);
+            let (u, v) = (s.dot(q), dir.dot(r));
+            u >= 0.0 && v >= 0.0 && u + v <= 1.0 && e2.dot(r) > 0.0
+        });
+        crossings.count() % 2 == 1
+    }
+
     /// Checks that the mesh is usable: non-empty, indices in range, finite values, and
     /// at least one triangle with area.
     pub fn validate(&self) -> Result<(), MeshError> {
