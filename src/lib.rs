@@ -25,6 +25,11 @@
 //! Drawing interpolates between the last two steps in head space and places the result on
 //! the head as posed in the frame, so the roots sit on the drawn scalp at any frame rate.
 //!
+//! A head that is a skinned mesh (`SkinnedMesh`) follows the joint that carries its scalp
+//! ([`ScalpJoint`]). Hair is drawn by a child of the head, so it shares the head's
+//! visibility and lifetime; [`HairCollider`]s in a character's hierarchy touch only that
+//! character's hair.
+//!
 //! Errors a user can cause — a head without a mesh, an empty mesh, no painted scalp,
 //! NaN settings — never panic: they arrive as [`HairError`] messages, a `warn!`, and a
 //! [`GroomStatus::Failed`] on the head, and the groom stays inert.
