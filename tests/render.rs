@@ -1,5 +1,6 @@
 //! Renders hair for real (Vulkan; lavapipe on machines without a GPU) into an offscreen
-//! image and checks pixels. Without a Vulkan adapter each test prints why it skipped.
+//! image and checks pixels. Without a Vulkan adapter each test prints why it skipped, or
+//! fails when `BEVY_HAIR_REQUIRE_ADAPTER` is set (as `.ci/run` sets it).
 //! The PNGs land in `target/tmp/hair-renders/` for people to look at.
 
 use bevy::app::PluginsState;
@@ -37,9 +38,15 @@ fn no_adapter() -> Option<String> {
     }
 }
 
+/// Set by `.ci/run`: there, a missing adapter is a failure (lavapipe broke), not a skip.
+const REQUIRE_ADAPTER: &str = "BEVY_HAIR_REQUIRE_ADAPTER";
+
 macro_rules! require_adapter {
     () => {
         if let Some(reason) = no_adapter() {
+            if std::env::var_os(REQUIRE_ADAPTER).is_some() {
+                panic!("{REQUIRE_ADAPTER} is set and there is {reason}");
+            }
             eprintln!("SKIPPED {}: {reason}", module_path!());
             return;
         }
