@@ -313,7 +313,11 @@ fn hair_on_a_skinned_head_rides_the_skin() {
         deepest * 1e3
     );
     assert!(worst_root <= 2e-4, "a drawn root is {} mm off the skinned scalp", worst_root * 1e3);
-    assert!(deepest <= thickness.max(5e-4), "a particle is {} mm inside the skinned head", deepest * 1e3);
+    // The subject here is the skinned frame: with a wrong one, whole strands sit centimetres
+    // inside. The solver itself still leaves a particle up to 2.8 mm inside (in the step's
+    // own state) in the first frames of this abrupt 12 rad/s start: its length pass runs
+    // after collision. Issue #14 ("never inside") tightens this to 0.1 mm.
+    assert!(deepest <= thickness, "a particle is {} mm inside the skinned head", deepest * 1e3);
 }
 
 /// Spawns a skinned procedural head with one joint; `weights` adds joint attributes.
