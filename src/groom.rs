@@ -286,9 +286,9 @@ pub(crate) fn start_growth(
                 if repairs.any() {
                     warn!("hair on {entity}: the head mesh was repaired: {repairs}");
                 }
-                if let Some(joint) = joint.filter(|j| j.share < 0.999) {
+                if let Some(joint) = joint.as_ref().filter(|j| j.share < 0.999) {
                     info!(
-                        "hair on {entity}: joint {} carries {:.1}% of the scalp's skin weights; blended roots follow it rigidly",
+                        "hair on {entity}: joint {} carries {:.1}% of the scalp's skin weights; the strands follow it, the roots their skinned triangles",
                         joint.joint,
                         joint.share * 100.0
                     );
@@ -378,7 +378,7 @@ pub(crate) fn finish_growth(
                     particles_per_strand: grown.strands.particles_per_strand(),
                 };
                 let (pose, _) = pose_and_scale(&frame);
-                commands.entity(entity).insert(HairState::new(grown, pose, task.joint));
+                commands.entity(entity).insert(HairState::new(grown, pose, task.joint.take()));
             }
             Err(reason) => {
                 warn!("hair on {entity}: {reason}");

@@ -13,7 +13,7 @@ use crate::convert::{from_sim, pose_and_scale, to_sim};
 use crate::diagnostics::HairDiagnostics;
 use crate::groom::{GroomStatus, Grown, HairGroom, head_frame};
 use crate::settings::{HairSettings, HairSettingsOverride, effective};
-use crate::skinning::ScalpJoint;
+use crate::skinning::{RootSkin, ScalpJoint};
 use bevy::diagnostic::Diagnostics;
 use bevy::platform::time::Instant;
 use bevy::prelude::*;
@@ -58,6 +58,8 @@ pub struct HairState {
     last_step_time: Duration,
     /// A skinned head's scalp joint: the head's frame is the joint's.
     joint: Option<ScalpJoint>,
+    /// A skinned head's root triangles, skinned every frame to pin the roots.
+    root_skin: RootSkin,
     /// Fields of the settings last reported as unusable (names, not values: NaN ≠ NaN).
     reported_issues: Vec<&'static str>,
 }
@@ -65,6 +67,7 @@ pub struct HairState {
 impl HairState {
     pub(crate) fn new(grown: Grown, pose: Pose, joint: Option<ScalpJoint>) -> Self {
         let Grown { mut strands, collider, head, roots, scale, groom } = grown;
+        let root_skin = joint.as_ref().map(|j| j.root_skin(&head, scale, &roots)).unwrap_or_default();
         strands.reset(pose);
         let current: Vec<Vec3> = strands.positions().iter().map(|&p| from_sim(p)).collect();
         let current_local: Vec<Vec3> = to_head_space(strands.positions(), pose).collect();
@@ -87,6 +90,7 @@ impl HairState {
             last_report: StepReport::default(),
             last_step_time: Duration::ZERO,
             joint,
+            root_skin,
             reported_issues: Vec::new(),
         }
     }
@@ -146,10 +150,18 @@ impl HairState {
         self.interpolated_local_positions(overstep_fraction).map(move |p| from_sim(pose.transform_point(to_sim(p))))
     }
 
-    /// [`Self::interpolated_positions`] in head space.
+    /// [`Self::interpolated_positions`] in head space. Roots are where the rest shape pins
+    /// them this frame (on a skinned head, their skinned triangles).
     pub fn interpolated_local_positions(&self, overstep_fraction: f32) -> impl Iterator<Item = Vec3> + '_ {
         let t = overstep_fraction.clamp(0.0, 1.0);
-        self.previous_local.iter().zip(&self.current_local).map(move |(a, b)| a.lerp(*b, t))
+        let n = self.particles_per_strand();
+        let rest = &self.strands.rest().positions;
+        self.previous_local
+            .iter()
+            .zip(&self.current_local)
+            .zip(rest)
+            .enumerate()
+            .map(move |(i, ((a, b), r))| if i % n == 0 { from_sim(*r) } else { a.lerp(*b, t) })
     }
 
     /// The head's scale, baked into [`Self::head_mesh`], the collider and the head-space
@@ -254,6 +266,14 @@ pub(crate) fn track_heads(
             info!("hair on {entity}: the head scale changed from {} to {scale}; regrowing", state.baked_scale);
             commands.entity(entity).remove::<HairState>().insert(GroomStatus::WaitingForMesh);
             continue;
+        }
+        // A skinned head's roots ride their skinned triangles: pinned there, in head space.
+        if let Some(joint) = &state.joint {
+            let matrices = joint.skinning_matrices(&joints);
+            let state = &mut *state;
+            for (strand, world) in state.root_skin.skinned_roots(&matrices).enumerate() {
+                state.strands.set_rest_root(strand, pose.inverse_transform_point(to_sim(world)));
+            }
         }
         let frame = StampedPose { time: now, pose };
         // A new groom has no earlier frame: it starts from where the head is now.

@@ -4,26 +4,40 @@
 //! A skinned vertex is drawn at `Σ wⱼ · (jointⱼ · inverse_bindⱼ) · v`; the entity's own
 //! transform plays no part. A scalp weighted to one joint (the head joint, as characters
 //! are rigged) therefore moves rigidly with `joint · inverse_bind`, and that product is
-//! the head's frame here: the roots, the collider and the drawing follow it exactly. Where
-//! the scalp is blended with other joints, those parts follow the dominant joint rigidly;
-//! growth reports how much of the scalp that joint carries.
+//! the head's frame here: the collider and the strands follow it. Where the scalp is
+//! blended with other joints, each root also rides its skinned triangle: every frame the
+//! root triangles alone are skinned on the CPU ([`RootSkin`]) and the roots are pinned
+//! there, in the dominant joint's frame.
 
 use bevy::math::Affine3A;
 use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
 use bevy::mesh::{Mesh, VertexAttributeValues};
 use bevy::prelude::*;
+use hair_sim::groom::RootBinding;
 use hair_sim::mesh::HeadMesh;
 
 /// The joint a skinned head's hair follows, found at growth.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct ScalpJoint {
     /// The joint entity (one of [`SkinnedMesh::joints`]).
     pub joint: Entity,
     /// Its inverse bind matrix: bind-pose mesh space → the joint's space.
     pub inverse_bind: Affine3A,
     /// The share of the scalp's joint weight this joint carries, 0..1 (1: the whole scalp
-    /// is skinned to it alone, and the roots ride the skin exactly).
+    /// is skinned to it alone and moves rigidly with it).
     pub share: f32,
+    /// Every joint of the skin with its inverse bind matrix, for skinning the roots.
+    joints: Vec<(Entity, Affine3A)>,
+    /// Each vertex's joints and weights (the mesh's JOINTS_0 and WEIGHTS_0).
+    vertex_joints: Vec<[(u16, f32); 4]>,
+}
+
+/// Linear blend skinning of the root triangles, for a groom on a skinned head.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct RootSkin {
+    /// Per root: its triangle's corners (bind-pose position, joints and weights) and the
+    /// root's barycentric coordinates.
+    roots: Vec<([(Vec3, [(u16, f32); 4]); 3], [f32; 3])>,
 }
 
 impl ScalpJoint {
@@ -69,11 +83,40 @@ impl ScalpJoint {
         let inverse_bind = bindposes.get(index).ok_or_else(|| {
             format!("the skin has {} joints but {} inverse bind matrices", skin.joints.len(), bindposes.len())
         })?;
+        let joints = skin
+            .joints
+            .iter()
+            .zip(bindposes.iter())
+            .map(|(&joint, inverse_bind)| (joint, Affine3A::from_mat4(*inverse_bind)))
+            .collect();
+        let vertex_joints = indices.iter().zip(weights).map(|(j, w)| std::array::from_fn(|k| (j[k], w[k]))).collect();
         Ok(ScalpJoint {
             joint: skin.joints[index],
             inverse_bind: Affine3A::from_mat4(*inverse_bind),
             share: (best / total) as f32,
+            joints,
+            vertex_joints,
         })
+    }
+
+    /// The skinning data of each root's triangle, from the head mesh the groom grew on
+    /// (scaled by `scale`, the scale of the joint's frame at growth).
+    pub(crate) fn root_skin(&self, head: &HeadMesh, scale: Vec3, roots: &[RootBinding]) -> RootSkin {
+        let corner = |v: u32| {
+            let position = Vec3::from_array(head.positions[v as usize].to_array()) / scale;
+            (position, self.vertex_joints.get(v as usize).copied().unwrap_or_default())
+        };
+        let roots = roots.iter().map(|r| (head.triangles[r.triangle as usize].map(corner), r.barycentric)).collect();
+        RootSkin { roots }
+    }
+
+    /// Each joint's skinning matrix this frame (`joint · inverse_bind`); identity for a joint
+    /// without a transform.
+    pub(crate) fn skinning_matrices(&self, joints: &Query<&GlobalTransform>) -> Vec<Affine3A> {
+        self.joints
+            .iter()
+            .map(|(joint, inverse_bind)| joints.get(*joint).map_or(Affine3A::IDENTITY, |g| g.affine() * *inverse_bind))
+            .collect()
     }
 
     /// Where the skin puts the bind-pose head this frame: `joint · inverse_bind`, or `None`
@@ -81,5 +124,23 @@ impl ScalpJoint {
     pub(crate) fn frame(&self, joints: &Query<&GlobalTransform>) -> Option<GlobalTransform> {
         let joint = joints.get(self.joint).ok()?;
         Some(GlobalTransform::from(joint.affine() * self.inverse_bind))
+    }
+}
+
+impl RootSkin {
+    /// Each root where the skin puts it this frame, world space: its triangle's corners
+    /// skinned with `matrices` ([`ScalpJoint::skinning_matrices`]), then interpolated.
+    pub(crate) fn skinned_roots<'a>(&'a self, matrices: &'a [Affine3A]) -> impl Iterator<Item = Vec3> + 'a {
+        let skin = move |(v, weights): &(Vec3, [(u16, f32); 4])| -> Vec3 {
+            let blended: Vec3 = weights
+                .iter()
+                .filter(|(_, w)| *w > 0.0)
+                .filter_map(|&(j, w)| matrices.get(j as usize).map(|m| w * m.transform_point3(*v)))
+                .sum();
+            let total: f32 = weights.iter().filter(|(_, w)| *w > 0.0).map(|(_, w)| w).sum();
+            // Weights that do not sum to 1 are normalised, as the GPU's skinning expects.
+            if total > 0.0 { blended / total } else { *v }
+        };
+        self.roots.iter().map(move |(corners, bary)| corners.iter().zip(bary).map(|(c, b)| *b * skin(c)).sum())
     }
 }

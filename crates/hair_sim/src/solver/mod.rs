@@ -183,6 +183,17 @@ impl Strands {
         &self.rest
     }
 
+    /// Moves strand `strand`'s root within the rest shape (head-local), for a root that
+    /// rides a surface deforming against the head's frame (a blended skinned scalp): the
+    /// next step pins the root there. The rest of the rest shape stays. A non-finite
+    /// position or a strand out of range is ignored.
+    pub fn set_rest_root(&mut self, strand: usize, root: Vec3) {
+        let n = self.rest.particles_per_strand;
+        if root.is_finite() && strand < self.rest.strand_count() {
+            self.rest.positions[strand * n] = root;
+        }
+    }
+
     /// Particles per strand.
     pub fn particles_per_strand(&self) -> usize {
         self.rest.particles_per_strand
