@@ -29,15 +29,20 @@ pub struct ScalpJoint {
     /// Every joint of the skin with its inverse bind matrix, for skinning the roots.
     joints: Vec<(Entity, Affine3A)>,
     /// Each vertex's joints and weights (the mesh's JOINTS_0 and WEIGHTS_0).
-    vertex_joints: Vec<[(u16, f32); 4]>,
+    vertex_joints: Vec<Influences>,
 }
+
+/// Up to four (joint, weight) pairs of a vertex.
+type Influences = [(u16, f32); 4];
+
+/// A skinned vertex: its bind-pose position and influences.
+type SkinnedVertex = (Vec3, Influences);
 
 /// Linear blend skinning of the root triangles, for a groom on a skinned head.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct RootSkin {
-    /// Per root: its triangle's corners (bind-pose position, joints and weights) and the
-    /// root's barycentric coordinates.
-    roots: Vec<([(Vec3, [(u16, f32); 4]); 3], [f32; 3])>,
+    /// Per root: its triangle's corners and the root's barycentric coordinates.
+    roots: Vec<([SkinnedVertex; 3], [f32; 3])>,
 }
 
 impl ScalpJoint {
@@ -131,7 +136,7 @@ impl RootSkin {
     /// Each root where the skin puts it this frame, world space: its triangle's corners
     /// skinned with `matrices` ([`ScalpJoint::skinning_matrices`]), then interpolated.
     pub(crate) fn skinned_roots<'a>(&'a self, matrices: &'a [Affine3A]) -> impl Iterator<Item = Vec3> + 'a {
-        let skin = move |(v, weights): &(Vec3, [(u16, f32); 4])| -> Vec3 {
+        let skin = move |(v, weights): &SkinnedVertex| -> Vec3 {
             let blended: Vec3 = weights
                 .iter()
                 .filter(|(_, w)| *w > 0.0)
