@@ -167,7 +167,9 @@ pub(crate) fn head_frame(
 ) -> Result<GlobalTransform, String> {
     match joint {
         None => Ok(*transform),
-        Some(joint) => joint.frame(joints).ok_or_else(|| format!("the scalp joint {} has no transform", joint.joint)),
+        Some(joint) => joint
+            .frame(joints)
+            .ok_or_else(|| format!("the skin's scalp joint {} has no GlobalTransform (despawned?)", joint.joint)),
     }
 }
 

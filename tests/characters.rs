@@ -342,7 +342,8 @@ fn hair_on_a_skinned_head_rides_the_skin() {
 }
 
 /// Spawns a skinned procedural head with one joint; `weights` adds joint attributes.
-fn spawn_skinned(app: &mut App, weights: Option<[f32; 4]>) -> Entity {
+/// Returns the head and the joint.
+fn spawn_skinned(app: &mut App, weights: Option<[f32; 4]>) -> (Entity, Entity) {
     let mut mesh = procedural_head_mesh(3);
     if let Some(weights) = weights {
         let count = mesh.count_vertices();
@@ -355,16 +356,19 @@ fn spawn_skinned(app: &mut App, weights: Option<[f32; 4]>) -> Entity {
     let bindposes = world.resource_mut::<Assets<SkinnedMeshInverseBindposes>>().add(bindposes);
     let joint = world.spawn(Transform::default()).id();
     let skin = SkinnedMesh { inverse_bindposes: bindposes, joints: vec![joint] };
-    world.spawn((Mesh3d(mesh), skin, small_groom(8))).id()
+    (world.spawn((Mesh3d(mesh), skin, small_groom(8))).id(), joint)
 }
 
 #[test]
 fn skins_the_hair_cannot_follow_are_reported() {
     let mut app = app();
-    let unweighted = spawn_skinned(&mut app, Some([0.0; 4]));
-    let without_joints = spawn_skinned(&mut app, None);
+    let (unweighted, _) = spawn_skinned(&mut app, Some([0.0; 4]));
+    let (without_joints, _) = spawn_skinned(&mut app, None);
+    let (joint_gone, joint) = spawn_skinned(&mut app, Some([1.0, 0.0, 0.0, 0.0]));
+    app.world_mut().entity_mut(joint).despawn();
     run(&mut app, 3);
-    for (head, expected) in [(unweighted, "joint weight"), (without_joints, "JOINTS_0")] {
+    let cases = [(unweighted, "joint weight"), (without_joints, "JOINTS_0"), (joint_gone, "no GlobalTransform")];
+    for (head, expected) in cases {
         match app.world().get::<GroomStatus>(head) {
             Some(GroomStatus::Failed(reason)) => {
                 println!("{reason}");
