@@ -34,17 +34,16 @@ impl Hair {
     /// hundreds of steps a frame for no visible gain.
     pub const MIN_TIMESTEP: Duration = Duration::from_millis(1);
 
-    /// A clock stepping every `timestep` (the default if `timestep` is below
-    /// [`Self::MIN_TIMESTEP`]).
-    pub fn from_timestep(timestep: Duration) -> Self {
-        let timestep = if timestep < Self::MIN_TIMESTEP { Self::DEFAULT_TIMESTEP } else { timestep };
-        Hair { timestep, overstep: Duration::ZERO, paused: false, relative_speed: 1.0 }
+    /// The step of `hz` steps per second, if that is a positive finite rate of at most
+    /// 1,000 ([`Self::MIN_TIMESTEP`]).
+    pub fn timestep_of_hz(hz: f64) -> Option<Duration> {
+        Duration::try_from_secs_f64(1.0 / hz).ok().filter(|step| hz > 0.0 && *step >= Self::MIN_TIMESTEP)
     }
 }
 
 impl Default for Hair {
     fn default() -> Self {
-        Hair::from_timestep(Self::DEFAULT_TIMESTEP)
+        Hair { timestep: Self::DEFAULT_TIMESTEP, overstep: Duration::ZERO, paused: false, relative_speed: 1.0 }
     }
 }
 
@@ -98,9 +97,9 @@ impl HairTime for Time<Hair> {
     }
 
     fn set_timestep_hz(&mut self, hz: f64) {
-        match Duration::try_from_secs_f64(1.0 / hz) {
-            Ok(step) if hz > 0.0 && !step.is_zero() => self.set_timestep(step),
-            _ => warn!("hair clock: a rate of {hz} Hz was refused; the step stays {:?}", self.timestep()),
+        match Hair::timestep_of_hz(hz) {
+            Some(step) => self.set_timestep(step),
+            None => warn!("hair clock: a rate of {hz} Hz was refused; the step stays {:?}", self.timestep()),
         }
     }
 
@@ -206,7 +205,9 @@ mod tests {
         #[derive(Resource, Default)]
         struct Steps(Vec<Duration>);
         let mut world = World::new();
-        world.insert_resource(Time::<Hair>::new_with(Hair::from_timestep(Duration::from_millis(10))));
+        let mut clock = Time::<Hair>::default();
+        clock.set_timestep(Duration::from_millis(10));
+        world.insert_resource(clock);
         world.insert_resource(Time::<Virtual>::default());
         world.insert_resource(Time::<()>::default());
         world.init_resource::<Steps>();

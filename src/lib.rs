@@ -101,8 +101,7 @@ impl HairPlugin {
     /// Hair steps `hz` times per second of virtual time (60 if `hz` is not a positive,
     /// finite rate of at most 1,000).
     pub fn from_hz(hz: f64) -> Self {
-        let timestep = Duration::try_from_secs_f64(1.0 / hz).ok().filter(|t| hz > 0.0 && *t >= Hair::MIN_TIMESTEP);
-        HairPlugin { timestep: timestep.unwrap_or(Hair::DEFAULT_TIMESTEP) }
+        HairPlugin { timestep: Hair::timestep_of_hz(hz).unwrap_or(Hair::DEFAULT_TIMESTEP) }
     }
 }
 
@@ -145,18 +144,10 @@ impl std::fmt::Display for HairError {
 
 impl Plugin for HairPlugin {
     fn build(&self, app: &mut App) {
-        let timestep = if self.timestep < Hair::MIN_TIMESTEP {
-            warn!(
-                "HairPlugin: a timestep of {:?} (below {:?}) was replaced by {:?}",
-                self.timestep,
-                Hair::MIN_TIMESTEP,
-                Hair::DEFAULT_TIMESTEP
-            );
-            Hair::DEFAULT_TIMESTEP
-        } else {
-            self.timestep
-        };
-        app.insert_resource(Time::<Hair>::new_with(Hair::from_timestep(timestep)));
+        // A timestep below the minimum is refused with a warning and the default stays.
+        let mut clock = Time::<Hair>::default();
+        clock.set_timestep(self.timestep);
+        app.insert_resource(clock);
         app.init_schedule(HairSchedule);
         app.init_resource::<HairSettings>()
             .register_type::<HairSettings>()

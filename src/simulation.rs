@@ -58,7 +58,8 @@ pub struct HairState {
     last_step_time: Duration,
     /// A skinned head's scalp joint: the head's frame is the joint's.
     joint: Option<ScalpJoint>,
-    /// A skinned head's root triangles, skinned every frame to pin the roots.
+    /// A skinned head's root triangles, skinned every frame to pin the roots (empty when the
+    /// scalp moves rigidly with its joint).
     root_skin: RootSkin,
     /// Fields of the settings last reported as unusable (names, not values: NaN ≠ NaN).
     reported_issues: Vec<&'static str>,
@@ -67,7 +68,9 @@ pub struct HairState {
 impl HairState {
     pub(crate) fn new(grown: Grown, pose: Pose, joint: Option<ScalpJoint>) -> Self {
         let Grown { mut strands, collider, head, roots, scale, groom } = grown;
-        let root_skin = joint.as_ref().map(|j| j.root_skin(&head, scale, &roots)).unwrap_or_default();
+        // A scalp skinned to its joint alone moves rigidly with it: nothing to skin per frame.
+        let root_skin =
+            joint.as_ref().filter(|j| j.share < 1.0).map(|j| j.root_skin(&head, scale, &roots)).unwrap_or_default();
         strands.reset(pose);
         let current: Vec<Vec3> = strands.positions().iter().map(|&p| from_sim(p)).collect();
         let current_local: Vec<Vec3> = to_head_space(strands.positions(), pose).collect();
@@ -268,7 +271,9 @@ pub(crate) fn track_heads(
             continue;
         }
         // A skinned head's roots ride their skinned triangles: pinned there, in head space.
-        if let Some(joint) = &state.joint {
+        if let Some(joint) = &state.joint
+            && !state.root_skin.is_empty()
+        {
             let matrices = joint.skinning_matrices(&joints);
             let state = &mut *state;
             for (strand, world) in state.root_skin.skinned_roots(&matrices).enumerate() {

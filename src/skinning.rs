@@ -133,6 +133,11 @@ impl ScalpJoint {
 }
 
 impl RootSkin {
+    /// Whether there are no roots to skin.
+    pub(crate) fn is_empty(&self) -> bool {
+        self.roots.is_empty()
+    }
+
     /// Each root where the skin puts it this frame, world space: its triangle's corners
     /// skinned with `matrices` ([`ScalpJoint::skinning_matrices`]), then interpolated.
     pub(crate) fn skinned_roots<'a>(&'a self, matrices: &'a [Affine3A]) -> impl Iterator<Item = Vec3> + 'a {

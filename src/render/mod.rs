@@ -238,7 +238,7 @@ fn guide_buffer_len(layout: &StrandLayout) -> usize {
 fn upload_guides(
     clock: Res<Time<Hair>>,
     heads: Query<(&HairState, &HairGroom, &HairLook)>,
-    mut drawings: Query<(&HairDrawing, &GlobalTransform, &mut Aabb, &InheritedVisibility, &Visibility), With<Mesh3d>>,
+    mut drawings: Query<(&HairDrawing, &GlobalTransform, &mut Aabb, &InheritedVisibility), With<Mesh3d>>,
     mut buffers: ResMut<Assets<ShaderBuffer>>,
     mut stats: ResMut<HairRenderStats>,
     mut diagnostics: Diagnostics,
@@ -283,9 +283,10 @@ fn upload_guides(
         (min.is_finite() && max.is_finite())
             .then(|| Aabb::from_min_max(min - Vec3::splat(reach), max + Vec3::splat(reach)))
     };
-    for (drawing, placed, mut aabb, inherited, visibility) in &mut drawings {
-        // The head or the hair is hidden: nothing is drawn, so nothing is uploaded.
-        if *visibility == Visibility::Hidden || !inherited.get() {
+    for (drawing, placed, mut aabb, inherited) in &mut drawings {
+        // The head or the hair is hidden (the drawing's own `Visibility` is part of its
+        // inherited one): nothing is drawn, so nothing is uploaded.
+        if !inherited.get() {
             continue;
         }
         if let Some(fitted) = write(drawing, placed, &mut frame) {
