@@ -1,82 +1,54 @@
-//! Head motion: an `AnimationClip` authored in code (a slow turn, a nod, a fast shake,
-//! rest; looped) played by Bevy's animation system; pause, speed and scrub from the panel;
-//! and a mode in which the mouse drags the head instead.
+//! Head motion: the clip in `assets/head.glb` (turn, nod, shake, whip; looped), loaded
+//! through Bevy's glTF loader and played by the `AnimationPlayer` the loader puts on the
+//! character; pause, speed and scrub from the panel; and a mode in which the mouse drags
+//! the character instead.
 
-use crate::scene::{Head, OrbitCamera};
-use bevy::animation::{AnimatedBy, AnimationTargetId, animated_field};
+use crate::scene::{Character, HEAD_GLB, OrbitCamera};
 use bevy::input::mouse::AccumulatedMouseMotion;
 use bevy::prelude::*;
+use bevy::world_serialization::WorldInstanceReady;
 use bevy_egui::input::EguiWantsInput;
 use bevy_hair::prelude::*;
 
-/// Length of the looped clip, seconds.
-pub const CLIP_SECONDS: f32 = 8.0;
-
-/// Key poses: (time s, yaw°, pitch° (+ nods down), roll°). Between keys the head eases in
-/// and out, so it starts and stops smoothly like a person would.
-const POSES: &[(f32, f32, f32, f32)] = &[
-    (0.0, 0.0, 0.0, 0.0),
-    (0.5, 0.0, 0.0, 0.0),
-    (1.4, 40.0, -5.0, 4.0),   // turn left
-    (2.5, -40.0, -5.0, -4.0), // turn right
-    (3.2, 0.0, 0.0, 0.0),
-    (3.6, 0.0, 24.0, 0.0), // nod
-    (4.0, 0.0, -14.0, 0.0),
-    (4.4, 0.0, 24.0, 0.0),
-    (4.9, 0.0, 0.0, 0.0),
-    (5.05, 28.0, 0.0, 0.0), // fast shake
-    (5.2, -28.0, 0.0, 0.0),
-    (5.35, 28.0, 0.0, 0.0),
-    (5.5, -28.0, 0.0, 0.0),
-    (5.65, 0.0, 0.0, 0.0),
-    (CLIP_SECONDS, 0.0, 0.0, 0.0), // rest: watch the hair settle
-];
-
-/// Playback controls, set by the panel and the keyboard, applied to the head's player.
+/// Playback controls, set by the panel and the keyboard, applied to the character's player.
 #[derive(Resource)]
 pub struct Motion {
-    /// The clip's node in the head's animation graph.
+    /// The clip's node in the animation graph.
     pub node: AnimationNodeIndex,
+    /// The graph with the clip.
+    pub graph: Handle<AnimationGraph>,
+    /// The clip, for its length.
+    pub clip: Handle<AnimationClip>,
+    /// The clip's length, seconds, once it is loaded.
+    pub duration: f32,
+    /// The entity with the `AnimationPlayer`, once the character's scene is spawned.
+    pub player: Option<Entity>,
     pub paused: bool,
     pub speed: f32,
-    /// The mouse moves the head; the animation is stopped meanwhile.
+    /// The mouse moves the character; the clip holds its pose meanwhile.
     pub drag_head: bool,
     /// Jump to this clip time next frame.
     pub seek: Option<f32>,
-    /// Put the head back where the animation starts (after dragging it away).
+    /// Put the character back where it started (after dragging it away).
     pub reset_pose: bool,
     /// The clip time now, for the scrub slider.
     pub time: f32,
 }
 
 pub fn plugin(app: &mut App) {
-    app.add_systems(Startup, setup.after(crate::scene::setup)).add_systems(Update, (keys, drag_head, apply).chain());
+    app.add_systems(Startup, setup).add_observer(start_the_clip).add_systems(Update, (keys, drag_head, apply).chain());
 }
 
-/// Samples the eased key poses at 60 Hz into a keyframe curve on the head's rotation, and
-/// starts it looping. The head is its own animation player.
-fn setup(
-    mut commands: Commands,
-    head: Single<(Entity, &Name), With<Head>>,
-    mut clips: ResMut<Assets<AnimationClip>>,
-    mut graphs: ResMut<Assets<AnimationGraph>>,
-) {
-    let (entity, name) = *head;
-    let target = AnimationTargetId::from_name(name);
-    let samples = (CLIP_SECONDS * 60.0) as usize;
-    let keys = (0..=samples).map(|i| {
-        let t = i as f32 / samples as f32 * CLIP_SECONDS;
-        (t, pose_at(t))
-    });
-    let mut clip = AnimationClip::default();
-    let curve = AnimatableKeyframeCurve::new(keys).expect("more than two increasing keyframes");
-    clip.add_curve_to_target(target, AnimatableCurve::new(animated_field!(Transform::rotation), curve));
-    let (graph, node) = AnimationGraph::from_clip(clips.add(clip));
-    let mut player = AnimationPlayer::default();
-    player.play(node).repeat();
-    commands.entity(entity).insert((target, AnimatedBy(entity), player, AnimationGraphHandle(graphs.add(graph))));
+/// Loads the clip from the glTF and makes the graph that plays it.
+fn setup(mut commands: Commands, asset_server: Res<AssetServer>, mut graphs: ResMut<Assets<AnimationGraph>>) {
+    let clip = asset_server.load(GltfAssetLabel::Animation(0).from_asset(HEAD_GLB));
+    let (graph, node) = AnimationGraph::from_clip(clip.clone());
     commands.insert_resource(Motion {
         node,
+        graph: graphs.add(graph),
+        clip,
+        duration: 0.0,
+        player: None,
         paused: false,
         speed: 1.0,
         drag_head: false,
@@ -86,15 +58,23 @@ fn setup(
     });
 }
 
-/// The head rotation at clip time `t`: between the surrounding key poses, eased with a
-/// smoothstep so velocity is zero at each key.
-fn pose_at(t: f32) -> Quat {
-    let next = POSES.iter().position(|p| p.0 > t).unwrap_or(POSES.len() - 1).max(1);
-    let (a, b) = (POSES[next - 1], POSES[next]);
-    let s = ((t - a.0) / (b.0 - a.0)).clamp(0.0, 1.0);
-    let s = s * s * (3.0 - 2.0 * s);
-    let lerp = |x: f32, y: f32| (x + (y - x) * s).to_radians();
-    Quat::from_euler(EulerRot::YXZ, lerp(a.1, b.1), lerp(a.2, b.2), lerp(a.3, b.3))
+/// When the character's scene is in the world, gives the player the loader put on it our
+/// graph and starts the clip, looping.
+fn start_the_clip(
+    ready: On<WorldInstanceReady>,
+    mut commands: Commands,
+    children: Query<&Children>,
+    mut players: Query<&mut AnimationPlayer>,
+    mut motion: ResMut<Motion>,
+) {
+    let Some(entity) = children.iter_descendants(ready.entity).find(|&e| players.contains(e)) else {
+        error!("{HEAD_GLB} has no animated joints");
+        return;
+    };
+    let mut player = players.get_mut(entity).expect("found above");
+    player.play(motion.node).repeat();
+    commands.entity(entity).insert(AnimationGraphHandle(motion.graph.clone()));
+    motion.player = Some(entity);
 }
 
 /// Space pauses, D toggles dragging the head, R puts the hair back at rest.
@@ -118,8 +98,8 @@ fn keys(
     }
 }
 
-/// In drag mode, the left button moves the head in the view plane (with Shift, turns it),
-/// so you can fling it and watch the hair follow.
+/// In drag mode, the left button moves the character in the view plane (with Shift, turns
+/// it), so you can fling it and watch the hair follow.
 #[allow(clippy::too_many_arguments)] // one system, many small inputs
 fn drag_head(
     motion: Res<Motion>,
@@ -127,9 +107,9 @@ fn drag_head(
     keys: Res<ButtonInput<KeyCode>>,
     mouse_motion: Res<AccumulatedMouseMotion>,
     egui: Res<EguiWantsInput>,
-    camera: Single<(&Transform, &OrbitCamera, &Projection), Without<Head>>,
+    camera: Single<(&Transform, &OrbitCamera, &Projection), Without<Character>>,
     window: Single<&Window>,
-    mut head: Single<&mut Transform, With<Head>>,
+    mut head: Single<&mut Transform, With<Character>>,
     mut dragging: Local<bool>,
 ) {
     if !motion.drag_head || !buttons.pressed(MouseButton::Left) {
@@ -160,29 +140,30 @@ fn drag_head(
     }
 }
 
-/// Applies the controls to the head's player: drag mode stops the clip (a stopped clip no
-/// longer writes the transform), leaving it resumes where it was.
-fn apply(mut motion: ResMut<Motion>, mut head: Single<(&mut AnimationPlayer, &mut Transform), With<Head>>) {
-    let (player, transform) = &mut *head;
-    let node = motion.node;
+/// Applies the controls to the character's player: drag mode holds the clip's pose (the
+/// joints stay where they are while the character is dragged), leaving it resumes.
+fn apply(
+    mut motion: ResMut<Motion>,
+    mut players: Query<&mut AnimationPlayer>,
+    mut character: Single<&mut Transform, With<Character>>,
+    clips: Res<Assets<AnimationClip>>,
+) {
+    if let Some(clip) = clips.get(&motion.clip) {
+        motion.duration = clip.duration();
+    }
     if motion.reset_pose {
         motion.reset_pose = false;
-        **transform = Transform::IDENTITY;
+        **character = Transform::IDENTITY;
     }
-    if motion.drag_head {
-        player.stop(node);
-        return;
-    }
-    if !player.is_playing_animation(node) {
-        transform.translation = Vec3::ZERO; // the clip animates rotation only
-        player.play(node).repeat().seek_to(motion.time);
-    }
+    let node = motion.node;
+    let Some(mut player) = motion.player.and_then(|e| players.get_mut(e).ok()) else { return };
     let Some(active) = player.animation_mut(node) else { return };
     if let Some(time) = motion.seek.take() {
-        active.seek_to(time.clamp(0.0, CLIP_SECONDS));
+        active.seek_to(time.clamp(0.0, motion.duration));
     }
-    if active.is_paused() != motion.paused {
-        if motion.paused {
+    let paused = motion.paused || motion.drag_head;
+    if active.is_paused() != paused {
+        if paused {
             active.pause();
         } else {
             active.resume();

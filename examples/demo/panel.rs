@@ -4,7 +4,7 @@
 //! Settings and the look apply as you drag. Groom sliders regrow the hair (on a background
 //! task), so they apply when a drag ends, not on every frame of it.
 
-use crate::motion::{CLIP_SECONDS, Motion};
+use crate::motion::Motion;
 use crate::presets::{self, Preset};
 use crate::scene::Head;
 use bevy::diagnostic::{DiagnosticPath, DiagnosticsStore, FrameTimeDiagnosticsPlugin};
@@ -242,7 +242,7 @@ fn motion_section(ui: &mut egui::Ui, motion: &mut Motion) {
     ui.add_enabled_ui(!motion.drag_head, |ui| {
         slider(ui, &mut motion.speed, 0.0..=3.0, "speed");
         let mut time = motion.time;
-        if slider(ui, &mut time, 0.0..=CLIP_SECONDS, "time (s)").changed() {
+        if slider(ui, &mut time, 0.0..=motion.duration, "time (s)").changed() {
             motion.seek = Some(time);
         }
     });

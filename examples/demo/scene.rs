@@ -5,11 +5,18 @@ use crate::motion::Motion;
 use crate::presets;
 use bevy::input::mouse::{AccumulatedMouseMotion, AccumulatedMouseScroll, MouseScrollUnit};
 use bevy::light::{CascadeShadowConfigBuilder, DirectionalLightShadowMap, NotShadowCaster};
+use bevy::mesh::skinning::SkinnedMesh;
 use bevy::prelude::*;
+use bevy::world_serialization::{WorldAssetRoot, WorldInstanceReady};
 use bevy_egui::input::EguiWantsInput;
 use bevy_hair::prelude::*;
 
-/// The head: one entity with the mesh, the groom, and the animation target.
+/// The character: the root of the glTF scene (`assets/head.glb`: a `neck` → `head`
+/// skeleton and the skinned head mesh). Dragging moves it.
+#[derive(Component)]
+pub struct Character;
+
+/// The skinned head mesh inside the character: it wears the groom.
 #[derive(Component)]
 pub struct Head;
 
@@ -50,12 +57,10 @@ pub fn setup(
 ) {
     let start = presets::shoulder();
     settings.0 = start.params;
-    // The mesh directly, not the glTF scene: the demo owns the entity, so it can carry the
-    // groom and the animation target. Its COLOR_0 paints the skin and (black) the scalp;
-    // the white base colour shows those colours as painted.
-    let head_mesh = asset_server.load(GltfAssetLabel::Primitive { mesh: 0, primitive: 0 }.from_asset("head.glb"));
-    let skin = materials.add(StandardMaterial { base_color: Color::WHITE, perceptual_roughness: 0.55, ..default() });
-    commands.spawn((Head, Name::new("head"), Mesh3d(head_mesh), MeshMaterial3d(skin), start.groom, start.look));
+    // The glTF scene, as a game would spawn a character. When it is in the world, its
+    // skinned mesh gets the groom (`dress_the_head`); `motion.rs` plays its clip.
+    let scene = asset_server.load(GltfAssetLabel::Scene(0).from_asset(HEAD_GLB));
+    commands.spawn((Character, Name::new("character"), WorldAssetRoot(scene))).observe(dress_the_head);
 
     // Key light: warm, from the front left and above, casting the head's shadow on the
     // hair and the backdrop. One short cascade covers the whole set.
@@ -109,6 +114,28 @@ pub fn setup(
 
     let orbit = OrbitCamera { yaw: 0.45, pitch: 0.12, distance: 0.62 };
     commands.spawn((Camera3d::default(), orbit.transform(), orbit));
+}
+
+/// The character's file: a skinned head with a painted scalp and its animation clip.
+pub const HEAD_GLB: &str = "head.glb";
+
+/// Once the character's scene is spawned, gives its skinned mesh the groom and the look of
+/// the starting preset, and a skin material that shows the painted vertex colours (COLOR_0
+/// paints the skin and, black, the scalp) as painted.
+fn dress_the_head(
+    ready: On<WorldInstanceReady>,
+    mut commands: Commands,
+    children: Query<&Children>,
+    meshes: Query<(), (With<Mesh3d>, With<SkinnedMesh>)>,
+    mut materials: ResMut<Assets<StandardMaterial>>,
+) {
+    let Some(mesh) = children.iter_descendants(ready.entity).find(|&e| meshes.contains(e)) else {
+        error!("{HEAD_GLB} has no skinned mesh to grow hair on");
+        return;
+    };
+    let start = presets::shoulder();
+    let skin = materials.add(StandardMaterial { base_color: Color::WHITE, perceptual_roughness: 0.55, ..default() });
+    commands.entity(mesh).insert((Head, MeshMaterial3d(skin), start.groom, start.look));
 }
 
 /// Left drag (or right drag, which also works while the left button drags the head) orbits,

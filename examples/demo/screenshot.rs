@@ -84,20 +84,30 @@ impl Shot {
     }
 }
 
+/// What the script reads and changes on the head.
+type HeadHair = (&'static GroomStatus, Option<&'static HairState>, &'static mut HairLook);
+
 #[allow(clippy::too_many_arguments)] // one system that runs the whole script
 fn drive(
     mut commands: Commands,
     mut shot: ResMut<Shot>,
     mut time: ResMut<Time<Virtual>>,
-    mut head: Single<(&GroomStatus, Option<&HairState>, &mut HairLook), With<Head>>,
+    head: Option<Single<HeadHair, With<Head>>>,
     camera: Single<(&Camera, &GlobalTransform)>,
     mut exit: MessageWriter<AppExit>,
 ) {
-    let (status, state, look) = &mut *head;
     let mut fail = |reason: String| {
         error!("screenshot: {reason}");
         exit.write(AppExit::error());
     };
+    // The head is in the character's glTF scene, which takes a few frames to load.
+    let Some(mut head) = head else {
+        if shot.started.elapsed() > GROWTH_TIMEOUT {
+            fail(format!("no head with a groom after {GROWTH_TIMEOUT:?}"));
+        }
+        return;
+    };
+    let (status, state, look) = &mut *head;
     match shot.stage {
         Stage::Growing => match status {
             GroomStatus::Ready { guides, particles_per_strand } => {

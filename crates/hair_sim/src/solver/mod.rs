@@ -128,6 +128,10 @@ pub struct StepReport {
     pub contacts: u32,
     /// Deepest penetration found (before resolving), metres below the thickness offset.
     pub max_depth: f32,
+    /// Particles the final length pass could not keep both outside and at their
+    /// segment's length (a crease tighter than a segment): collision won and the segment
+    /// stretched. Summed over substeps.
+    pub contact_stretches: u32,
 }
 
 impl StepReport {
@@ -137,6 +141,7 @@ impl StepReport {
         self.nan_resets += other.nan_resets;
         self.contacts += other.contacts;
         self.max_depth = self.max_depth.max(other.max_depth);
+        self.contact_stretches += other.contact_stretches;
     }
 }
 

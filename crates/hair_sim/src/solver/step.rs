@@ -5,7 +5,8 @@
 //! 2. pin the root to the head pose interpolated for this substep;
 //! 3. `iterations` × (global shape, local shape, length constraint);
 //! 4. collision with the head (head-local) and the extra colliders, with friction, then a
-//!    final length pass (inextensible mode);
+//!    final length pass that may turn a segment about its parent but never moves a
+//!    particle back inside a collider ([`keep_outside`]);
 //! 5. velocities from the position change, plus Müller's FTL correction.
 //!
 //! Strands go through this sixteen at a time, side by side in SIMD lanes
@@ -49,6 +50,16 @@ impl PoseMatrix {
     #[inline]
     fn local_point(&self, p: Vec3) -> Vec3 {
         (self.inverse * (Vec3A::from(p) - self.translation)).into()
+    }
+
+    /// A head-local contact → world.
+    #[inline]
+    fn world_contact(&self, contact: Contact) -> Contact {
+        Contact {
+            position: (self.rotation * Vec3A::from(contact.position) + self.translation).into(),
+            normal: (self.rotation * Vec3A::from(contact.normal)).into(),
+            depth: contact.depth,
+        }
     }
 }
 
@@ -125,6 +136,8 @@ struct GroupState {
     ftl_correction: Vec<V3>,
     /// Head-local positions during collision, and per particle the lanes it moved.
     local: Vec<V3>,
+    /// Positions right after collision, before the final length pass.
+    collided: Vec<V3>,
     moved: Vec<u32>,
     rest_positions: Vec<V3>,
     rest_directions: Vec<V3>,
@@ -146,6 +159,7 @@ impl GroupState {
             force: vec![V3::ZERO; n],
             ftl_correction: vec![V3::ZERO; n],
             local: vec![V3::ZERO; n],
+            collided: vec![V3::ZERO; n],
             moved: vec![0; n],
             rest_positions: vec![V3::ZERO; n],
             rest_directions: vec![V3::ZERO; n],
@@ -247,7 +261,12 @@ fn reset_strand(state: &mut ChunkState, k: usize, n: usize, rest_x: &[Vec3], pos
 
 fn step_group(g: &mut GroupState, state: &mut ChunkState, c: &Constants, input: &StepInput, report: &mut StepReport) {
     for s in 1..c.poses.len() {
-        let poses = SubstepPoses { before: &c.matrices[s - 1], now: &c.lane_poses[s], frame: c.poses[s].rotation };
+        let poses = SubstepPoses {
+            before: &c.matrices[s - 1],
+            now: &c.lane_poses[s],
+            now_one: &c.matrices[s],
+            frame: c.poses[s].rotation,
+        };
         let time = input.time + c.h * s as f32;
         substep(g, state, c, time, &poses, input, report);
     }
@@ -259,6 +278,8 @@ struct SubstepPoses<'a> {
     before: &'a PoseMatrix,
     /// For whole lanes at once.
     now: &'a PoseLanes,
+    /// The same, for one particle at a time.
+    now_one: &'a PoseMatrix,
     /// The rotation of `now`, for the root frames of local shape.
     frame: Quat,
 }
@@ -315,12 +336,14 @@ fn substep(
     }
 
     // 4. Collision, then one more length pass: pushing particles out of the head
-    //    stretches segments, and FTL only moves each particle along its parent segment,
-    //    which leaves it outside the surface it was just pushed to (to first order).
+    //    stretches segments, and both length models promise their bound after the step.
+    //    That pass must not put a particle back inside, so it turns segments where it
+    //    would.
     if p.collision {
         collide(g, state, p, poses, input, report);
-        // Both length models promise their bound after the step, whatever collision did.
+        g.collided.copy_from_slice(&g.positions);
         length_pass(g, p);
+        keep_outside(g, state, p, poses, input, report);
     }
 
     // 5. Velocities. The root moves with the head; its speed feeds spring damping, so it
@@ -390,7 +413,13 @@ fn collide(
                 if let Some(contact) = collider.resolve_hinted(g.local[j].lane(l), p.collision_thickness, hint) {
                     // Friction acts on sliding relative to the head, so compare in head space.
                     let local_start = poses.before.local_point(g.start[j].lane(l));
-                    g.local[j].set_lane(l, with_friction(contact, local_start, p.friction));
+                    let mut held = with_friction(contact, local_start, p.friction);
+                    // Friction slides back along the tangent plane, which in a hollow (by
+                    // an ear) dips under the surface: out again from there.
+                    if held != contact.position {
+                        held = collider.resolve_hinted(held, p.collision_thickness, hint).map_or(held, |c| c.position);
+                    }
+                    g.local[j].set_lane(l, held);
                     g.moved[j] |= 1 << l;
                     touch(&contact);
                 }
@@ -411,11 +440,130 @@ fn collide(
             for extra in input.extra_colliders {
                 if let Some(contact) = extra.resolve(x, p.collision_thickness) {
                     x = with_friction(contact, g.start[j].lane(l), p.friction);
+                    // Spheres and capsules are convex: the tangent plane stays outside.
                     touch(&contact);
                 }
             }
             g.positions[j].set_lane(l, x);
         }
+    }
+}
+
+/// How many times [`outside_at_length`] turns one segment before collision simply wins.
+const MAX_TURNS: usize = 4;
+
+/// Redoes the final length pass, one lane at a time, from the first particle it moved by
+/// more than half the collision thickness: only those can have gone back inside, because
+/// collision left every particle at least `thickness` above every surface. From there,
+/// each particle is placed as the length pass places it and, if that is inside a collider,
+/// its segment is turned about its parent until it is out ([`outside_at_length`]).
+fn keep_outside(
+    g: &mut GroupState,
+    state: &mut ChunkState,
+    p: &SimParams,
+    poses: &SubstepPoses,
+    input: &StepInput,
+    report: &mut StepReport,
+) {
+    let n = g.positions.len();
+    let margin = 0.5 * p.collision_thickness;
+    let real_lanes = if g.lanes == LANES { u32::MAX } else { (1u32 << g.lanes) - 1 };
+    // Per lane, the first particle moved too far (n: none).
+    let mut first = [n; LANES];
+    let mut pending = real_lanes;
+    for j in 1..n {
+        if pending == 0 {
+            break;
+        }
+        let far = (g.positions[j] - g.collided[j]).length().cmpgt(Wide::splat(margin)).bitmask() & pending;
+        for l in (0..LANES).filter(|&l| far & (1 << l) != 0) {
+            first[l] = j;
+        }
+        pending &= !far;
+    }
+    let down = Vec3::NEG_Y;
+    for l in (0..g.lanes).filter(|&l| first[l] < n) {
+        let hints = &mut state.hints[g.strands[l] * n..][..n];
+        let mut parent = g.positions[first[l] - 1].lane(l);
+        for (j, hint) in hints.iter_mut().enumerate().skip(first[l]) {
+            let collided = g.collided[j].lane(l);
+            let rest_length = g.lengths[j].get(l);
+            let towards = collided - parent;
+            let length = match p.length_mode {
+                LengthMode::Inextensible => rest_length,
+                LengthMode::Springs => {
+                    let tolerance = p.length_tolerance;
+                    towards.length().clamp(rest_length * (1.0 - tolerance), rest_length * (1.0 + tolerance))
+                }
+            };
+            let mut placed = parent + towards.normalize_or(down) * length;
+            if (placed - collided).length() > margin {
+                let contact_at = |x: Vec3| -> Option<Contact> {
+                    let head = input.collider.and_then(|collider| {
+                        collider
+                            .resolve_hinted(poses.now_one.local_point(x), p.collision_thickness, hint)
+                            .map(|c| poses.now_one.world_contact(c))
+                    });
+                    head.or_else(|| input.extra_colliders.iter().find_map(|e| e.resolve(x, p.collision_thickness)))
+                };
+                let (outside, kept_length) =
+                    outside_at_length(placed, parent, length, p.collision_thickness, contact_at);
+                placed = outside;
+                report.contact_stretches += u32::from(!kept_length);
+            }
+            if p.length_mode == LengthMode::Inextensible {
+                let length_pass_placed = g.positions[j].lane(l);
+                let correction = g.ftl_correction[j].lane(l) + (placed - length_pass_placed);
+                g.ftl_correction[j].set_lane(l, correction);
+            }
+            g.positions[j].set_lane(l, placed);
+            parent = placed;
+        }
+    }
+}
+
+/// Where to put a particle that should sit `length` from `parent` (itself outside) but is
+/// within `thickness` of a collider at `placed`: the segment turns about the parent, toward
+/// the contact's normal, until the particle lies on the tangent plane of the collider's
+/// thickness shell at the contact; on a curved surface that may take a few turns. Where the
+/// parent lies behind that plane (the contact is on another face, around an ear), the
+/// segment points straight out along the contact's normal instead. Returns the position
+/// and whether the length was kept.
+///
+/// Where no turn clears the shell within [`MAX_TURNS`] (a crease tighter than the segment,
+/// or a shell thicker than it), the length wins over the shell but not over the surface:
+/// the particle stays where the last turn put it if that is outside the collider itself,
+/// and otherwise goes onto its surface, stretching the segment.
+fn outside_at_length(
+    mut placed: Vec3,
+    parent: Vec3,
+    length: f32,
+    thickness: f32,
+    mut contact_at: impl FnMut(Vec3) -> Option<Contact>,
+) -> (Vec3, bool) {
+    for _ in 0..MAX_TURNS {
+        let Some(contact) = contact_at(placed) else { return (placed, true) };
+        let normal = contact.normal;
+        let direction = (placed - parent) / length;
+        // The lowest the segment may point along the normal: onto the plane (1 µm above, so
+        // the next query does not read it as touching).
+        let lowest = (normal.dot(contact.position - parent) + 1e-6) / length;
+        let along = normal.dot(direction);
+        if !(lowest < 1.0 && lowest > along) {
+            // The contact is on another face than the parent sees (around an ear), or the
+            // shell is out of reach: point the segment straight out, and look again.
+            placed = parent + normal * length;
+            continue;
+        }
+        let across = (direction - normal * along).try_normalize().unwrap_or_else(|| normal.any_orthonormal_vector());
+        placed = parent + (normal * lowest + across * (1.0 - lowest * lowest).sqrt()) * length;
+    }
+    match contact_at(placed) {
+        None => (placed, true),
+        // Inside the shell, outside the collider: keep the length.
+        Some(contact) if contact.depth <= thickness => (placed, true),
+        // Inside the collider: onto its surface (1 µm out).
+        Some(contact) => (contact.position - contact.normal * (thickness - 1e-6), false),
     }
 }
 

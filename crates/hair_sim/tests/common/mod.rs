@@ -6,6 +6,7 @@ use proptest::prelude::*;
 
 /// A groom on the procedural head, with the collider it was grown against.
 pub struct Groom {
+    pub head: HeadMesh,
     pub collider: HeadCollider,
     pub rest: RestShape,
 }
@@ -39,7 +40,7 @@ pub fn groom_on_upper_half(spec: GroomSpec) -> Groom {
     let rest =
         RestShape::new(grow_guides(&head, &roots, &guide, spec.seed).expect("roots on the head"), spec.particles)
             .expect("guides");
-    Groom { collider, rest }
+    Groom { head, collider, rest }
 }
 
 /// Largest distance of a particle from its rest position carried by `pose`.

@@ -1,0 +1,222 @@
+//! The shipped character, as a game loads it: `assets/head.glb` through Bevy's glTF loader
+//! (a `neck` → `head` skeleton, the skinned head, its clip), the clip played by the
+//! `AnimationPlayer` the loader made, and a groom on the skinned mesh. Everything the
+//! plugin does is checked against the skin computed here from the loaded assets alone:
+//! joint `GlobalTransform`s × inverse bind matrices, blended by the mesh's own weights.
+
+mod common;
+
+use bevy::animation::AnimationPlugin;
+use bevy::gltf::GltfPlugin;
+use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
+use bevy::mesh::{Indices, MeshPlugin, VertexAttributeValues};
+use bevy::prelude::*;
+use bevy::time::TimeUpdateStrategy;
+use bevy::world_serialization::{WorldAssetRoot, WorldSerializationPlugin};
+use bevy_hair::hair_sim::math::Vec3 as SimVec3;
+use bevy_hair::hair_sim::mesh::{HeadMesh, InsideTest};
+use bevy_hair::prelude::*;
+use common::wait_until_ready;
+use std::time::{Duration, Instant};
+
+/// Frames per second the clip is played at: not the hair's step rate.
+const FPS: f64 = 30.0;
+
+/// The skin as the loaded assets define it: bind-pose positions, per-vertex joint indices
+/// and weights, the joints and their inverse bind matrices.
+struct Skin {
+    positions: Vec<Vec3>,
+    triangles: Vec<[u32; 3]>,
+    influences: Vec<[(usize, f32); 4]>,
+    joints: Vec<Entity>,
+    inverse_binds: Vec<Mat4>,
+}
+
+impl Skin {
+    fn of(app: &App, head: Entity) -> Skin {
+        let world = app.world();
+        let mesh = world.resource::<Assets<Mesh>>().get(&world.get::<Mesh3d>(head).unwrap().0).unwrap();
+        let skinned = world.get::<SkinnedMesh>(head).unwrap();
+        let inverse_binds =
+            world.resource::<Assets<SkinnedMeshInverseBindposes>>().get(&skinned.inverse_bindposes).unwrap().to_vec();
+        let Some(VertexAttributeValues::Float32x3(positions)) = mesh.attribute(Mesh::ATTRIBUTE_POSITION) else {
+            panic!("float positions")
+        };
+        let Some(VertexAttributeValues::Uint16x4(ids)) = mesh.attribute(Mesh::ATTRIBUTE_JOINT_INDEX) else {
+            panic!("u16 joint indices")
+        };
+        let Some(VertexAttributeValues::Float32x4(weights)) = mesh.attribute(Mesh::ATTRIBUTE_JOINT_WEIGHT) else {
+            panic!("float joint weights")
+        };
+        let Some(Indices::U16(indices)) = mesh.indices() else { panic!("u16 indices") };
+        Skin {
+            positions: positions.iter().map(|&p| Vec3::from_array(p)).collect(),
+            triangles: indices.chunks_exact(3).map(|t| [t[0] as u32, t[1] as u32, t[2] as u32]).collect(),
+            influences: ids.iter().zip(weights).map(|(i, w)| std::array::from_fn(|k| (i[k] as usize, w[k]))).collect(),
+            joints: skinned.joints.clone(),
+            inverse_binds,
+        }
+    }
+
+    /// The weight of the `head` joint (the skin's second) at vertex `v`.
+    fn head_weight(&self, v: usize) -> f32 {
+        self.influences[v].iter().filter(|(j, _)| *j == 1).map(|(_, w)| w).sum()
+    }
+
+    /// Every vertex skinned with the joints' `GlobalTransform`s now.
+    fn skinned(&self, app: &App) -> Vec<Vec3> {
+        let matrices: Vec<Mat4> = self
+            .joints
+            .iter()
+            .zip(&self.inverse_binds)
+            .map(|(&j, inverse_bind)| app.world().get::<GlobalTransform>(j).unwrap().to_matrix() * *inverse_bind)
+            .collect();
+        self.positions
+            .iter()
+            .zip(&self.influences)
+            .map(|(&p, influences)| influences.iter().map(|&(j, w)| w * matrices[j].transform_point3(p)).sum())
+            .collect()
+    }
+}
+
+#[test]
+fn hair_on_the_shipped_character_follows_its_clip() {
+    let mut app = App::new();
+    app.add_plugins((
+        MinimalPlugins,
+        TransformPlugin,
+        AssetPlugin::default(),
+        MeshPlugin,
+        AnimationPlugin,
+        WorldSerializationPlugin,
+        GltfPlugin::default(),
+        HairPlugin::default(),
+    ));
+    app.insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(1.0 / FPS)));
+    // `App::run` would do this; the glTF loader is registered in `GltfPlugin::finish`.
+    app.finish();
+    app.cleanup();
+    let (scene, clip) = {
+        let assets = app.world().resource::<AssetServer>();
+        (
+            assets.load(GltfAssetLabel::Scene(0).from_asset("head.glb")),
+            assets.load::<AnimationClip>(GltfAssetLabel::Animation(0).from_asset("head.glb")),
+        )
+    };
+    let character = app.world_mut().spawn(WorldAssetRoot(scene)).id();
+
+    // The loader's entities: the skinned mesh and the player.
+    let start = Instant::now();
+    let head = loop {
+        app.update();
+        let mut skinned = app.world_mut().query_filtered::<Entity, With<SkinnedMesh>>();
+        if let Some(head) = skinned.iter(app.world()).next() {
+            break head;
+        }
+        if start.elapsed() > Duration::from_secs(60) {
+            let assets = app.world().resource::<AssetServer>();
+            let id = app.world().get::<WorldAssetRoot>(character).unwrap().id();
+            panic!("head.glb did not load: {:?}", assets.get_load_state(id));
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    };
+    let player = app.world_mut().query_filtered::<Entity, With<AnimationPlayer>>().single(app.world()).unwrap();
+    let mut ancestors = app.world_mut().query::<&ChildOf>();
+    let mut top = head;
+    while let Ok(parent) = ancestors.get(app.world(), top) {
+        top = parent.parent();
+    }
+    assert_eq!(top, character, "the mesh is inside the character's scene");
+
+    app.world_mut().entity_mut(head).insert(HairGroom {
+        guides: 200,
+        segments: 10,
+        length: 0.2,
+        settle_steps: 120,
+        ..default()
+    });
+    wait_until_ready(&mut app, head);
+    let skin = Skin::of(&app, head);
+    let state = app.world().get::<HairState>(head).unwrap();
+    let joint = state.scalp_joint().expect("the head follows a joint").clone();
+    assert_eq!(joint.share, 1.0, "the scalp is weighted to the head joint alone");
+    assert_eq!(app.world().get::<Name>(joint.joint).map(Name::as_str), Some("head"));
+
+    // Play the clip from its start, as the demo does.
+    let (graph, node) = AnimationGraph::from_clip(clip.clone());
+    let graph = app.world_mut().resource_mut::<Assets<AnimationGraph>>().add(graph);
+    app.world_mut().entity_mut(player).insert(AnimationGraphHandle(graph));
+    app.world_mut().get_mut::<AnimationPlayer>(player).unwrap().play(node);
+    let duration = app.world().resource::<Assets<AnimationClip>>().get(&clip).unwrap().duration();
+    assert!((8.0..10.0).contains(&duration), "the clip lasts {duration} s");
+
+    let frames = (duration as f64 * FPS).ceil() as usize;
+    let (mut worst_root, mut checked) = (0.0f32, 0usize);
+    // (particle-frames inside, deepest) where the skin moves with the head joint alone, and
+    // where it blends toward the neck joint.
+    let (mut skull, mut neck) = ((0usize, 0.0f32), (0usize, 0.0f32));
+    let mut largest_turn = 0.0f32;
+    let rest_head = app.world().get::<GlobalTransform>(joint.joint).unwrap().rotation();
+    for frame in 0..frames {
+        app.update();
+        let state = app.world().get::<HairState>(head).unwrap();
+        let n = state.particles_per_strand();
+        let fraction = app.world().resource::<Time<Hair>>().overstep_fraction();
+        let drawn: Vec<Vec3> = state.interpolated_positions(fraction).collect();
+        let skinned = skin.skinned(&app);
+        largest_turn = largest_turn
+            .max(app.world().get::<GlobalTransform>(joint.joint).unwrap().rotation().angle_between(rest_head));
+
+        // Roots: each on its triangle of the skinned mesh, at its barycentric point.
+        for (root, strand) in state.roots().iter().zip(drawn.chunks_exact(n)) {
+            let corners = state.head_mesh().triangles[root.triangle as usize];
+            let on_skin: Vec3 = corners.iter().zip(root.barycentric).map(|(&v, b)| b * skinned[v as usize]).sum();
+            worst_root = worst_root.max(strand[0].distance(on_skin));
+        }
+
+        // No particle inside the skinned head: ray parity on the skinned triangles, the depth
+        // by the exact distance to them (`InsideTest`, which shares nothing with the
+        // collider). Every third frame (the test's own cost).
+        if frame % 3 == 0 {
+            let mesh = HeadMesh {
+                positions: skinned.iter().map(|p| SimVec3::from_array(p.to_array())).collect(),
+                normals: vec![SimVec3::Y; skinned.len()],
+                triangles: skin.triangles.clone(),
+            };
+            let inside = InsideTest::new(&mesh);
+            for (i, p) in drawn.iter().enumerate().filter(|(i, _)| i % n != 0) {
+                assert!(p.is_finite(), "particle {i} at frame {frame}");
+                checked += 1;
+                let p = SimVec3::from_array(p.to_array());
+                if !inside.contains(p) {
+                    continue;
+                }
+                let (triangle, depth) = inside.nearest_triangle(p);
+                // Where the skin blends toward the neck joint, the collider (the bind-pose
+                // head carried rigidly by the scalp joint) is not where the skin is drawn.
+                let rigid = skin.triangles[triangle].iter().all(|&v| skin.head_weight(v as usize) == 1.0);
+                let region = if rigid { &mut skull } else { &mut neck };
+                region.0 += 1;
+                region.1 = region.1.max(depth);
+            }
+        }
+    }
+    println!(
+        "head.glb, its clip at {FPS} fps ({frames} frames, head turned up to {:.0}°): drawn roots within {:.4} mm of \
+         the skinned scalp; of {checked} particle-frames, {} inside the skinned skull (deepest {:.3} mm) and {} \
+         inside the blended neck (deepest {:.3} mm)",
+        largest_turn.to_degrees(),
+        worst_root * 1e3,
+        skull.0,
+        skull.1 * 1e3,
+        neck.0,
+        neck.1 * 1e3
+    );
+    assert!(largest_turn.to_degrees() > 60.0, "the clip turned the head only {}°", largest_turn.to_degrees());
+    assert!(worst_root <= 2e-4, "a drawn root is {} mm off the skinned scalp", worst_root * 1e3);
+    assert!(skull.1 <= 1e-4, "a particle is {} mm inside the skinned skull", skull.1 * 1e3);
+    // The collider is rigid with the scalp joint: where the neck blends away from it, hair
+    // can sit inside the drawn neck by the blend's deviation (a skinned collider is the
+    // open part of issue #14). Measured 3.3 mm; the bound keeps it from growing unnoticed.
+    assert!(neck.1 <= 4e-3, "a particle is {} mm inside the skinned neck", neck.1 * 1e3);
+}
