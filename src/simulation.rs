@@ -41,9 +41,14 @@ pub struct HairState {
     grown_from: HairGroom,
     /// The head scale baked into `head` and `collider`.
     baked_scale: Vec3,
-    /// The head pose at the start and the end of the last step.
+    /// The head pose at the start and the end of the last step, world space.
     pose_from: Pose,
     pose_to: Pose,
+    /// Where in the world the solver's space has its origin: the head's position at the
+    /// end of the last step. The strands are simulated relative to it, so their
+    /// coordinates stay small (and `f32` precise) however far from the world origin the
+    /// head is.
+    origin: SimVec3,
     /// The head's final pose in the frame before this one and in this one, stamped with
     /// the hair clock's time: each step interpolates its head pose between them.
     frame_before: StampedPose,
@@ -71,9 +76,10 @@ impl HairState {
         // A scalp skinned to its joint alone moves rigidly with it: nothing to skin per frame.
         let root_skin =
             joint.as_ref().filter(|j| j.share < 1.0).map(|j| j.root_skin(&head, scale, &roots)).unwrap_or_default();
-        strands.reset(pose);
-        let current: Vec<Vec3> = strands.positions().iter().map(|&p| from_sim(p)).collect();
-        let current_local: Vec<Vec3> = to_head_space(strands.positions(), pose).collect();
+        let origin = pose.translation;
+        strands.reset(relative_to(pose, origin));
+        let current: Vec<Vec3> = strands.positions().iter().map(|&p| from_sim(p + origin)).collect();
+        let current_local: Vec<Vec3> = to_head_space(strands.positions(), relative_to(pose, origin)).collect();
         let frame = StampedPose { time: 0.0, pose };
         HairState {
             strands,
@@ -84,6 +90,7 @@ impl HairState {
             baked_scale: scale,
             pose_from: pose,
             pose_to: pose,
+            origin,
             frame_before: frame,
             frame_now: frame,
             time: 0.0,
@@ -98,9 +105,16 @@ impl HairState {
         }
     }
 
-    /// The solver state (positions and velocities in world space, rest shape).
+    /// The solver state: rest shape, velocities, and positions relative to
+    /// [`Self::origin`] (world space shifted so the head is near zero).
     pub fn strands(&self) -> &Strands {
         &self.strands
+    }
+
+    /// Where the origin of [`Self::strands`]' positions is in the world: the head's
+    /// position at the end of the last step.
+    pub fn origin(&self) -> SimVec3 {
+        self.origin
     }
 
     /// The head mesh as the solver sees it (head-local, scale baked in).
@@ -223,7 +237,7 @@ impl HairState {
 
     /// Puts every strand back at rest on the head, motionless.
     pub fn reset(&mut self) {
-        self.strands.reset(self.pose_to);
+        self.strands.reset(relative_to(self.pose_to, self.origin));
         self.publish();
         self.previous_local.clone_from(&self.current_local);
     }
@@ -232,10 +246,27 @@ impl HairState {
     fn publish(&mut self) {
         std::mem::swap(&mut self.previous_local, &mut self.current_local);
         self.current.clear();
-        self.current.extend(self.strands.positions().iter().map(|&p| from_sim(p)));
+        let origin = self.origin;
+        self.current.extend(self.strands.positions().iter().map(|&p| from_sim(p + origin)));
         self.current_local.clear();
-        self.current_local.extend(to_head_space(self.strands.positions(), self.pose_to));
+        self.current_local.extend(to_head_space(self.strands.positions(), relative_to(self.pose_to, origin)));
     }
+
+    /// Moves the solver's origin to the head's position at the end of the coming step:
+    /// the strands shift by the head's motion over one step, a small exact-ish difference
+    /// of nearby numbers, never by the head's distance from the world origin.
+    fn recentre(&mut self) {
+        let origin = self.pose_to.translation;
+        if origin.is_finite() && origin != self.origin {
+            self.strands.translate(self.origin - origin);
+            self.origin = origin;
+        }
+    }
+}
+
+/// `pose` with its translation taken relative to `origin`.
+fn relative_to(pose: Pose, origin: SimVec3) -> Pose {
+    Pose::new(pose.rotation, pose.translation - origin)
 }
 
 /// A head pose and the hair-clock time it was seen at.
@@ -246,7 +277,7 @@ struct StampedPose {
     pose: Pose,
 }
 
-/// World positions → head space.
+/// Positions → head space, both relative to the same origin.
 fn to_head_space(positions: &[SimVec3], pose: Pose) -> impl Iterator<Item = Vec3> + '_ {
     positions.iter().map(move |&p| from_sim(pose.inverse_transform_point(p)))
 }
@@ -339,11 +370,14 @@ pub(crate) fn simulate(
             state.reported_issues = fields;
         }
         let state = &mut *state;
+        state.recentre();
+        let origin = state.origin;
+        extra.iter_mut().for_each(|c| *c = c.translated(-origin));
         let input = StepInput {
             dt,
             time: state.time,
-            head_from: state.pose_from,
-            head_to: state.pose_to,
+            head_from: relative_to(state.pose_from, origin),
+            head_to: relative_to(state.pose_to, origin),
             collider: Some(&state.collider),
             extra_colliders: &extra,
             params: &params,

@@ -80,15 +80,13 @@ pub fn roots_and_tips(app: &App, head: Entity) -> Vec<(Vec3, Vec3)> {
 /// Deepest particle below the head surface, metres (0 or less: none inside).
 pub fn max_penetration(app: &App, head: Entity) -> f32 {
     let state = state(app, head);
-    let pose = state.head_pose();
     let n = state.particles_per_strand();
     state
-        .strands()
-        .positions()
+        .current_local_positions()
         .iter()
         .enumerate()
         .filter(|(i, _)| i % n != 0)
-        .map(|(_, &p)| -state.collider().signed_distance(pose.inverse_transform_point(p)))
+        .map(|(_, &p)| -state.collider().signed_distance(SimVec3::from_array(p.to_array())))
         .fold(f32::MIN, f32::max)
 }
 

@@ -25,6 +25,14 @@ pub enum ExtraCollider {
 }
 
 impl ExtraCollider {
+    /// The same shape moved by `offset` (into the space the strands are simulated in).
+    pub fn translated(self, offset: Vec3) -> Self {
+        match self {
+            ExtraCollider::Sphere { center, radius } => ExtraCollider::Sphere { center: center + offset, radius },
+            ExtraCollider::Capsule { a, b, radius } => ExtraCollider::Capsule { a: a + offset, b: b + offset, radius },
+        }
+    }
+
     /// If `p` is closer than `thickness` to the surface, where to move it.
     #[inline]
     pub fn resolve(&self, p: Vec3, thickness: f32) -> Option<Contact> {

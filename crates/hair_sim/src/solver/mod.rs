@@ -219,6 +219,15 @@ impl Strands {
         &self.velocities
     }
 
+    /// Moves every particle by `offset`, velocities unchanged: the strands' space shifts
+    /// by `-offset`. Keeping that space's origin near the head keeps the coordinates
+    /// small, so `f32` resolves millimetres and less wherever in the world the head is.
+    pub fn translate(&mut self, offset: Vec3) {
+        if offset != Vec3::ZERO && offset.is_finite() {
+            self.positions.iter_mut().for_each(|p| *p += offset);
+        }
+    }
+
     /// Puts every strand back at rest under `pose`, motionless.
     pub fn reset(&mut self, pose: Pose) {
         for (p, &r) in self.positions.iter_mut().zip(&self.rest.positions) {
