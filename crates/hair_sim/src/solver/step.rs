@@ -415,8 +415,9 @@ fn collide(
                     let local_start = poses.before.local_point(g.start[j].lane(l));
                     let mut held = with_friction(contact, local_start, p.friction);
                     // Friction slides back along the tangent plane, which in a hollow (by
-                    // an ear) dips under the surface: out again from there.
-                    if held != contact.position {
+                    // an ear) dips under the surface: out again from there, unless the
+                    // slide is too short to reach the surface ([`FRICTION_SLACK`]).
+                    if (held - contact.position).length_squared() > (FRICTION_SLACK * p.collision_thickness).powi(2) {
                         held = collider.resolve_hinted(held, p.collision_thickness, hint).map_or(held, |c| c.position);
                     }
                     g.local[j].set_lane(l, held);
@@ -452,9 +453,20 @@ fn collide(
 /// How many times [`outside_at_length`] turns one segment before collision simply wins.
 const MAX_TURNS: usize = 4;
 
+/// Collision leaves a particle on (or beyond) its shell, `thickness` above the surface,
+/// unless friction then slid it back along the tangent plane: by less than this share of
+/// the thickness, that slide is not checked again.
+const FRICTION_SLACK: f32 = 0.25;
+
+/// The final length pass may move a particle by this share of the thickness unchecked: with
+/// [`FRICTION_SLACK`] it adds up to the whole thickness, so the particle cannot reach the
+/// surface.
+const LENGTH_SLACK: f32 = 1.0 - FRICTION_SLACK;
+
 /// Redoes the final length pass, one lane at a time, from the first particle it moved by
-/// more than half the collision thickness: only those can have gone back inside, because
-/// collision left every particle at least `thickness` above every surface. From there,
+/// more than [`LENGTH_SLACK`] of the collision thickness: only those can have gone back
+/// inside, because collision left every particle at least `(1 - FRICTION_SLACK) ×
+/// thickness` above every surface. From there,
 /// each particle is placed as the length pass places it and, if that is inside a collider,
 /// its segment is turned about its parent until it is out ([`outside_at_length`]).
 fn keep_outside(
@@ -466,7 +478,7 @@ fn keep_outside(
     report: &mut StepReport,
 ) {
     let n = g.positions.len();
-    let margin = 0.5 * p.collision_thickness;
+    let margin = LENGTH_SLACK * p.collision_thickness;
     let real_lanes = if g.lanes == LANES { u32::MAX } else { (1u32 << g.lanes) - 1 };
     // Per lane, the first particle moved too far (n: none).
     let mut first = [n; LANES];
