@@ -10,7 +10,7 @@ use bevy::asset::LoadState;
 use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
 use bevy::prelude::*;
 use bevy::tasks::{AsyncComputeTaskPool, Task, block_on, futures_lite::future};
-use hair_sim::collide::{DEFAULT_GRID_RESOLUTION, HeadCollider};
+use hair_sim::collide::{BAKE_TRIANGLE_BUDGET, DEFAULT_GRID_RESOLUTION, HeadCollider};
 use hair_sim::groom::{ChildParams, GuideParams, grow_guides, sample_roots, sample_roots_poisson, settle};
 use hair_sim::math::Pose;
 use hair_sim::mesh::HeadMesh;
@@ -287,6 +287,15 @@ pub(crate) fn start_growth(
             Ok((head, repairs, weights, pose, scale, joint)) => {
                 if repairs.any() {
                     warn!("hair on {entity}: the head mesh was repaired: {repairs}");
+                }
+                if head.triangles.len() > BAKE_TRIANGLE_BUDGET {
+                    warn!(
+                        "hair on {entity}: the head mesh has {} triangles; its collider bakes slowly above {} (18 s \
+                         at 82k on two cores): decimate it to {} or fewer",
+                        head.triangles.len(),
+                        BAKE_TRIANGLE_BUDGET,
+                        BAKE_TRIANGLE_BUDGET
+                    );
                 }
                 if let Some(joint) = joint.as_ref().filter(|j| j.share < 0.999) {
                     info!(

@@ -183,19 +183,35 @@ fn clearance(
 ) -> f32 {
     let reach = 2.0 * MAX_CLEARANCE;
     let aabb = Aabb::new(bounds.0 - Vec3::splat(reach), bounds.1 + Vec3::splat(reach));
-    let nearest = mesh
+    // The gap between bounding boxes is a lower bound of the distance: nearest boxes first,
+    // and no exact distance for a triangle whose box is farther than the nearest found.
+    // On a fine mesh the reach holds thousands of triangles; this keeps the bake linear.
+    let mut rising: Vec<(f32, u32)> = mesh
         .bvh()
         .intersect_aabb(&aabb)
         .filter(|&i| bases.iter().any(|base| triangles[i as usize].rises_above(base)))
-        .map(|i| mesh.triangle(i))
-        .map(|other| {
-            // GJK converges to within rounding; the slack keeps the result a lower bound.
-            let identity = Isometry::IDENTITY;
-            parry3d::query::distance(&identity, shape, &identity, &other)
-                .map_or(0.0, |d| (d.distance - DISTANCE_SLACK).max(0.0))
-        })
-        .fold(reach, f32::min);
+        .map(|i| (box_gap(bounds, triangles[i as usize].bounds()), i))
+        .filter(|&(gap, _)| gap < reach)
+        .collect();
+    rising.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+    let mut nearest = reach;
+    for (gap, i) in rising {
+        // Touching (a concave fold) is as near as it gets.
+        if gap >= nearest || nearest == 0.0 {
+            break;
+        }
+        // GJK converges to within rounding; the slack keeps the result a lower bound.
+        let identity = Isometry::IDENTITY;
+        let distance = parry3d::query::distance(&identity, shape, &identity, &mesh.triangle(i))
+            .map_or(0.0, |d| (d.distance - DISTANCE_SLACK).max(0.0));
+        nearest = nearest.min(distance);
+    }
     0.5 * nearest
+}
+
+/// The distance between two axis-aligned boxes (0 where they overlap).
+fn box_gap(a: (Vec3, Vec3), b: (Vec3, Vec3)) -> f32 {
+    (b.0 - a.1).max(a.0 - b.1).max(Vec3::ZERO).length()
 }
 
 /// Pairs the triangles across each edge and bakes the edge clearances. An edge with one
@@ -312,6 +328,12 @@ impl FlatTriangle {
     /// Whether a corner of this triangle lies more than [`PLANE_TOLERANCE`] above the plane
     /// of `base` (the triangles that can limit `base`'s certificates).
     #[inline]
+    /// The triangle's axis-aligned bounds.
+    fn bounds(&self) -> (Vec3, Vec3) {
+        let (b, c) = (self.a + self.ab, self.a + self.ac);
+        (self.a.min(b).min(c).into(), self.a.max(b).max(c).into())
+    }
+
     pub fn rises_above(&self, base: &FlatTriangle) -> bool {
         let normal = Vec3A::from(base.normal);
         let a = normal.dot(self.a - base.a);
