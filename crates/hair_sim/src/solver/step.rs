@@ -466,9 +466,9 @@ const LENGTH_SLACK: f32 = 1.0 - FRICTION_SLACK;
 /// Redoes the final length pass, one lane at a time, from the first particle it moved by
 /// more than [`LENGTH_SLACK`] of the collision thickness: only those can have gone back
 /// inside, because collision left every particle at least `(1 - FRICTION_SLACK) ×
-/// thickness` above every surface. From there,
-/// each particle is placed as the length pass places it and, if that is inside a collider,
-/// its segment is turned about its parent until it is out ([`outside_at_length`]).
+/// thickness` above every surface. From there, each particle is placed as the length pass
+/// places it (the same rule, one lane at a time) and, if that is inside a collider, its
+/// segment is turned about its parent until it is out ([`outside_at_length`]).
 fn keep_outside(
     g: &mut GroupState,
     state: &mut ChunkState,
