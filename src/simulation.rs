@@ -44,8 +44,8 @@ pub struct HairState {
     /// The head pose at the start and the end of the last step, world space.
     pose_from: Pose,
     pose_to: Pose,
-    /// Where in the world the solver's space has its origin: the head's position at the
-    /// end of the last step. The strands are simulated relative to it, so their
+    /// Where in the world the solver's space has its origin: the centre of the head mesh
+    /// at the end of the last step. The strands are simulated relative to it, so their
     /// coordinates stay small (and `f32` precise) however far from the world origin the
     /// head is.
     origin: SimVec3,
@@ -76,7 +76,7 @@ impl HairState {
         // A scalp skinned to its joint alone moves rigidly with it: nothing to skin per frame.
         let root_skin =
             joint.as_ref().filter(|j| j.share < 1.0).map(|j| j.root_skin(&head, scale, &roots)).unwrap_or_default();
-        let origin = pose.translation;
+        let origin = pose.transform_point(collider.centre());
         strands.reset(relative_to(pose, origin));
         let current: Vec<Vec3> = strands.positions().iter().map(|&p| from_sim(p + origin)).collect();
         let current_local: Vec<Vec3> = to_head_space(strands.positions(), relative_to(pose, origin)).collect();
@@ -111,8 +111,8 @@ impl HairState {
         &self.strands
     }
 
-    /// Where the origin of [`Self::strands`]' positions is in the world: the head's
-    /// position at the end of the last step.
+    /// Where the origin of [`Self::strands`]' positions is in the world: the centre of
+    /// the head mesh at the end of the last step.
     pub fn origin(&self) -> SimVec3 {
         self.origin
     }
@@ -252,11 +252,12 @@ impl HairState {
         self.current_local.extend(to_head_space(self.strands.positions(), relative_to(self.pose_to, origin)));
     }
 
-    /// Moves the solver's origin to the head's position at the end of the coming step:
-    /// the strands shift by the head's motion over one step, a small exact-ish difference
-    /// of nearby numbers, never by the head's distance from the world origin.
+    /// Moves the solver's origin to the head's centre (its mesh's, which may sit far from
+    /// the entity's origin) at the end of the coming step: the strands shift by the head's
+    /// motion over one step, a small difference of nearby numbers, never by the head's
+    /// distance from the world origin.
     fn recentre(&mut self) {
-        let origin = self.pose_to.translation;
+        let origin = self.pose_to.transform_point(self.collider.centre());
         if origin.is_finite() && origin != self.origin {
             self.strands.translate(self.origin - origin);
             self.origin = origin;

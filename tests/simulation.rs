@@ -306,23 +306,31 @@ fn same_inputs_same_positions() {
 /// Far from the world origin `f32` world coordinates resolve only about a millimetre (at
 /// 14 km), but the solver works relative to the head: hair 14 km out, moving at 1 m/s and
 /// turning at a quarter turn per second, stays as inextensible and as outside the head as
-/// at the origin. Measured with the independent inside test in head space.
+/// at the origin. The same for a head mesh whose vertices sit 100 m from its own origin
+/// (turning about its own centre). Measured with the independent inside test in head space.
 #[test]
 fn a_head_far_from_the_world_origin_keeps_its_hair_in_shape() {
     use bevy_hair::hair_sim::math::Vec3 as SimVec3;
     use bevy_hair::hair_sim::mesh::InsideTest;
     let mut results = Vec::new();
-    for base in [Vec3::ZERO, Vec3::new(10_000.0, 0.0, -10_000.0)] {
+    let far_mesh = Vec3::new(100.0, 0.0, -50.0);
+    for (base, mesh_offset) in
+        [(Vec3::ZERO, Vec3::ZERO), (Vec3::new(10_000.0, 0.0, -10_000.0), Vec3::ZERO), (Vec3::ZERO, far_mesh)]
+    {
         let mut app = app();
-        let head = spawn_head(&mut app, groom(), Transform::from_translation(base));
+        let mesh = bevy_hair::procedural_head_mesh(4).translated_by(mesh_offset);
+        let mesh = app.world_mut().resource_mut::<Assets<Mesh>>().add(mesh);
+        let head = app.world_mut().spawn((Mesh3d(mesh), Transform::from_translation(base - mesh_offset), groom())).id();
         wait_until_ready(&mut app, head);
         let inside = InsideTest::new(state(&app, head).head_mesh());
         let (mut stretch, mut deepest) = (0.0f32, 0.0f32);
         for frame in 1..=120 {
             let t = frame as f32 / 60.0;
+            let rotation = Quat::from_rotation_y(0.25 * TAU * t);
             let mut transform = app.world_mut().get_mut::<Transform>(head).unwrap();
-            transform.translation = base + Vec3::new(t, 0.0, 0.3 * t);
-            transform.rotation = Quat::from_rotation_y(0.25 * TAU * t);
+            // The mesh's own centre walks at 1 m/s while the head turns about it.
+            transform.translation = base + Vec3::new(t, 0.0, 0.3 * t) - rotation * mesh_offset;
+            transform.rotation = rotation;
             app.update();
             let state = state(&app, head);
             stretch = stretch.max(state.strands().max_stretch());
@@ -335,7 +343,11 @@ fn a_head_far_from_the_world_origin_keeps_its_hair_in_shape() {
             }
             assert_eq!(state.last_report().teleport_resets, 0, "frame {frame}");
         }
-        println!("head at {base}: max stretch {stretch:.2e}, deepest particle inside {:.4} mm", deepest * 1e3);
+        println!(
+            "head at {base}, mesh {mesh_offset} from its origin: max stretch {stretch:.2e}, deepest particle inside \
+             {:.4} mm",
+            deepest * 1e3
+        );
         results.push((stretch, deepest));
     }
     for (stretch, deepest) in results {

@@ -46,7 +46,10 @@ struct Inside {
 
 /// Measures the strands against the head at `pose`, independently of the collider.
 fn measure(strands: &Strands, pose: Pose, groom: &Groom, into: &mut Inside) {
-    let test = inside_test();
+    measure_with(inside_test(), strands, pose, groom, into);
+}
+
+fn measure_with(test: &InsideTest, strands: &Strands, pose: Pose, groom: &Groom, into: &mut Inside) {
     let n = groom.rest.particles_per_strand;
     let local: Vec<Vec3> = strands.positions().iter().map(|&p| pose.inverse_transform_point(p)).collect();
     for (i, &p) in local.iter().enumerate() {
@@ -68,10 +71,21 @@ fn measure(strands: &Strands, pose: Pose, groom: &Groom, into: &mut Inside) {
 
 /// Runs `steps` steps of `dt` with the head at `pose(time)`, measuring after each.
 fn run(params: &SimParams, steps: usize, dt: f32, pose: impl Fn(f32) -> Pose) -> Inside {
-    let g = groom();
+    run_on(groom(), inside_test(), params, steps, dt, pose)
+}
+
+/// [`run`] on another groom.
+fn run_on(
+    g: &Groom,
+    test: &InsideTest,
+    params: &SimParams,
+    steps: usize,
+    dt: f32,
+    pose: impl Fn(f32) -> Pose,
+) -> Inside {
     let mut strands = Strands::new(g.rest.clone(), pose(0.0));
     let mut inside = Inside::default();
-    measure(&strands, pose(0.0), g, &mut inside);
+    measure_with(test, &strands, pose(0.0), g, &mut inside);
     assert_eq!((inside.particles, inside.crossings), (0, 0), "the rest pose is outside");
     for k in 0..steps {
         let (from, to) = (pose(k as f32 * dt), pose((k + 1) as f32 * dt));
@@ -85,7 +99,7 @@ fn run(params: &SimParams, steps: usize, dt: f32, pose: impl Fn(f32) -> Pose) ->
             params,
         };
         inside.contact_stretches += strands.step(&input).contact_stretches;
-        measure(&strands, to, g, &mut inside);
+        measure_with(test, &strands, to, g, &mut inside);
     }
     inside
 }
@@ -165,6 +179,36 @@ fn nothing_inside_at_step_rates_unlike_60_hz() {
     let params = SimParams::default();
     check("yaw at 30 rad/s, 144 Hz steps", "FTL, 3 mm", &params, &run(&params, 144, 1.0 / 144.0, spin(Vec3::Y, 30.0)));
     check("yaw at 30 rad/s, 20 Hz steps", "FTL, 3 mm", &params, &run(&params, 20, 1.0 / 20.0, spin(Vec3::Y, 30.0)));
+}
+
+/// A head mesh whose vertices sit 100 m from its own origin, as an export can leave it,
+/// spinning at 60 rad/s about its own centre, keeps its hair out as a centred mesh does (the
+/// collider bakes relative to the mesh's centre; the plugin also simulates relative to it).
+#[test]
+fn a_mesh_100_m_from_its_own_origin_keeps_hair_outside() {
+    let g = groom();
+    let offset = Vec3::new(100.0, 0.0, -50.0);
+    let head = HeadMesh { positions: g.head.positions.iter().map(|&p| p + offset).collect(), ..g.head.clone() };
+    let far = Groom {
+        collider: HeadCollider::new(&head, 64).expect("the same head"),
+        rest: RestShape::new(g.rest.positions.iter().map(|&p| p + offset).collect(), g.rest.particles_per_strand)
+            .expect("the same guides"),
+        head,
+    };
+    let test = InsideTest::new(&far.head);
+    for (mode, params) in modes() {
+        // The head turns about its own centre, 1.6 m up in the world.
+        let spin = |t: f32| {
+            let rotation = Quat::from_rotation_y(60.0 * t);
+            Pose::new(rotation, Vec3::new(0.0, 1.6, 0.0) - rotation * offset)
+        };
+        check(
+            "mesh 100 m from its origin, yaw at 60 rad/s",
+            mode,
+            &params,
+            &run_on(&far, &test, &params, 60, DT, spin),
+        );
+    }
 }
 
 /// A motion sequence: per step, an angular velocity (axis × up to 60 rad/s), a linear one

@@ -83,6 +83,9 @@ pub struct Contact {
 /// The head as a collision shape, in head-local space: a parry3d `TriMesh` (its BVH
 /// answers exact closest-point queries) and a signed distance grid baked from it.
 pub struct HeadCollider {
+    /// The centre of the mesh's bounds, head-local. Everything below is baked relative to
+    /// it, so a mesh whose vertices sit far from its own origin keeps `f32` precision.
+    centre: Vec3,
     mesh: TriMesh,
     grid: DistanceGrid,
     candidates: CandidateGrid,
@@ -131,26 +134,34 @@ impl HeadCollider {
             head.triangles.iter().copied().filter(|t| !crate::mesh::is_degenerate(head.corners(t))).collect();
         let flags =
             TriMeshFlags::ORIENTED | TriMeshFlags::MERGE_DUPLICATE_VERTICES | TriMeshFlags::DELETE_DEGENERATE_TRIANGLES;
-        let mesh = TriMesh::with_flags(head.positions.clone(), triangles, flags).map_err(|_| MeshError::Degenerate)?;
+        let (low, high) = crate::math::bounds(&head.positions);
+        let centre = 0.5 * (low + high);
+        let positions: Vec<Vec3> = head.positions.iter().map(|&p| p - centre).collect();
+        let mesh = TriMesh::with_flags(positions.clone(), triangles, flags).map_err(|_| MeshError::Degenerate)?;
         if mesh.indices().is_empty() {
             return Err(MeshError::Degenerate.into());
         }
-        let grid = DistanceGrid::bake(&head.positions, resolution, |p| signed_distance_exact(&mesh, p));
+        let grid = DistanceGrid::bake(&positions, resolution, |p| signed_distance_exact(&mesh, p));
         let candidates = CandidateGrid::bake(&grid, &mesh);
         let triangles = FlatTriangles::bake(&mesh);
         static NEXT_ID: AtomicU32 = AtomicU32::new(0);
         let id = NEXT_ID.fetch_add(1, Ordering::Relaxed);
-        Ok(HeadCollider { mesh, grid, candidates, triangles, id })
+        Ok(HeadCollider { centre, mesh, grid, candidates, triangles, id })
     }
 
-    /// The baked distance grid.
+    /// The centre of the mesh's bounds, head-local: the origin of [`Self::grid`].
+    pub fn centre(&self) -> Vec3 {
+        self.centre
+    }
+
+    /// The baked distance grid, relative to [`Self::centre`].
     pub fn grid(&self) -> &DistanceGrid {
         &self.grid
     }
 
     /// Exact signed distance from a head-local point to the surface (negative inside).
     pub fn signed_distance(&self, p: Vec3) -> f32 {
-        signed_distance_exact(&self.mesh, p)
+        signed_distance_exact(&self.mesh, p - self.centre)
     }
 
     /// If `p` (head-local) is closer than `thickness` to the surface, or inside the head,
@@ -181,6 +192,13 @@ impl HeadCollider {
     /// and it is answered without any lookup.
     #[inline]
     pub fn resolve_hinted(&self, p: Vec3, thickness: f32, hint: &mut ContactHint) -> Option<Contact> {
+        let contact = self.resolve_centred(p - self.centre, thickness, hint)?;
+        Some(Contact { position: contact.position + self.centre, ..contact })
+    }
+
+    /// [`Self::resolve_hinted`] for a point relative to [`Self::centre`].
+    #[inline]
+    fn resolve_centred(&self, p: Vec3, thickness: f32, hint: &mut ContactHint) -> Option<Contact> {
         match hint.0 {
             Hint::Touching { triangle, at, gap, collider } => {
                 // The gap was measured on one collider's triangles; the clearance is the
@@ -327,7 +345,7 @@ mod tests {
         for i in 0..200 {
             let f = i as f32 * 0.37;
             let p = Vec3::new(f.sin() * 0.15, (f * 1.3).cos() * 0.18, (f * 0.7).sin() * 0.16);
-            if let Some(approx) = collider.grid().sample(p) {
+            if let Some(approx) = collider.grid().sample(p - collider.centre()) {
                 assert!((approx - collider.signed_distance(p)).abs() <= err, "at {p:?}");
             }
         }
@@ -349,7 +367,8 @@ mod tests {
                 continue;
             };
             listed += 1;
-            let exact = collider.signed_distance(p);
+            // `p` is relative to the collider's centre, as its grid and lists are.
+            let exact = collider.signed_distance(p + collider.centre());
             let signed = if closest.inside { -1.0 } else { 1.0 } * (p - closest.point).length();
             assert!((signed - exact).abs() < 1e-6, "at {p:?}: {signed} vs {exact}");
             let near = matches!(
