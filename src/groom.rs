@@ -290,7 +290,7 @@ pub(crate) fn start_growth(
                 }
                 if head.triangles.len() > BAKE_TRIANGLE_BUDGET {
                     warn!(
-                        "hair on {entity}: the head mesh has {} triangles; its collider bakes slowly above {} (18 s \
+                        "hair on {entity}: the head mesh has {} triangles; its collider bakes slowly above {} (10 s \
                          at 82k on two cores): decimate it to {} or fewer",
                         head.triangles.len(),
                         BAKE_TRIANGLE_BUDGET,

@@ -40,6 +40,7 @@ pub mod collide;
 pub mod groom;
 pub mod math;
 pub mod mesh;
+mod parallel;
 pub mod solver;
 
 /// The types most users need.

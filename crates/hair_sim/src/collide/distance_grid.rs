@@ -36,20 +36,17 @@ pub(super) struct GridPoint {
 impl DistanceGrid {
     /// Samples `distance` on a grid with `resolution` cells along the longest side of the
     /// bounding box of `points`, padded on every side by a quarter of that side.
-    pub fn bake(points: &[Vec3], resolution: u32, distance: impl Fn(Vec3) -> f32) -> Self {
+    pub fn bake(points: &[Vec3], resolution: u32, distance: impl Fn(Vec3) -> f32 + Sync) -> Self {
         let (min, max) = bounds(points);
         let margin = 0.25 * (max - min).max_element().max(1e-3);
         let (min, max) = (min - Vec3::splat(margin), max + Vec3::splat(margin));
         let cell = (max - min).max_element() / resolution as f32;
         let dims = ((max - min) / cell).ceil().to_array().map(|n| n as usize + 1);
-        let mut values = Vec::with_capacity(dims[0] * dims[1] * dims[2]);
-        for z in 0..dims[2] {
-            for y in 0..dims[1] {
-                for x in 0..dims[0] {
-                    values.push(distance(min + Vec3::new(x as f32, y as f32, z as f32) * cell));
-                }
-            }
-        }
+        // x fastest, then y, then z; every sample on its own, over all cores.
+        let values = crate::parallel::map(dims[0] * dims[1] * dims[2], |i| {
+            let (x, y, z) = (i % dims[0], i / dims[0] % dims[1], i / (dims[0] * dims[1]));
+            distance(min + Vec3::new(x as f32, y as f32, z as f32) * cell)
+        });
         let upper = Vec3A::new((dims[0] - 1) as f32, (dims[1] - 1) as f32, (dims[2] - 1) as f32);
         let max_error = 0.5 * cell * 3f32.sqrt();
         DistanceGrid { origin: min.into(), cell, inverse_cell: 1.0 / cell, dims, upper, values, margin, max_error }

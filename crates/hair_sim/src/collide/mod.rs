@@ -34,7 +34,7 @@ pub const GRID_RESOLUTIONS: std::ops::RangeInclusive<u32> = 8..=256;
 
 /// The most triangles a head should have for its collider to bake in a few seconds. The
 /// bake grows faster than the triangle count: on two cores (2026-12-02) the procedural
-/// head baked in 0.96 s at 5,120 triangles, 2.4 s at 20,480 and 18 s at 81,920. A collider
+/// head baked in 0.66 s at 5,120 triangles, 1.8 s at 20,480 and 9.9 s at 81,920. A collider
 /// needs no finer detail than about a millimetre: decimate the collision mesh to this.
 pub const BAKE_TRIANGLE_BUDGET: usize = 25_000;
 

@@ -95,12 +95,15 @@ pub(super) struct Certified {
 impl FlatTriangles {
     pub fn bake(mesh: &TriMesh) -> Self {
         let mut triangles: Vec<FlatTriangle> = mesh.triangles().map(|t| FlatTriangle::new(t.a, t.b, t.c)).collect();
-        for (i, t) in mesh.triangles().enumerate() {
-            let base = triangles[i];
-            if base.normal != Vec3::ZERO {
-                triangles[i].clearance = clearance(mesh, &triangles, &t, bounds(&[t.a, t.b, t.c]), &[&base]);
+        let clearances = crate::parallel::map(triangles.len(), |i| {
+            let (base, t) = (&triangles[i], mesh.triangle(i as u32));
+            if base.normal == Vec3::ZERO {
+                0.0
+            } else {
+                clearance(mesh, &triangles, &t, bounds(&[t.a, t.b, t.c]), &[base])
             }
-        }
+        });
+        triangles.iter_mut().zip(clearances).for_each(|(t, c)| t.clearance = c);
         let edges = bake_edges(mesh, &triangles);
         FlatTriangles { triangles, edges }
     }
@@ -224,20 +227,23 @@ fn bake_edges(mesh: &TriMesh, triangles: &[FlatTriangle]) -> Vec<[Edge; 3]> {
             sides.entry([a.min(b), a.max(b)]).or_default().push((t as u32, i as u32));
         }
     }
-    let mut edges = vec![[Edge::NONE; 3]; triangles.len()];
-    for pair in sides.values() {
-        let &[(t, i), (u, j)] = pair.as_slice() else {
-            continue;
-        };
+    // Edges shared by exactly two triangles: (triangle, its edge), twice.
+    let pairs: Vec<[(u32, u32); 2]> =
+        sides.values().filter_map(|pair| if let &[a, b] = pair.as_slice() { Some([a, b]) } else { None }).collect();
+    let clearances = crate::parallel::map(pairs.len(), |k| {
+        let [(t, i), (u, _)] = pairs[k];
         let (ft, fu) = (&triangles[t as usize], &triangles[u as usize]);
         // Concave or folded: the neighbour itself rises above the plane.
         let convex = ft.normal != Vec3::ZERO && fu.normal != Vec3::ZERO && !fu.rises_above(ft) && !ft.rises_above(fu);
-        let clearance = if convex {
+        if convex {
             let (a, b) = (ft.corner(i).into(), ft.corner((i + 1) % 3).into());
             clearance(mesh, triangles, &Segment::new(a, b), bounds(&[a, b]), &[ft, fu])
         } else {
             0.0
-        };
+        }
+    });
+    let mut edges = vec![[Edge::NONE; 3]; triangles.len()];
+    for ([(t, i), (u, j)], clearance) in pairs.into_iter().zip(clearances) {
         edges[t as usize][i as usize] = Edge { neighbour: u, opposite: (j + 2) % 3, clearance };
         edges[u as usize][j as usize] = Edge { neighbour: t, opposite: (i + 2) % 3, clearance };
     }

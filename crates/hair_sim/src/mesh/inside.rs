@@ -10,8 +10,17 @@
 use super::HeadMesh;
 use crate::math::Vec3;
 
-/// The ray direction of the parity test (as [`HeadMesh::contains_by_ray_parity`]).
-const RAY: Vec3 = Vec3::new(1.0, 0.000_123, 0.000_045_7);
+/// The ray directions of the parity test: along +X, each tilted a hair differently. A ray
+/// through an edge or a vertex counts it twice (or not at all); three tilts and a majority
+/// vote make one such graze harmless.
+const RAYS: [Vec3; 3] = [
+    Vec3::new(1.0, 0.000_123, 0.000_045_7),
+    Vec3::new(1.0, -0.000_311, 0.000_201),
+    Vec3::new(1.0, 0.000_207, -0.000_389),
+];
+
+/// The largest tilt of [`RAYS`] across X.
+const MAX_TILT: f32 = 0.000_389;
 
 /// Bins across the ray (in y and z) per side.
 const BINS: usize = 48;
@@ -35,7 +44,7 @@ impl InsideTest {
         }
         // The tilted ray drifts across bins over the mesh's length: pad by that drift.
         let length = (hi.x - lo.x).max(0.0);
-        let pad = Vec3::new(0.0, RAY.y.abs(), RAY.z.abs()) * length * 2.0 + Vec3::splat(1e-6);
+        let pad = Vec3::new(0.0, MAX_TILT, MAX_TILT) * length * 2.0 + Vec3::splat(1e-6);
         let (lo, hi) = (lo - pad, hi + pad);
         let cell = [((hi.y - lo.y) / BINS as f32).max(1e-9), ((hi.z - lo.z) / BINS as f32).max(1e-9)];
         let mut test = InsideTest { corners, bins: vec![Vec::new(); BINS * BINS], lo: [lo.y, lo.z], cell };
@@ -57,15 +66,20 @@ impl InsideTest {
         (at(p.y, 0), at(p.z, 1))
     }
 
-    /// Whether `p` is inside the closed mesh (an odd number of crossings along the ray).
+    /// Whether `p` is inside the closed mesh: an odd number of crossings along most of
+    /// three slightly different rays.
     pub fn contains(&self, p: Vec3) -> bool {
-        let dir = RAY.normalize();
         let (y, z) = self.bin_of(p);
-        let crossings = self.bins[y * BINS + z]
-            .iter()
-            .filter(|&&t| ray_hit(p, dir, &self.corners[t as usize]).is_some_and(|d| d > 0.0))
-            .count();
-        crossings % 2 == 1
+        let odd = |ray: Vec3| {
+            let dir = ray.normalize();
+            let crossings = self.bins[y * BINS + z]
+                .iter()
+                .filter(|&&t| ray_hit(p, dir, &self.corners[t as usize]).is_some_and(|d| d > 0.0))
+                .count();
+            crossings % 2 == 1
+        };
+        let (first, second) = (odd(RAYS[0]), odd(RAYS[1]));
+        if first == second { first } else { odd(RAYS[2]) }
     }
 
     /// How far `p` is from the nearest triangle (exact, every triangle).
