@@ -122,7 +122,7 @@ impl InsideTest {
 
 /// Möller–Trumbore: the distance along `dir` from `origin` at which the ray meets the
 /// triangle, if it does (either side).
-fn ray_hit(origin: Vec3, dir: Vec3, [a, b, c]: &[Vec3; 3]) -> Option<f32> {
+pub(super) fn ray_hit(origin: Vec3, dir: Vec3, [a, b, c]: &[Vec3; 3]) -> Option<f32> {
     let (e1, e2) = (*b - *a, *c - *a);
     let q = dir.cross(e2);
     let det = e1.dot(q);

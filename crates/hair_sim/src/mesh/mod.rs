@@ -168,20 +168,8 @@ impl HeadMesh {
     /// the inside test that checks the collider's.
     pub fn contains_by_ray_parity(&self, p: Vec3) -> bool {
         let dir = Vec3::new(1.0, 0.000_123, 0.000_045_7).normalize();
-        let crossings = self.triangles.iter().filter(|t| {
-            let [a, b, c] = self.corners(t);
-            let (e1, e2) = (b - a, c - a);
-            let q = dir.cross(e2);
-            let det = e1.dot(q);
-            if det.abs() < 1e-12 {
-                return false; // the ray runs along the triangle's plane
-            }
-            // Möller–Trumbore: barycentric (u, v) of the hit and its distance along the ray.
-            let s = (p - a) / det;
-            let r = s.cross(e1);
-            let (u, v) = (s.dot(q), dir.dot(r));
-            u >= 0.0 && v >= 0.0 && u + v <= 1.0 && e2.dot(r) > 0.0
-        });
+        let crossings =
+            self.triangles.iter().filter(|t| inside::ray_hit(p, dir, &self.corners(t)).is_some_and(|d| d > 0.0));
         crossings.count() % 2 == 1
     }
 
