@@ -140,9 +140,7 @@ fn simulation_section(ui: &mut egui::Ui, p: &mut SimParams) {
             slider(ui, &mut p.ftl_damping, 0.0..=1.0, "FTL velocity correction");
         }
         LengthMode::Springs => {
-            ui.add(
-                egui::Slider::new(&mut p.spring_stiffness, 0.1..=1000.0).logarithmic(true).text("stiffness k_s (N/m)"),
-            );
+            ui.add(egui::Slider::new(&mut p.spring_stiffness, 0.1..=1e6).logarithmic(true).text("stiffness k_s (N/m)"));
             ui.add(egui::Slider::new(&mut p.spring_damping, 0.0..=1.0).text("damping k_d (N·s/m)"));
             slider(ui, &mut p.length_tolerance, 0.0..=0.5, "length tolerance");
         }

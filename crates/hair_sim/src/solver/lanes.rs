@@ -69,6 +69,11 @@ impl Wide {
     }
 
     #[inline]
+    pub fn abs(self) -> Wide {
+        self.map(Vec4::abs)
+    }
+
+    #[inline]
     pub fn recip(self) -> Wide {
         self.map(Vec4::recip)
     }

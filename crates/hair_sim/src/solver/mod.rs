@@ -43,6 +43,19 @@ pub enum StrandsError {
         /// Its index.
         index: usize,
     },
+    /// [`Strands::set_positions`] was given a different number of positions than there
+    /// are particles.
+    PositionCount {
+        /// Positions given.
+        given: usize,
+        /// Particles in the strands.
+        expected: usize,
+    },
+    /// A position given to [`Strands::set_positions`] is NaN or infinite.
+    NonFinitePosition {
+        /// Its index.
+        index: usize,
+    },
 }
 
 impl fmt::Display for StrandsError {
@@ -58,6 +71,10 @@ impl fmt::Display for StrandsError {
             StrandsError::NonFiniteRest { index } => {
                 write!(f, "rest position {index} is NaN or infinite")
             }
+            StrandsError::PositionCount { given, expected } => {
+                write!(f, "{given} positions were given for {expected} particles")
+            }
+            StrandsError::NonFinitePosition { index } => write!(f, "position {index} is NaN or infinite"),
         }
     }
 }
@@ -172,15 +189,30 @@ pub struct Strands {
     velocities: Vec<Vec3>,
     /// Per particle, the head triangle it touched last (a collision shortcut).
     hints: Vec<ContactHint>,
+    /// The spring model's memory (BDF2 looks two substeps back): positions and velocities
+    /// at the start of the last substep.
+    previous_positions: Vec<Vec3>,
+    previous_velocities: Vec<Vec3>,
+    /// Per strand, the substep length that memory was taken at; 0 when there is none
+    /// (after a reset, or in the inextensible model, which keeps none).
+    history_step: Vec<f32>,
 }
 
 impl Strands {
     /// Strands at rest, placed by the head pose `pose`.
     pub fn new(rest: RestShape, pose: Pose) -> Self {
-        let positions = rest.positions.iter().map(|&p| pose.transform_point(p)).collect();
+        let positions: Vec<Vec3> = rest.positions.iter().map(|&p| pose.transform_point(p)).collect();
         let velocities = vec![Vec3::ZERO; rest.positions.len()];
         let hints = vec![ContactHint::NONE; rest.positions.len()];
-        Strands { rest, positions, velocities, hints }
+        Strands {
+            previous_positions: positions.clone(),
+            previous_velocities: velocities.clone(),
+            history_step: vec![0.0; rest.strand_count()],
+            rest,
+            positions,
+            velocities,
+            hints,
+        }
     }
 
     /// The rest shape.
@@ -224,8 +256,27 @@ impl Strands {
     /// small, so `f32` resolves millimetres and less wherever in the world the head is.
     pub fn translate(&mut self, offset: Vec3) {
         if offset != Vec3::ZERO && offset.is_finite() {
-            self.positions.iter_mut().for_each(|p| *p += offset);
+            self.positions.iter_mut().chain(&mut self.previous_positions).for_each(|p| *p += offset);
         }
+    }
+
+    /// Places every particle at `positions` (strand-major, as [`Self::positions`]),
+    /// motionless: to restore a saved state or start from a pose of one's own. Roots are
+    /// pinned again by the next step.
+    pub fn set_positions(&mut self, positions: &[Vec3]) -> Result<(), StrandsError> {
+        if positions.len() != self.positions.len() {
+            return Err(StrandsError::PositionCount { given: positions.len(), expected: self.positions.len() });
+        }
+        if let Some(index) = positions.iter().position(|p| !p.is_finite()) {
+            return Err(StrandsError::NonFinitePosition { index });
+        }
+        self.positions.copy_from_slice(positions);
+        self.velocities.fill(Vec3::ZERO);
+        self.hints.fill(ContactHint::NONE);
+        self.previous_positions.copy_from_slice(positions);
+        self.previous_velocities.fill(Vec3::ZERO);
+        self.history_step.fill(0.0);
+        Ok(())
     }
 
     /// Puts every strand back at rest under `pose`, motionless.
@@ -235,6 +286,9 @@ impl Strands {
         }
         self.velocities.fill(Vec3::ZERO);
         self.hints.fill(ContactHint::NONE);
+        self.previous_positions.copy_from_slice(&self.positions);
+        self.previous_velocities.fill(Vec3::ZERO);
+        self.history_step.fill(0.0);
     }
 
     /// Splits the state into chunks of `strands_per_chunk` strands (the last may be
@@ -242,17 +296,31 @@ impl Strands {
     /// [`STRANDS_PER_GROUP`] use the SIMD lanes fully.
     pub fn chunks_mut(&mut self, strands_per_chunk: usize) -> Vec<StrandChunk<'_>> {
         let n = self.rest.particles_per_strand;
-        let size = strands_per_chunk.max(1) * n;
+        let strands = strands_per_chunk.max(1);
+        let size = strands * n;
         self.positions
             .chunks_mut(size)
             .zip(self.velocities.chunks_mut(size))
             .zip(self.hints.chunks_mut(size))
+            .zip(self.previous_positions.chunks_mut(size).zip(self.previous_velocities.chunks_mut(size)))
+            .zip(self.history_step.chunks_mut(strands))
             .enumerate()
-            .map(|(c, ((positions, velocities), hints))| StrandChunk {
-                first_strand: c * strands_per_chunk.max(1),
-                rest: &self.rest,
-                state: ChunkState { positions, velocities, hints },
-            })
+            .map(
+                |(c, ((((positions, velocities), hints), (previous_positions, previous_velocities)), history_step))| {
+                    StrandChunk {
+                        first_strand: c * strands,
+                        rest: &self.rest,
+                        state: ChunkState {
+                            positions,
+                            velocities,
+                            hints,
+                            previous_positions,
+                            previous_velocities,
+                            history_step,
+                        },
+                    }
+                },
+            )
             .collect()
     }
 
@@ -288,6 +356,9 @@ struct ChunkState<'a> {
     positions: &'a mut [Vec3],
     velocities: &'a mut [Vec3],
     hints: &'a mut [ContactHint],
+    previous_positions: &'a mut [Vec3],
+    previous_velocities: &'a mut [Vec3],
+    history_step: &'a mut [f32],
 }
 
 impl StrandChunk<'_> {

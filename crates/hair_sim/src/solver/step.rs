@@ -1,7 +1,7 @@
 //! One fixed step for a run of strands. Per substep and strand:
 //!
-//! 1. integrate free particles: gravity, wind across the segment, springs (spring model),
-//!    drag, the speed clamp;
+//! 1. integrate free particles: gravity, wind across the segment, drag, the speed clamp;
+//!    in the spring model the springs too, implicitly ([`implicit_springs`]);
 //! 2. pin the root to the head pose interpolated for this substep;
 //! 3. `iterations` × (global shape, local shape, length constraint);
 //! 4. collision with the head (head-local) and the extra colliders, with friction, then a
@@ -75,8 +75,8 @@ struct Constants {
     max_step_move: f32,
     local_alpha: f32,
     global_alpha: Vec<f32>,
-    spring_k: f32,
-    spring_d: f32,
+    spring_k: Wide,
+    spring_d: Wide,
     ftl_velocity: f32,
 }
 
@@ -102,9 +102,6 @@ impl Constants {
                 stiffness_per_application(s, applications_per_second)
             })
             .collect();
-        // Explicit springs are stable while ω·h < 2; the stiffest mode of a chain has
-        // ω = 2√(k/m). Cap k and the damping so a slider can never blow the solver up.
-        let m = p.particle_mass;
         Some(Constants {
             h,
             poses,
@@ -114,8 +111,9 @@ impl Constants {
             max_step_move: p.max_speed * h,
             local_alpha: stiffness_per_application(p.local_stiffness, applications_per_second),
             global_alpha,
-            spring_k: p.spring_stiffness.min(m * (1.5 / h).powi(2) / 4.0),
-            spring_d: p.spring_damping.min(0.5 * m / h),
+            // Implicit springs need no cap: any stiffness is stable.
+            spring_k: Wide::splat(p.spring_stiffness),
+            spring_d: Wide::splat(p.spring_damping),
             ftl_velocity: p.ftl_damping / h,
         })
     }
@@ -132,7 +130,30 @@ struct GroupState {
     velocities: Vec<V3>,
     /// Positions at the start of the substep.
     start: Vec<V3>,
-    force: Vec<V3>,
+    /// Where each particle would be with no velocity this substep, and the time its
+    /// velocity acts over: the integrator's `x = base + step · v`. Explicit Euler has
+    /// `base = start`, `step = h`; BDF2 blends in the substep before ([`implicit_springs`]).
+    base: Vec<V3>,
+    step: Wide,
+    /// Gravity and wind, per particle.
+    accel: Vec<V3>,
+    /// The spring model's memory of the substep before: its start positions and
+    /// velocities, and per lane the substep length they were taken at (0: none).
+    previous_positions: Vec<V3>,
+    previous_velocities: Vec<V3>,
+    history_step: Wide,
+    /// The spring solve's scratch: segment directions, and the tridiagonal sweep's
+    /// coefficients and unknowns per segment.
+    directions: Vec<V3>,
+    sweep: Vec<Wide>,
+    tension: Vec<Wide>,
+    /// Per segment: its length minus rest length at the predicted positions, the right
+    /// side of its spring row, its bound (`± length_tolerance × l0`), and whether it is
+    /// held there.
+    stretch: Vec<Wide>,
+    spring_rhs: Vec<Wide>,
+    bound: Vec<Wide>,
+    rigid: Vec<Mask>,
     ftl_correction: Vec<V3>,
     /// Head-local positions during collision, and per particle the lanes it moved.
     local: Vec<V3>,
@@ -156,7 +177,19 @@ impl GroupState {
             positions: vec![V3::ZERO; n],
             velocities: vec![V3::ZERO; n],
             start: vec![V3::ZERO; n],
-            force: vec![V3::ZERO; n],
+            base: vec![V3::ZERO; n],
+            step: Wide::ZERO,
+            accel: vec![V3::ZERO; n],
+            previous_positions: vec![V3::ZERO; n],
+            previous_velocities: vec![V3::ZERO; n],
+            history_step: Wide::ZERO,
+            directions: vec![V3::ZERO; n],
+            sweep: vec![Wide::ZERO; n],
+            tension: vec![Wide::ZERO; n],
+            stretch: vec![Wide::ZERO; n],
+            spring_rhs: vec![Wide::ZERO; n],
+            bound: vec![Wide::ZERO; n],
+            rigid: vec![Mask::from_bits(0); n],
             ftl_correction: vec![V3::ZERO; n],
             local: vec![V3::ZERO; n],
             collided: vec![V3::ZERO; n],
@@ -169,8 +202,9 @@ impl GroupState {
         }
     }
 
-    /// Loads the strands `strands` (chunk-local) of the chunk into the lanes.
-    fn load(&mut self, strands: &[usize], first_strand: usize, rest: &RestShape, state: &ChunkState) {
+    /// Loads the strands `strands` (chunk-local) of the chunk into the lanes, and their
+    /// spring memory if `history`.
+    fn load(&mut self, strands: &[usize], first_strand: usize, rest: &RestShape, state: &ChunkState, history: bool) {
         let n = self.positions.len();
         self.lanes = strands.len();
         // Empty lanes repeat the first strand: finite work whose result is dropped.
@@ -190,15 +224,35 @@ impl GroupState {
         }
         self.root_frames = self.strands.map(|k| rest.root_frames[first_strand + k]);
         self.seeds = self.strands.map(|k| (first_strand + k) as u32);
+        self.history_step = Wide::ZERO;
+        if history {
+            for (l, &k) in self.strands.iter().enumerate() {
+                let memory =
+                    state.previous_positions[k * n..][..n].iter().zip(&state.previous_velocities[k * n..][..n]);
+                for (j, (&x, &v)) in memory.enumerate() {
+                    self.previous_positions[j].set_lane(l, x);
+                    self.previous_velocities[j].set_lane(l, v);
+                }
+                self.history_step.set(l, state.history_step[k]);
+            }
+        }
     }
 
-    /// Writes the real lanes back into the chunk.
-    fn store(&self, state: &mut ChunkState) {
+    /// Writes the real lanes back into the chunk, and their spring memory if `history`
+    /// (without, the chunk is told it has none).
+    fn store(&self, state: &mut ChunkState, history: bool) {
         let n = self.positions.len();
         for (l, &k) in self.strands[..self.lanes].iter().enumerate() {
             for j in 0..n {
                 state.positions[k * n + j] = self.positions[j].lane(l);
                 state.velocities[k * n + j] = self.velocities[j].lane(l);
+            }
+            state.history_step[k] = if history { self.history_step.get(l) } else { 0.0 };
+            if history {
+                for j in 0..n {
+                    state.previous_positions[k * n + j] = self.previous_positions[j].lane(l);
+                    state.previous_velocities[k * n + j] = self.previous_velocities[j].lane(l);
+                }
             }
         }
     }
@@ -218,6 +272,8 @@ pub(super) fn step_chunk(
     let p = input.params;
     let head_to = *c.poses.last().expect("at least one pose");
     let mut group_state = GroupState::new(n);
+    // Only the spring model integrates with memory of the substep before.
+    let history = p.length_mode == LengthMode::Springs;
 
     // Chunk-local indices of the strands gathered for the next group.
     let mut group = [0usize; LANES];
@@ -234,9 +290,9 @@ pub(super) fn step_chunk(
             lanes += 1;
         }
         if lanes == LANES || (k + 1 == strands && lanes > 0) {
-            group_state.load(&group[..lanes], first_strand, rest, state);
+            group_state.load(&group[..lanes], first_strand, rest, state, history);
             step_group(&mut group_state, state, &c, input, &mut report);
-            group_state.store(state);
+            group_state.store(state, history);
             for &k in &group[..lanes] {
                 let (xs, vs) = (&state.positions[k * n..][..n], &state.velocities[k * n..][..n]);
                 if !xs.iter().chain(vs).all(|v| v.is_finite()) {
@@ -257,6 +313,9 @@ fn reset_strand(state: &mut ChunkState, k: usize, n: usize, rest_x: &[Vec3], pos
     }
     state.velocities[k * n..][..n].fill(Vec3::ZERO);
     state.hints[k * n..][..n].fill(ContactHint::NONE);
+    state.previous_positions[k * n..][..n].copy_from_slice(&state.positions[k * n..][..n]);
+    state.previous_velocities[k * n..][..n].fill(Vec3::ZERO);
+    state.history_step[k] = 0.0;
 }
 
 fn step_group(g: &mut GroupState, state: &mut ChunkState, c: &Constants, input: &StepInput, report: &mut StepReport) {
@@ -300,12 +359,7 @@ fn substep(
     // 1. Forces and integration of the free particles; 2. the root follows the head.
     g.start.copy_from_slice(&g.positions);
     let wind = V3::from_lanes(g.seeds.map(|seed| wind_at(&p.wind, seed, time)));
-    if p.length_mode == LengthMode::Springs {
-        spring_forces(g, c);
-    }
     let gravity = V3::splat(Vec3::from_array(p.gravity));
-    let (inv_mass, drag, max_move) =
-        (Wide::splat(1.0 / p.particle_mass), Wide::splat(c.drag_factor), Wide::splat(c.max_step_move));
     let windless = wind == V3::ZERO;
     for j in 1..n {
         // Only the wind across the segment pushes; without wind, skip the normalize.
@@ -315,14 +369,21 @@ fn substep(
             let tangent = (g.positions[j] - g.positions[j - 1]).normalize_or(V3::ZERO);
             wind - tangent * wind.dot(tangent)
         };
-        let mut a = gravity + wind_across;
-        if p.length_mode == LengthMode::Springs {
-            a += g.force[j] * inv_mass;
-        }
-        let v = (g.velocities[j] + a * h) * drag;
-        g.positions[j] += (v * h).clamp_length_max(max_move);
+        g.accel[j] = gravity + wind_across;
     }
     g.positions[0] = poses.now.world_point(g.rest_positions[0]);
+    match p.length_mode {
+        LengthMode::Inextensible => {
+            let (drag, max_move) = (Wide::splat(c.drag_factor), Wide::splat(c.max_step_move));
+            for j in 1..n {
+                let v = (g.velocities[j] + g.accel[j] * h) * drag;
+                g.positions[j] += (v * h).clamp_length_max(max_move);
+            }
+            g.base.copy_from_slice(&g.start);
+            g.step = h;
+        }
+        LengthMode::Springs => implicit_springs(g, c, p),
+    }
 
     // 3. Shape and length.
     g.ftl_correction.fill(V3::ZERO);
@@ -346,33 +407,156 @@ fn substep(
         keep_outside(g, state, p, poses, input, report);
     }
 
-    // 5. Velocities. The root moves with the head; its speed feeds spring damping, so it
-    //    gets the same limit.
+    // 5. Velocities: what the integrator's `x = base + step · v` makes of where the
+    //    particles ended up. The root moves with the head; its speed feeds spring damping,
+    //    so it gets the same limit.
     let (max_speed, ftl_velocity) = (Wide::splat(p.max_speed), Wide::splat(c.ftl_velocity));
-    let inv_h = h.recip();
-    g.velocities[0] = ((g.positions[0] - g.start[0]) * inv_h).clamp_length_max(max_speed);
+    g.velocities[0] = ((g.positions[0] - g.start[0]) * h.recip()).clamp_length_max(max_speed);
+    let inv_step = g.step.recip();
     for j in 1..n {
         let next_correction = if j + 1 < n { g.ftl_correction[j + 1] } else { V3::ZERO };
-        let v = (g.positions[j] - g.start[j]) * inv_h - next_correction * ftl_velocity;
+        let v = (g.positions[j] - g.base[j]) * inv_step - next_correction * ftl_velocity;
         g.velocities[j] = v.clamp_length_max(max_speed);
     }
 }
 
-/// The reference mass-spring model: `F_s = k_s (l − l0)` along each segment and damping
-/// `F_d = k_d (Δv · dir)`, into `g.force`.
-fn spring_forces(g: &mut GroupState, c: &Constants) {
-    let (k, d) = (Wide::splat(c.spring_k), Wide::splat(c.spring_d));
-    g.force.fill(V3::ZERO);
-    for j in 1..g.positions.len() {
+/// The reference mass-spring model, `F_s = k_s (l − l0)` and `F_d = k_d (Δv · dir)`
+/// along each segment, integrated implicitly so that any stiffness is stable: BDF2
+/// (Choi & Ko 2002), which damps the modes a substep cannot resolve but keeps the slow
+/// ones, with backward Euler for a lane's first substep or after the substep length
+/// changed.
+///
+/// Both schemes are `v = v̂ + step · f(x)/m`, `x = x̂ + step · v`, with `x̂`, `v̂` from the
+/// last one or two substeps plus gravity and wind. The spring forces act along the
+/// segments, so the unknowns are one tension per segment: linearised at the predicted
+/// `x* = x̂ + step · v̂`, they solve the tridiagonal system
+/// `(I + (k step² + d step) J M⁻¹ Jᵀ) t = −k C − d J v̂` exactly ([`solve_tensions`]).
+/// At rest that is the static balance itself, so a hanging strand stretches by exactly
+/// the weight it carries over `k`.
+///
+/// A segment that this would take past the length tolerance is instead held at its bound
+/// in a second solve, its tension whatever that takes (a rigid rod): the clamp is part of
+/// the balance, and the segments below a clamped one still carry exactly their weight.
+fn implicit_springs(g: &mut GroupState, c: &Constants, p: &SimParams) {
+    let n = g.positions.len();
+    let h = Wide::splat(c.h);
+    // BDF2 where a lane remembers a substep of the same length, else backward Euler.
+    let first = g.history_step.cmpne(h);
+    let (now, before) = (Wide::splat(4.0 / 3.0), Wide::splat(1.0 / 3.0));
+    let current = Wide::select(first, Wide::ONE, now);
+    let previous = Wide::select(first, Wide::ZERO, before);
+    let step = Wide::select(first, h, h * Wide::splat(2.0 / 3.0));
+    let drag = Wide::splat(c.drag_factor);
+    for j in 1..n {
+        let (x, v) = (g.start[j], g.velocities[j]);
+        g.base[j] = x * current - g.previous_positions[j] * previous;
+        g.velocities[j] = (v * current - g.previous_velocities[j] * previous + g.accel[j] * step) * drag;
+        g.previous_positions[j] = x;
+        g.previous_velocities[j] = v;
+        g.positions[j] = g.base[j] + g.velocities[j] * step;
+    }
+    g.base[0] = g.start[0];
+    g.history_step = h;
+    g.step = step;
+
+    // The segments at the predicted positions. The root is pinned where the head put it;
+    // its velocity enters the first segment's damping.
+    let root_velocity = (g.positions[0] - g.start[0]) * h.recip();
+    let (k, d) = (c.spring_k, c.spring_d);
+    let tolerance = Wide::splat(p.length_tolerance);
+    for j in 1..n {
         let segment = g.positions[j] - g.positions[j - 1];
         let l = segment.length();
-        let dir = segment * l.recip();
-        let stretch = k * (l - g.lengths[j]);
-        let damping = d * (g.velocities[j] - g.velocities[j - 1]).dot(dir);
-        // A collapsed segment has no direction to push along.
-        let f = V3::select(l.cmpgt(Wide::splat(1e-9)), dir * (stretch + damping), V3::ZERO);
-        g.force[j] -= f;
-        g.force[j - 1] += f;
+        // A collapsed segment has no direction to pull along.
+        g.directions[j] = V3::select(l.cmpgt(Wide::splat(1e-9)), segment * l.recip(), V3::ZERO);
+        g.stretch[j] = l - g.lengths[j];
+        let parent_velocity = if j == 1 { root_velocity } else { g.velocities[j - 1] };
+        g.spring_rhs[j] = -(k * g.stretch[j] + d * g.directions[j].dot(g.velocities[j] - parent_velocity));
+    }
+    let w = Wide::splat(1.0 / p.particle_mass);
+    let coupling = (k * step + d) * step * w;
+    g.rigid.fill(Mask::from_bits(0));
+    solve_tensions(g, coupling, step * step * w);
+
+    // Segments this leaves beyond the tolerance are held at their bound, and the tensions
+    // solved again; holding some may push others past theirs, so repeat while that adds
+    // segments (each pass adds at least one, and rarely more than two passes are needed).
+    for _ in 0..MAX_ACTIVE_SET_PASSES {
+        let mut added = 0;
+        let mut parent = g.positions[0];
+        for j in 1..n {
+            let x = g.positions[j] + pull(g, j) * (step * step * w);
+            let stretch = (x - parent).length() - g.lengths[j];
+            parent = x;
+            // A segment resting on its bound, which this solve would leave there, counts too.
+            let beyond = stretch.abs().cmpgt(g.lengths[j] * tolerance * Wide::splat(1.0 - BOUND_SLACK));
+            let new = beyond.bitmask() & !g.rigid[j].bitmask();
+            if new != 0 {
+                // The bound on the side the segment went past.
+                let signed =
+                    Wide::select(stretch.cmpgt(Wide::ZERO), g.lengths[j] * tolerance, -(g.lengths[j] * tolerance));
+                let new = Mask::from_bits(new);
+                g.bound[j] = Wide::select(new, signed, g.bound[j]);
+                g.rigid[j] = Mask::from_bits(g.rigid[j].bitmask() | new.bitmask());
+                added |= 1;
+            }
+        }
+        if added == 0 {
+            break;
+        }
+        solve_tensions(g, coupling, step * step * w);
+    }
+    let max_speed = Wide::splat(p.max_speed);
+    for j in 1..n {
+        g.velocities[j] = (g.velocities[j] + pull(g, j) * (step * w)).clamp_length_max(max_speed);
+        g.positions[j] = g.base[j] + g.velocities[j] * step;
+    }
+}
+
+/// How far inside its bound, as a share of the bound, a segment counts as resting on it.
+const BOUND_SLACK: f32 = 1e-3;
+
+/// Most solves that add segments held at their bound, per substep.
+const MAX_ACTIVE_SET_PASSES: usize = 4;
+
+/// The net force of the tensions on particle `j`: its own segment pulls it toward the
+/// parent, the next one toward the child.
+#[inline]
+fn pull(g: &GroupState, j: usize) -> V3 {
+    let child = if j + 1 < g.positions.len() { g.directions[j + 1] * g.tension[j + 1] } else { V3::ZERO };
+    g.directions[j] * g.tension[j] - child
+}
+
+/// Solves for the segment tensions by Thomas' algorithm (one sweep down the strand, one
+/// back up); segment `j` couples to `j + 1` through their shared particle, the pinned
+/// root to nothing. A spring row is the implicit force law (see [`implicit_springs`]);
+/// a rigid row (`g.rigid`) asks that the segment end at its bound,
+/// `(1 ± length_tolerance) l0`, where `displacement` (step² / m) turns a tension into
+/// how far it moves a particle.
+fn solve_tensions(g: &mut GroupState, coupling: Wide, displacement: Wide) {
+    let n = g.positions.len();
+    let mut upper_before = Wide::ZERO;
+    for j in 1..n {
+        // J M⁻¹ Jᵀ in units of 1/m: 1 on the diagonal of the first segment (its parent is
+        // pinned), 2 elsewhere, −cos(angle) to each neighbour.
+        let own = if j == 1 { Wide::ONE } else { Wide::splat(2.0) };
+        let lower = if j == 1 { Wide::ZERO } else { -g.directions[j].dot(g.directions[j - 1]) };
+        let upper = if j + 1 < n { -g.directions[j].dot(g.directions[j + 1]) } else { Wide::ZERO };
+        let rigid = g.rigid[j];
+        // A rigid row: the linearised length change equals the way to the bound.
+        let to_bound = g.bound[j] - g.stretch[j];
+        let scale = Wide::select(rigid, Wide::ONE, coupling);
+        let diagonal = Wide::select(rigid, own, Wide::ONE + coupling * own);
+        let rhs = Wide::select(rigid, to_bound / displacement, g.spring_rhs[j]);
+        let (lower, upper) = (lower * scale, upper * scale);
+        let pivot = (diagonal - lower * upper_before).recip();
+        g.sweep[j] = upper * pivot;
+        let carried = if j == 1 { Wide::ZERO } else { lower * g.tension[j - 1] };
+        g.tension[j] = (rhs - carried) * pivot;
+        upper_before = g.sweep[j];
+    }
+    for j in (1..n - 1).rev() {
+        g.tension[j] = g.tension[j] - g.sweep[j] * g.tension[j + 1];
     }
 }
 
@@ -655,11 +839,45 @@ mod tests {
     fn one(rest_positions: Vec<Vec3>, xs: &[Vec3]) -> GroupState {
         let n = xs.len();
         let rest = RestShape::new(rest_positions, n).unwrap();
-        let (mut positions, mut velocities, mut hints) = (xs.to_vec(), vec![Vec3::ZERO; n], vec![ContactHint::NONE; n]);
-        let state = ChunkState { positions: &mut positions, velocities: &mut velocities, hints: &mut hints };
+        let mut arrays = Arrays::new(xs.to_vec());
         let mut g = GroupState::new(n);
-        g.load(&[0], 0, &rest, &state);
+        g.load(&[0], 0, &rest, &arrays.state(), false);
         g
+    }
+
+    /// The per-particle arrays a chunk borrows.
+    struct Arrays {
+        positions: Vec<Vec3>,
+        velocities: Vec<Vec3>,
+        hints: Vec<ContactHint>,
+        previous_positions: Vec<Vec3>,
+        previous_velocities: Vec<Vec3>,
+        history_step: Vec<f32>,
+    }
+
+    impl Arrays {
+        fn new(positions: Vec<Vec3>) -> Self {
+            let n = positions.len();
+            Arrays {
+                velocities: vec![Vec3::ZERO; n],
+                hints: vec![ContactHint::NONE; n],
+                previous_positions: positions.clone(),
+                previous_velocities: vec![Vec3::ZERO; n],
+                history_step: vec![0.0; n],
+                positions,
+            }
+        }
+
+        fn state(&mut self) -> ChunkState<'_> {
+            ChunkState {
+                positions: &mut self.positions,
+                velocities: &mut self.velocities,
+                hints: &mut self.hints,
+                previous_positions: &mut self.previous_positions,
+                previous_velocities: &mut self.previous_velocities,
+                history_step: &mut self.history_step,
+            }
+        }
     }
 
     fn lane0(values: &[V3]) -> Vec<Vec3> {
@@ -724,15 +942,14 @@ mod tests {
     fn empty_lanes_repeat_the_first_strand_and_are_not_stored() {
         let n = 3;
         let rest = RestShape::new([hanging(n), hanging(n)].concat(), n).unwrap();
-        let mut positions: Vec<Vec3> = rest.positions.iter().map(|p| *p * 2.0).collect();
-        let (mut velocities, mut hints) = (vec![Vec3::ZERO; 2 * n], vec![ContactHint::NONE; 2 * n]);
-        let mut state = ChunkState { positions: &mut positions, velocities: &mut velocities, hints: &mut hints };
+        let mut arrays = Arrays::new(rest.positions.iter().map(|p| *p * 2.0).collect());
+        let mut state = arrays.state();
         let mut g = GroupState::new(n);
-        g.load(&[1], 0, &rest, &state);
+        g.load(&[1], 0, &rest, &state, false);
         assert_eq!((g.lanes, g.strands), (1, [1; LANES]));
         assert!((0..LANES).all(|l| g.positions[2].lane(l) == Vec3::new(0.0, -4.0, 0.0)));
         follow_the_leader(&mut g);
-        g.store(&mut state);
+        g.store(&mut state, false);
         assert_eq!(state.positions[n + 2], Vec3::new(0.0, -2.0, 0.0), "strand 1 restored to rest length");
         assert_eq!(state.positions[2], Vec3::new(0.0, -4.0, 0.0), "strand 0 was not in the group");
     }
