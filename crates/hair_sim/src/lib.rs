@@ -48,9 +48,11 @@ pub mod prelude {
     pub use crate::collide::{DEFAULT_GRID_RESOLUTION, ExtraCollider, HeadCollider};
     pub use crate::groom::{
         ChildParams, CurvePoint, GroomError, GuideParams, RootBinding, Spiral, child_curve, child_curves, grow_guides,
-        sample_roots, sample_roots_poisson, settle, tessellate, transport_frames,
+        sample_roots, sample_roots_at_vertices, sample_roots_poisson, settle, tessellate, transport_frames,
     };
     pub use crate::math::{Pose, Quat, Vec3};
     pub use crate::mesh::{HeadMesh, MeshError, test_head};
-    pub use crate::solver::{LengthMode, RestShape, SimParams, StepInput, StepReport, Strands, Wind};
+    pub use crate::solver::{
+        CollisionResponse, LengthMode, RestShape, SimParams, StepInput, StepReport, Strands, Wind,
+    };
 }

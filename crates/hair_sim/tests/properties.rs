@@ -46,16 +46,20 @@ fn wild_params() -> impl Strategy<Value = SimParams> {
         },
     );
     let mode = prop_oneof![Just(LengthMode::Inextensible), Just(LengthMode::Springs)];
+    let response = prop_oneof![
+        Just(CollisionResponse::SurfaceNormal),
+        prop::array::uniform3(wild_f32()).prop_map(|offset| CollisionResponse::CentreRay { offset }),
+    ];
     (
         (prop::array::uniform3(wild_f32()), wild_count(), wild_count(), wild_f32(), mode, wild_f32(), wild_f32()),
         (wild_f32(), wild_f32(), wild_f32(), wild_f32(), wild_f32(), wild_f32(), wind),
-        (any::<bool>(), wild_f32(), wild_f32(), wild_f32(), wild_f32()),
+        (any::<bool>(), wild_f32(), response, wild_f32(), wild_f32(), wild_f32()),
     )
         .prop_map(
             |(
                 (gravity, substeps, iterations, drag, length_mode, particle_mass, spring_stiffness),
                 (spring_damping, length_tolerance, ftl_damping, local_stiffness, global_root, global_tip, wind),
-                (collision, collision_thickness, friction, max_speed, teleport_distance),
+                (collision, collision_thickness, collision_response, friction, max_speed, teleport_distance),
             )| SimParams {
                 gravity,
                 substeps,
@@ -73,6 +77,7 @@ fn wild_params() -> impl Strategy<Value = SimParams> {
                 wind,
                 collision,
                 collision_thickness,
+                collision_response,
                 friction,
                 max_speed,
                 teleport_distance,
@@ -120,10 +125,14 @@ fn wild_dt() -> impl Strategy<Value = f32> {
     ]
 }
 
-/// Every f32 setting, in one array.
-fn float_fields(p: &SimParams) -> [f32; 22] {
+/// Every f32 setting, in one list.
+fn float_fields(p: &SimParams) -> Vec<f32> {
     let [gx, gy, gz] = p.gravity;
     let [wx, wy, wz] = p.wind.direction;
+    let offset = match p.collision_response {
+        CollisionResponse::CentreRay { offset } => offset.to_vec(),
+        CollisionResponse::SurfaceNormal => Vec::new(),
+    };
     [
         p.drag,
         p.particle_mass,
@@ -148,6 +157,9 @@ fn float_fields(p: &SimParams) -> [f32; 22] {
         wy,
         wz,
     ]
+    .into_iter()
+    .chain(offset)
+    .collect()
 }
 
 /// A pose whose head-local to world mapping is exact enough for length checks: a valid

@@ -19,7 +19,7 @@ pub use shapes::ExtraCollider;
 use crate::math::Vec3;
 use crate::mesh::{HeadMesh, MeshError};
 use candidates::{CandidateGrid, Closest, Near};
-use parry3d::query::PointQueryWithLocation;
+use parry3d::query::{PointQueryWithLocation, Ray, RayCast};
 use parry3d::shape::{TriMesh, TriMeshFlags, TrianglePointLocation};
 use std::sync::atomic::{AtomicU32, Ordering};
 use triangles::FlatTriangles;
@@ -196,6 +196,32 @@ impl HeadCollider {
         Some(Contact { position: contact.position + self.centre, ..contact })
     }
 
+    /// The reference's response: like [`Self::resolve_hinted`], but the particle leaves
+    /// along the ray from `from` (head-local, inside the head) through it, not along the
+    /// surface normal. Inside the head it goes to where that ray leaves the surface, plus
+    /// `thickness` along the ray; within the thickness shell it moves along the ray by the
+    /// shell's depth. The contact's normal is the ray's direction.
+    ///
+    /// On a convex head both agree; where the surface is not star-shaped around `from`
+    /// (behind an ear, under the chin) the ray leaves through another part of the surface
+    /// than the one the particle came through, and may leave the particle in a fold.
+    pub fn resolve_along_ray(&self, p: Vec3, thickness: f32, hint: &mut ContactHint, from: Vec3) -> Option<Contact> {
+        let contact = self.resolve_hinted(p, thickness, hint)?;
+        let Some(direction) = (p - from).try_normalize() else { return Some(contact) };
+        let position = if contact.depth > thickness {
+            // Inside: out along the ray to the surface (the first crossing from `p`).
+            let ray = Ray::new(p - self.centre, direction);
+            match self.mesh.cast_local_ray(&ray, f32::MAX, false) {
+                Some(t) => p + direction * (t + thickness),
+                // A ray grazing an edge can slip between triangles: push along the normal.
+                None => return Some(contact),
+            }
+        } else {
+            p + direction * contact.depth
+        };
+        Some(Contact { position, normal: direction, depth: contact.depth })
+    }
+
     /// [`Self::resolve_hinted`] for a point relative to [`Self::centre`].
     #[inline]
     fn resolve_centred(&self, p: Vec3, thickness: f32, hint: &mut ContactHint) -> Option<Contact> {
@@ -316,6 +342,46 @@ mod tests {
         assert!((after - 0.005).abs() < 1e-4, "ends at thickness: {after}");
         assert!(collider.resolve(Vec3::new(0.0, 0.3, 0.0), 0.005).is_none());
         assert!(collider.resolve(Vec3::new(0.0, 0.113, 0.0), 0.005).is_some(), "within thickness");
+    }
+
+    /// Where the reference's centre-ray push goes wrong: every triangle centre of the
+    /// procedural head, 1 mm under the surface along its normal, pushed out both ways with
+    /// no shell. Both end on the surface; the normal push moves it 1 mm, the centre ray by
+    /// `1 mm / cos(angle between ray and normal)`, sliding it along the surface: on the
+    /// skull up to 1.08× the depth, on the flanks of the ears up to 1.9× (2026-12-02). This
+    /// head is star-shaped about its centre; a real one is not, and there the ray can leave
+    /// through another part of the surface altogether.
+    #[test]
+    fn the_centre_ray_push_slides_along_the_ears() {
+        let head = test_head(4);
+        let collider = HeadCollider::new(&head, 64).unwrap();
+        let ear = |p: Vec3| p.normalize().angle_between(Vec3::new(p.x.signum(), 0.05, -0.1).normalize()) < 0.54;
+        let (mut skull, mut ears) = (Vec::new(), Vec::new());
+        for t in 0..head.triangles.len() {
+            let (centre, normal) = (head.point_at(t, [1.0 / 3.0; 3]), head.normal_at(t, [1.0 / 3.0; 3]));
+            let p = centre - normal * 1e-3;
+            let by_normal = collider.resolve(p, 0.0).unwrap();
+            let mut hint = ContactHint::NONE;
+            let by_ray = collider.resolve_along_ray(p, 0.0, &mut hint, collider.centre()).unwrap();
+            assert!(collider.signed_distance(by_ray.position).abs() < 2e-5, "the ray push ends on the surface");
+            let moved = ((by_normal.position - p).length(), (by_ray.position - p).length());
+            if ear(centre) { ears.push(moved) } else { skull.push(moved) }
+        }
+        let worst = |v: &[(f32, f32)]| v.iter().map(|&(n, r)| r / n).fold(0.0f32, f32::max);
+        let over_2 = |v: &[(f32, f32)]| v.iter().filter(|&&(n, r)| r > 2.0 * n).count();
+        println!(
+            "1 mm deep: skull ({} triangles) ray push up to {:.2}× the normal push, {} over 2×; \
+             ears ({}) up to {:.2}×, {} over 2×",
+            skull.len(),
+            worst(&skull),
+            over_2(&skull),
+            ears.len(),
+            worst(&ears),
+            over_2(&ears)
+        );
+        assert!(worst(&skull) < 1.1, "on the skull the ray is close to the normal");
+        assert!(worst(&ears) > 1.5, "by the ears the ray push slides");
+        assert_eq!(over_2(&skull) + over_2(&ears), 0, "star-shaped: the ray always leaves nearby");
     }
 
     #[test]

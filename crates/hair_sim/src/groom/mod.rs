@@ -10,6 +10,7 @@ mod curve;
 mod labels;
 mod poisson;
 mod rng;
+mod vertex_roots;
 
 pub use children::{
     ChildParams, GOLDEN_ANGLE, MAX_CHILDREN_PER_GUIDE, Spiral, child_curve, child_curves, child_offset, hash_unit,
@@ -19,6 +20,7 @@ pub use curve::{CurvePoint, bezier_controls, evaluate, frame_at, tessellate, tra
 pub use labels::{labels_from_colors, triangle_weights};
 pub use poisson::sample_roots_poisson;
 pub use rng::SplitMix64;
+pub use vertex_roots::sample_roots_at_vertices;
 
 use crate::collide::HeadCollider;
 use crate::math::{Pose, Vec3};
@@ -86,6 +88,15 @@ pub enum GroomError {
         /// The root's index.
         root: usize,
     },
+    /// Per-vertex weights do not match the vertices one to one.
+    VertexWeightCountMismatch {
+        /// Vertices in the mesh.
+        vertices: usize,
+        /// Weights given.
+        weights: usize,
+    },
+    /// A root jitter outside 0..=1 (or NaN).
+    Jitter(f32),
 }
 
 impl fmt::Display for GroomError {
@@ -101,6 +112,10 @@ impl fmt::Display for GroomError {
                 write!(f, "root {root} is on triangle {triangle}, but the mesh has {triangles} triangles")
             }
             GroomError::NonFiniteRoot { root } => write!(f, "root {root} has non-finite barycentric coordinates"),
+            GroomError::VertexWeightCountMismatch { vertices, weights } => {
+                write!(f, "{weights} scalp weights for {vertices} vertices")
+            }
+            GroomError::Jitter(j) => write!(f, "a root jitter of {j} was asked for; use 0 (on the vertex) to 1"),
         }
     }
 }

@@ -12,7 +12,7 @@ mod step;
 pub use step::MIN_STEP;
 mod wind;
 
-pub use params::{LengthMode, ParamIssue, SimParams, Wind, stiffness_per_application};
+pub use params::{CollisionResponse, LengthMode, ParamIssue, SimParams, Wind, stiffness_per_application};
 pub use wind::wind_at;
 
 use crate::collide::{ContactHint, ExtraCollider, HeadCollider};

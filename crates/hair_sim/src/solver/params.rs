@@ -22,6 +22,26 @@ pub enum LengthMode {
     Springs,
 }
 
+/// How a particle that entered the head (or its thickness shell) is moved out.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "reflect", derive(Reflect))]
+pub enum CollisionResponse {
+    /// Out along the surface normal at the closest point: the shortest way out, which
+    /// also leads out of an ear from behind it.
+    #[default]
+    SurfaceNormal,
+    /// The reference's response: out along the ray from a centre inside the head through
+    /// the particle. Simple, and right on a convex head; behind an ear or under the chin
+    /// the ray leaves through the wrong part of the surface. It is the collision pass's
+    /// push; the final length pass, which keeps particles out while it restores lengths,
+    /// turns segments about the surface's tangent plane in either mode.
+    CentreRay {
+        /// The centre, head-local metres from the centre of the head mesh's bounding box.
+        /// It must lie inside the head; outside, the push falls back to the normal.
+        offset: [f32; 3],
+    },
+}
+
 /// Wind: a steady direction and strength with gusts.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "reflect", derive(Reflect))]
@@ -80,6 +100,8 @@ pub struct SimParams {
     pub collision: bool,
     /// Distance, m, kept between particles and collider surfaces.
     pub collision_thickness: f32,
+    /// Which way a particle is pushed out of the head.
+    pub collision_response: CollisionResponse,
     /// Fraction, 0..1, of tangential sliding removed on contact.
     pub friction: f32,
     /// Speed limit, m/s, per particle (the per-step displacement clamp).
@@ -107,6 +129,7 @@ impl Default for SimParams {
             wind: Wind::default(),
             collision: true,
             collision_thickness: 0.003,
+            collision_response: CollisionResponse::SurfaceNormal,
             friction: 0.3,
             max_speed: 15.0,
             teleport_distance: 0.5,
@@ -161,6 +184,15 @@ impl SimParams {
         fix("friction", &mut p.friction, defaults.friction, 0.0, 1.0);
         fix("max_speed", &mut p.max_speed, defaults.max_speed, 1e-3, 1e3);
         fix("teleport_distance", &mut p.teleport_distance, defaults.teleport_distance, 1e-3, 1e4);
+        if let CollisionResponse::CentreRay { offset: [x, y, z] } = &mut p.collision_response {
+            for (field, v) in [
+                ("collision_response.offset.x", x),
+                ("collision_response.offset.y", y),
+                ("collision_response.offset.z", z),
+            ] {
+                fix(field, v, 0.0, -1e3, 1e3);
+            }
+        }
         let [gx, gy, gz] = &mut p.gravity;
         let [wx, wy, wz] = &mut p.wind.direction;
         let [dgx, dgy, dgz] = defaults.gravity;

@@ -15,10 +15,10 @@
 //! pose instead; a strand that somehow produced a non-finite value is reset too.
 
 use super::lanes::{LANES, M3, Mask, PoseLanes, V3, Wide};
-use super::params::{LengthMode, SimParams, stiffness_per_application};
+use super::params::{CollisionResponse, LengthMode, SimParams, stiffness_per_application};
 use super::wind::wind_at;
 use super::{ChunkState, RestShape, StepInput, StepReport};
-use crate::collide::{Contact, ContactHint};
+use crate::collide::{Contact, ContactHint, HeadCollider};
 use crate::math::{Pose, Quat, Vec3};
 use glam::{Mat3A, Vec3A};
 
@@ -77,6 +77,9 @@ struct Constants {
     global_alpha: Vec<f32>,
     spring_k: Wide,
     spring_d: Wide,
+    /// Where [`CollisionResponse::CentreRay`] pushes from, head-local; `None` for the
+    /// normal push, and for a centre outside the head (no ray from there leads out).
+    ray_from: Option<Vec3>,
     ftl_velocity: f32,
 }
 
@@ -112,6 +115,12 @@ impl Constants {
             local_alpha: stiffness_per_application(p.local_stiffness, applications_per_second),
             global_alpha,
             // Implicit springs need no cap: any stiffness is stable.
+            ray_from: match (p.collision_response, input.collider) {
+                (CollisionResponse::CentreRay { offset }, Some(collider)) => {
+                    Some(collider.centre() + Vec3::from_array(offset)).filter(|&c| collider.signed_distance(c) < 0.0)
+                }
+                _ => None,
+            },
             spring_k: Wide::splat(p.spring_stiffness),
             spring_d: Wide::splat(p.spring_damping),
             ftl_velocity: p.ftl_damping / h,
@@ -401,7 +410,7 @@ fn substep(
     //    That pass must not put a particle back inside, so it turns segments where it
     //    would.
     if p.collision {
-        collide(g, state, p, poses, input, report);
+        collide(g, state, p, c, poses, input, report);
         g.collided.copy_from_slice(&g.positions);
         length_pass(g, p);
         keep_outside(g, state, p, poses, input, report);
@@ -574,6 +583,7 @@ fn collide(
     g: &mut GroupState,
     state: &mut ChunkState,
     p: &SimParams,
+    c: &Constants,
     poses: &SubstepPoses,
     input: &StepInput,
     report: &mut StepReport,
@@ -594,7 +604,9 @@ fn collide(
         for l in 0..g.lanes {
             let hints = &mut state.hints[g.strands[l] * n..][..n];
             for (j, hint) in hints.iter_mut().enumerate().skip(1) {
-                if let Some(contact) = collider.resolve_hinted(g.local[j].lane(l), p.collision_thickness, hint) {
+                if let Some(contact) =
+                    head_contact(collider, g.local[j].lane(l), p.collision_thickness, c.ray_from, hint)
+                {
                     // Friction acts on sliding relative to the head, so compare in head space.
                     let local_start = poses.before.local_point(g.start[j].lane(l));
                     let mut held = with_friction(contact, local_start, p.friction);
@@ -602,7 +614,8 @@ fn collide(
                     // an ear) dips under the surface: out again from there, unless the
                     // slide is too short to reach the surface ([`FRICTION_SLACK`]).
                     if (held - contact.position).length_squared() > (FRICTION_SLACK * p.collision_thickness).powi(2) {
-                        held = collider.resolve_hinted(held, p.collision_thickness, hint).map_or(held, |c| c.position);
+                        held = head_contact(collider, held, p.collision_thickness, c.ray_from, hint)
+                            .map_or(held, |c| c.position);
                     }
                     g.local[j].set_lane(l, held);
                     g.moved[j] |= 1 << l;
@@ -631,6 +644,22 @@ fn collide(
             }
             g.positions[j].set_lane(l, x);
         }
+    }
+}
+
+/// The head's contact for a head-local point: pushed out along the ray from `ray_from`
+/// ([`CollisionResponse::CentreRay`]), or else along the surface normal.
+#[inline]
+fn head_contact(
+    collider: &HeadCollider,
+    x: Vec3,
+    thickness: f32,
+    ray_from: Option<Vec3>,
+    hint: &mut ContactHint,
+) -> Option<Contact> {
+    match ray_from {
+        Some(from) => collider.resolve_along_ray(x, thickness, hint, from),
+        None => collider.resolve_hinted(x, thickness, hint),
     }
 }
 
@@ -695,6 +724,8 @@ fn keep_outside(
             let mut placed = parent + towards.normalize_or(down) * length;
             if (placed - collided).length() > margin {
                 let contact_at = |x: Vec3| -> Option<Contact> {
+                    // Along the normal whatever the response: turning the segment onto the
+                    // tangent plane needs the plane.
                     let head = input.collider.and_then(|collider| {
                         collider
                             .resolve_hinted(poses.now_one.local_point(x), p.collision_thickness, hint)
