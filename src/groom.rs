@@ -2,7 +2,7 @@
 
 use crate::HairError;
 use crate::convert::{pose_and_scale, to_sim};
-use crate::head_mesh::{read_head_mesh, scalp_weights};
+use crate::head_mesh::{ScalpWeights, read_head_mesh, scalp_weights};
 use crate::settings::{HairSettings, HairSettingsOverride, effective};
 use crate::simulation::HairState;
 use crate::skinning::ScalpJoint;
@@ -11,7 +11,9 @@ use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
 use bevy::prelude::*;
 use bevy::tasks::{AsyncComputeTaskPool, Task, block_on, futures_lite::future};
 use hair_sim::collide::{BAKE_TRIANGLE_BUDGET, DEFAULT_GRID_RESOLUTION, HeadCollider};
-use hair_sim::groom::{ChildParams, GuideParams, grow_guides, sample_roots, sample_roots_poisson, settle};
+use hair_sim::groom::{
+    ChildParams, GuideParams, grow_guides, sample_roots, sample_roots_at_vertices, sample_roots_poisson, settle,
+};
 use hair_sim::math::Pose;
 use hair_sim::mesh::HeadMesh;
 use hair_sim::solver::{RestShape, SimParams, Strands};
@@ -42,9 +44,18 @@ impl Default for ScalpSource {
 }
 
 /// How roots are spread over the scalp.
-#[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Reflect, Clone, Copy, Debug, Default, PartialEq)]
 pub enum RootDistribution {
-    /// Independent samples, uniform by area (the reference): some clump, some gaps.
+    /// The reference's roots: drawn uniformly from the scalp-labelled vertices, each
+    /// growing along its vertex normal. Density follows the tessellation (a finely meshed
+    /// region gets more hair); see [`sample_roots_at_vertices`](hair_sim::groom::sample_roots_at_vertices).
+    Vertices {
+        /// 0: on the vertex; up to 1: anywhere in the triangles around it (roots that
+        /// repeat a vertex then spread out instead of growing as one).
+        jitter: f32,
+    },
+    /// Independent samples, uniform by area: even on average over uneven tessellation,
+    /// but some clump and some leave gaps.
     Uniform,
     /// Poisson-disk: uniform by area, but no two roots closer than about 0.7 of the mean
     /// spacing, so coverage is even.
@@ -113,6 +124,18 @@ impl Default for HairGroom {
 }
 
 impl HairGroom {
+    /// The reference's groom: roots on the scalp-labelled vertices along their normals,
+    /// 10 segments per guide, children on the spiral with a = b = 2. Pair it with
+    /// [`SimParams::reference`] for the reference's simulation.
+    pub fn reference() -> Self {
+        HairGroom {
+            segments: 10,
+            distribution: RootDistribution::Vertices { jitter: 0.0 },
+            children: ChildParams { spiral: hair_sim::groom::Spiral { a: 2.0, b: 2.0, ..default() }, ..default() },
+            ..default()
+        }
+    }
+
     /// Whether `other` grows the same guides: equal in everything but the children,
     /// which are placed at draw time.
     pub fn grows_like(&self, other: &HairGroom) -> bool {
@@ -273,7 +296,7 @@ pub(crate) fn start_growth(
                 Some((skin, bindposes)) => {
                     let (bind, _) = read_head_mesh(mesh, Vec3::ONE)?;
                     let weights = scalp_weights(mesh, &bind, groom.scalp, predicate, Vec3::ONE)?;
-                    Some(ScalpJoint::find(mesh, skin, bindposes, &bind, &weights)?)
+                    Some(ScalpJoint::find(mesh, skin, bindposes, &bind, &weights.triangles)?)
                 }
             };
             let frame = head_frame(transform, joint.as_ref(), &joints)?;
@@ -335,21 +358,29 @@ fn check_groom(groom: &HairGroom) -> Result<(), String> {
     if !groom.comb.is_finite() {
         return Err(format!("the groom comb direction {} is not finite", groom.comb));
     }
+    if let RootDistribution::Vertices { jitter } = groom.distribution
+        && !(0.0..=1.0).contains(&jitter)
+    {
+        return Err(format!("the root jitter {jitter} must be in 0..=1 (0: on the vertex)"));
+    }
     Ok(())
 }
 
 /// The growth itself, off the main thread: roots, guides, collider, settle.
 fn grow(
     head: HeadMesh,
-    weights: Vec<f32>,
+    weights: ScalpWeights,
     groom: HairGroom,
     params: SimParams,
     pose: Pose,
     scale: Vec3,
 ) -> Result<Grown, String> {
     let roots = match groom.distribution {
-        RootDistribution::Uniform => sample_roots(&head, &weights, groom.guides, groom.seed),
-        RootDistribution::Poisson => sample_roots_poisson(&head, &weights, groom.guides, groom.seed),
+        RootDistribution::Vertices { jitter } => {
+            sample_roots_at_vertices(&head, &weights.vertices, groom.guides, jitter, groom.seed)
+        }
+        RootDistribution::Uniform => sample_roots(&head, &weights.triangles, groom.guides, groom.seed),
+        RootDistribution::Poisson => sample_roots_poisson(&head, &weights.triangles, groom.guides, groom.seed),
     }
     .map_err(|e| e.to_string())?;
     let guide_params = GuideParams {

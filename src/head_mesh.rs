@@ -57,8 +57,14 @@ pub(crate) fn read_head_mesh(mesh: &Mesh, scale: Vec3) -> Result<(HeadMesh, Mesh
     Ok((head, repairs))
 }
 
-/// Per-triangle scalp weights (0..1) from the labels `source` names, or why there are
-/// none. `predicate` is the user's rule for [`ScalpSource::Predicate`]; it sees positions
+/// The scalp labels of a head mesh, 0..1: per vertex as painted, and per triangle (the
+/// smallest of its corners, see [`triangle_weights`]).
+pub(crate) struct ScalpWeights {
+    pub vertices: Vec<f32>,
+    pub triangles: Vec<f32>,
+}
+
+/// The scalp weights (0..1) from the labels `source` names, or why there are none. `predicate` is the user's rule for [`ScalpSource::Predicate`]; it sees positions
 /// in the mesh's own units, so they are divided by the `scale` the mesh was read with.
 pub(crate) fn scalp_weights(
     mesh: &Mesh,
@@ -66,8 +72,8 @@ pub(crate) fn scalp_weights(
     source: ScalpSource,
     predicate: Option<fn(Vec3) -> bool>,
     scale: Vec3,
-) -> Result<Vec<f32>, String> {
-    let vertex_weights = match source {
+) -> Result<ScalpWeights, String> {
+    let vertex_weights: Vec<f32> = match source {
         ScalpSource::Predicate => {
             let predicate = predicate.ok_or("ScalpSource::Predicate needs a ScalpPredicate component on the head")?;
             head.positions.iter().map(|&p| if predicate(from_sim(p) / scale) { 1.0 } else { 0.0 }).collect()
@@ -103,7 +109,7 @@ pub(crate) fn scalp_weights(
             ScalpSource::Everywhere => "the head mesh has no usable triangles".into(),
         });
     }
-    Ok(weights)
+    Ok(ScalpWeights { vertices: vertex_weights, triangles: weights })
 }
 
 /// The procedural test head as a Bevy mesh: an ellipsoid with ears, +Y up, +Z forward,

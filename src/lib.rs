@@ -54,7 +54,7 @@ pub use diagnostics::HairDiagnostics;
 pub use groom::{GroomStatus, HairGroom, RootDistribution, ScalpPredicate, ScalpSource};
 pub use hair_sim;
 pub use hair_sim::groom::{ChildParams, Spiral};
-pub use hair_sim::solver::{LengthMode, SimParams, StepReport, Wind};
+pub use hair_sim::solver::{CollisionResponse, LengthMode, SimParams, StepReport, Wind};
 pub use head_mesh::{ATTRIBUTE_SCALP, is_procedural_scalp, procedural_head_mesh};
 #[cfg(feature = "render")]
 pub use render::{HairLook, HairRenderStats, SpecularLobe};
@@ -70,9 +70,9 @@ use std::time::Duration;
 /// Everything needed to add hair to an app.
 pub mod prelude {
     pub use crate::{
-        ChildParams, GroomStatus, Hair, HairCollider, HairDiagnostics, HairError, HairGroom, HairPlugin, HairSchedule,
-        HairSettings, HairSettingsOverride, HairState, HairSystems, HairTime, LengthMode, RootDistribution,
-        ScalpPredicate, ScalpSource, SimParams, Spiral, Wind,
+        ChildParams, CollisionResponse, GroomStatus, Hair, HairCollider, HairDiagnostics, HairError, HairGroom,
+        HairPlugin, HairSchedule, HairSettings, HairSettingsOverride, HairState, HairSystems, HairTime, LengthMode,
+        RootDistribution, ScalpPredicate, ScalpSource, SimParams, Spiral, Wind,
     };
     #[cfg(feature = "render")]
     pub use crate::{HairLook, HairRenderStats, SpecularLobe};

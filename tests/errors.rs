@@ -79,6 +79,14 @@ fn bad_groom_description_is_reported() {
     app.world_mut().get_mut::<HairGroom>(head).unwrap().length = 0.2;
     wait_until_ready(&mut app, head);
     assert_eq!(state(&app, head).strands().strand_count(), 200);
+    // A root jitter outside 0..=1 is named too.
+    let vertices = |jitter| HairGroom { distribution: RootDistribution::Vertices { jitter }, ..groom() };
+    let head = spawn_head(&mut app, vertices(f32::NAN), Transform::default());
+    let (reason, _) = failure(&mut app, head);
+    assert!(reason.contains("root jitter NaN"), "{reason}");
+    app.world_mut().get_mut::<HairGroom>(head).unwrap().distribution = RootDistribution::Vertices { jitter: 0.5 };
+    wait_until_ready(&mut app, head);
+    assert_eq!(state(&app, head).strands().strand_count(), 200);
 }
 
 #[test]

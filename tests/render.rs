@@ -17,7 +17,7 @@ use bevy::render::storage::ShaderBuffer;
 use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured};
 use bevy::window::ExitCondition;
 use bevy::winit::WinitPlugin;
-use bevy_hair::hair_sim::groom::{child_curve, tessellate, transport_frames};
+use bevy_hair::hair_sim::groom::{ChildRoot, child_curve, tessellate, transport_frames};
 use bevy_hair::hair_sim::math::Vec3 as SimVec3;
 use bevy_hair::prelude::*;
 use bevy_hair::render::{HairMaterial, HairUniform, StrandLayout};
@@ -343,9 +343,9 @@ fn turning_the_light_moves_the_highlight_and_children_cover_more() {
         let stats = *scene.app.world().resource::<HairRenderStats>();
         println!("{per_guide} children per guide: {hair} hair pixels, {stats:?}");
         coverage.push(hair);
-        // Only guide particles and their frame vectors travel, whatever the children:
-        // 600 guides × 11 particles × 2 × 16 bytes.
-        assert_eq!(stats.uploaded_bytes, 600 * 11 * 2 * 16);
+        // Only guide particles, their frame vectors, the scalp at each root and the head's
+        // centre travel, whatever the children: (600 × 11 × 2 + 600 + 1) × 16 bytes.
+        assert_eq!(stats.uploaded_bytes, (600 * 11 * 2 + 600 + 1) * 16);
         assert_eq!(stats.rendered_strands, 600 * (per_guide as u64 + 1));
     }
     assert!(coverage[0] < coverage[1] && coverage[1] < coverage[2], "coverage {coverage:?} does not grow");
@@ -431,12 +431,21 @@ fn the_shader_draws_guide_and_children_where_the_cpu_reference_puts_them() {
         })
         .collect();
     let root_u = SimVec3::X;
+    // A scalp tilted against the first segment, curved with an 8 cm radius, the head behind
+    // it: the spiral starts on the scalp, turns into the guide's frame and is flattened
+    // where it would point into the head, all of which the shader must mirror.
+    let first = (guide[1] - guide[0]).normalize();
+    let normal = (first + SimVec3::new(0.6, 0.0, 0.6)).normalize();
+    let root = ChildRoot { u: root_u, normal, curvature: 12.5, head_centre: guide[0] - normal * 0.08 };
     let children =
         ChildParams { per_guide: 4, spiral: Spiral { scale: 3e-3, ..default() }, clumping: 0.3, tip_spread: 0.01 };
     let width = 0.003;
 
     let mut data: Vec<Vec4> = guide.iter().map(|p| Vec4::new(p.x, p.y, p.z, 1.0)).collect();
     data.extend(transport_frames(&guide, root_u).iter().map(|u| Vec4::new(u.x, u.y, u.z, 0.0)));
+    data.push(Vec4::new(normal.x, normal.y, normal.z, root.curvature));
+    let centre = root.head_centre;
+    data.push(Vec4::new(centre.x, centre.y, centre.z, 1.0));
     let layout = StrandLayout { guides: 1, particles, strands_per_guide: children.per_guide + 1, subdivisions };
     let spiral = children.spiral;
     let uniform = HairUniform {
@@ -452,7 +461,7 @@ fn the_shader_draws_guide_and_children_where_the_cpu_reference_puts_them() {
     let mut reference = guide_curve.clone();
     let mut mirrored = Vec::new();
     for child in 0..children.per_guide {
-        let curve = child_curve(&guide, root_u, &children, 0, child, subdivisions);
+        let curve = child_curve(&guide, &root, &children, 0, child, subdivisions);
         for (point, on_guide) in curve.iter().zip(&guide_curve) {
             let point = to_bevy(point.position);
             reference.push(point);

@@ -134,7 +134,8 @@ fn the_app_keeps_its_fixed_timestep() {
 
 #[test]
 fn hanging_hair_keeps_its_length() {
-    for (mode, limit) in [(LengthMode::Inextensible, 1e-3), (LengthMode::Springs, 0.1)] {
+    // Springs: the ±10 % clamp, plus f32 rounding of a segment held at its bound.
+    for (mode, limit) in [(LengthMode::Inextensible, 1e-3), (LengthMode::Springs, 0.1 + 1e-5)] {
         let mut app = app();
         settings(&mut app, |p| p.length_mode = mode);
         let head = spawn_head(&mut app, groom(), Transform::default());

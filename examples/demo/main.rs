@@ -4,7 +4,7 @@
 //!
 //! ```text
 //! cargo run --release --example demo
-//! cargo run --example demo -- --screenshot FILE [--frames N] [--no-panel]
+//! cargo run --example demo -- [--preset NAME] [--screenshot FILE [--frames N] [--no-panel]]
 //! ```
 //!
 //! Mouse: drag to orbit, wheel to zoom; in "drag the head" mode the left button moves the
@@ -31,7 +31,8 @@ use bevy_egui::EguiPlugin;
 use bevy_hair::prelude::*;
 use std::path::PathBuf;
 
-const USAGE: &str = "usage: demo [--screenshot FILE [--frames N] [--no-panel]]
+const USAGE: &str = "usage: demo [--preset NAME] [--screenshot FILE [--frames N] [--no-panel]]
+  --preset NAME      start with this hairstyle: Shoulder (default), Short, Long, Curly, Windy, Reference
   --screenshot FILE  render N frames once the hair is grown, save the last as FILE (PNG), check it, exit
   --frames N         frames of animation before the screenshot (default 60)
   --no-panel         hide the egui panel
@@ -42,6 +43,7 @@ struct Options {
     screenshot: Option<PathBuf>,
     frames: u32,
     panel: bool,
+    preset: &'static str,
 }
 
 /// Parses `std::env::args` by hand (no argument crate for one flag pair), falling back to
@@ -55,6 +57,7 @@ fn parse_args() -> Result<Options, String> {
             _ => 60,
         },
         panel: true,
+        preset: presets::shoulder().name,
     };
     let mut args = std::env::args().skip(1);
     while let Some(arg) = args.next() {
@@ -62,6 +65,11 @@ fn parse_args() -> Result<Options, String> {
             "--screenshot" => options.screenshot = Some(args.next().ok_or("--screenshot needs a file name")?.into()),
             "--frames" => options.frames = parse_frames(&args.next().ok_or("--frames needs a number")?)?,
             "--no-panel" => options.panel = false,
+            "--preset" => {
+                let name = args.next().ok_or("--preset needs a name")?;
+                let preset = presets::all().into_iter().find(|p| p.name.eq_ignore_ascii_case(&name));
+                options.preset = preset.ok_or(format!("no preset is called {name:?}"))?.name;
+            }
             "-h" | "--help" => {
                 println!("{USAGE}");
                 std::process::exit(0);
@@ -100,6 +108,7 @@ fn main() -> AppExit {
             .set(RenderPlugin { synchronous_pipeline_compilation: screenshot_mode, ..default() }),
     )
     .add_plugins((HairPlugin::default(), FrameTimeDiagnosticsPlugin::default(), EguiPlugin::default()))
+    .insert_resource(scene::StartingPreset(options.preset))
     .add_plugins((scene::plugin, motion::plugin));
     if options.panel {
         app.add_plugins(panel::plugin);

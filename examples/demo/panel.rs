@@ -161,6 +161,14 @@ fn simulation_section(ui: &mut egui::Ui, p: &mut SimParams) {
     ui.add_enabled_ui(p.collision, |ui| {
         ui.add(egui::Slider::new(&mut p.collision_thickness, 0.0..=0.02).text("thickness (m)").fixed_decimals(3));
         slider(ui, &mut p.friction, 0.0..=1.0, "friction");
+        ui.horizontal(|ui| {
+            ui.selectable_value(&mut p.collision_response, CollisionResponse::SurfaceNormal, "push along the normal");
+            ui.selectable_value(
+                &mut p.collision_response,
+                CollisionResponse::CentreRay { offset: [0.0; 3] },
+                "push from the centre",
+            );
+        });
     });
 }
 
@@ -187,6 +195,7 @@ fn groom_section(ui: &mut egui::Ui, g: &mut HairGroom) -> bool {
     ui.horizontal(|ui| {
         track(ui.selectable_value(&mut g.distribution, RootDistribution::Poisson, "Poisson-disk roots"));
         track(ui.selectable_value(&mut g.distribution, RootDistribution::Uniform, "uniform roots"));
+        track(ui.selectable_value(&mut g.distribution, RootDistribution::Vertices { jitter: 0.0 }, "vertex roots"));
     });
     ui.separator();
     ui.label("Children (drawn on the GPU; no regrowth)");

@@ -19,8 +19,13 @@ pub struct Preset {
 }
 
 /// Every preset, in the order the panel shows them; the first is the one the demo starts with.
-pub fn all() -> [Preset; 5] {
-    [shoulder(), short(), long(), curly(), windy()]
+pub fn all() -> [Preset; 6] {
+    [shoulder(), short(), long(), curly(), windy(), reference()]
+}
+
+/// The preset called `name`, or the starting one ([`shoulder`]) if none is.
+pub fn named(name: &str) -> Preset {
+    all().into_iter().find(|p| p.name.eq_ignore_ascii_case(name)).unwrap_or_else(shoulder)
 }
 
 /// The starting style: shoulder length, straight, dark brown.
@@ -129,5 +134,20 @@ fn windy() -> Preset {
             tip_color: Color::srgb(0.72, 0.57, 0.35),
             ..default()
         },
+    }
+}
+
+/// The reference's whole model: vertex roots along the normals, 10 segments, mass springs
+/// with the ±10 % clamp and no shape keeping, the centre-ray push, spiral a = b = 2.
+pub fn reference() -> Preset {
+    Preset {
+        name: "Reference",
+        groom: HairGroom {
+            guides: 1200,
+            children: ChildParams { per_guide: 12, ..HairGroom::reference().children },
+            ..HairGroom::reference()
+        },
+        params: SimParams::reference(),
+        look: HairLook::default(),
     }
 }

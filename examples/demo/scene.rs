@@ -39,8 +39,19 @@ impl OrbitCamera {
     }
 }
 
+/// The preset the demo starts with, by name ([`presets::all`]).
+#[derive(Resource, Clone, Copy, Debug)]
+pub struct StartingPreset(pub &'static str);
+
+impl Default for StartingPreset {
+    fn default() -> Self {
+        StartingPreset(presets::shoulder().name)
+    }
+}
+
 pub fn plugin(app: &mut App) {
-    app.insert_resource(ClearColor(Color::srgb(0.36, 0.38, 0.42)))
+    app.init_resource::<StartingPreset>()
+        .insert_resource(ClearColor(Color::srgb(0.36, 0.38, 0.42)))
         .insert_resource(GlobalAmbientLight { color: Color::srgb(0.85, 0.9, 1.0), brightness: 250.0, ..default() })
         // The scene is small: a fine shadow map keeps the head's shadow on the hair crisp.
         .insert_resource(DirectionalLightShadowMap { size: 4096 })
@@ -54,9 +65,9 @@ pub fn setup(
     mut meshes: ResMut<Assets<Mesh>>,
     mut materials: ResMut<Assets<StandardMaterial>>,
     mut settings: ResMut<HairSettings>,
+    start: Res<StartingPreset>,
 ) {
-    let start = presets::shoulder();
-    settings.0 = start.params;
+    settings.0 = presets::named(start.0).params;
     // The glTF scene, as a game would spawn a character. When it is in the world, its
     // skinned mesh gets the groom (`dress_the_head`); `motion.rs` plays its clip.
     let scene = asset_server.load(GltfAssetLabel::Scene(0).from_asset(HEAD_GLB));
@@ -128,12 +139,13 @@ fn dress_the_head(
     children: Query<&Children>,
     meshes: Query<(), (With<Mesh3d>, With<SkinnedMesh>)>,
     mut materials: ResMut<Assets<StandardMaterial>>,
+    start: Res<StartingPreset>,
 ) {
     let Some(mesh) = children.iter_descendants(ready.entity).find(|&e| meshes.contains(e)) else {
         error!("{HEAD_GLB} has no skinned mesh to grow hair on");
         return;
     };
-    let start = presets::shoulder();
+    let start = presets::named(start.0);
     let skin = materials.add(StandardMaterial { base_color: Color::WHITE, perceptual_roughness: 0.55, ..default() });
     commands.entity(mesh).insert((Head, MeshMaterial3d(skin), start.groom, start.look));
 }

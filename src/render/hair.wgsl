@@ -2,7 +2,9 @@
 //
 // Only guide particles travel to the GPU (`guides`: one vec4 per particle, then one vec4
 // per particle holding its parallel-transport frame vector `u`, which the CPU computes in
-// one pass per guide instead of every vertex walking its strand from the root). Every
+// one pass per guide instead of every vertex walking its strand from the root, then one
+// vec4 per guide with the scalp's normal and curvature at its root, then the head's
+// centre). Every
 // vertex of the static strand mesh knows its rendered strand and curve sample
 // (`HairVertex`); from those the vertex shader evaluates the Bézier curve through the
 // guide, offsets children along the Archimedean spiral in the guide's frame, and widens
@@ -74,6 +76,16 @@ fn particle(guide: u32, i: u32) -> vec3<f32> {
 // The transport frame vector `u` of particle `i` (`hair_sim::groom::transport_frames`).
 fn frame_u(guide: u32, i: u32) -> vec3<f32> {
     return guides[(hair.counts.x + guide) * hair.counts.y + i].xyz;
+}
+
+// The scalp at guide `guide`'s root: outward normal (xyz) and curvature (w, 1/m).
+fn root_scalp(guide: u32) -> vec4<f32> {
+    return guides[2u * hair.counts.x * hair.counts.y + guide];
+}
+
+// A point inside the head (`hair_sim::groom::ChildRoot::head_centre`).
+fn head_centre() -> vec3<f32> {
+    return guides[2u * hair.counts.x * hair.counts.y + hair.counts.x].xyz;
 }
 
 // Mirrors `hair_sim::groom::curve::unit_or`.
@@ -176,6 +188,32 @@ fn child_offset(guide: u32, child: u32, t: f32) -> vec2<f32> {
     return spiral_offset(child) * (1.0 - clumping * t) + spread * t * t * vec2(cos(phi), sin(phi));
 }
 
+// Mirrors `hair_sim::groom::children::MAX_CURVATURE`.
+const MAX_CURVATURE: f32 = 100.0;
+
+// Mirrors `hair_sim::groom::children::scalp_offset`: the offset in the scalp's tangent
+// plane, bent onto the scalp by its curvature.
+fn scalp_offset(scalp: vec4<f32>, u: vec3<f32>, offset: vec2<f32>) -> vec3<f32> {
+    let normal = unit_or(scalp.xyz, vec3(0.0, 1.0, 0.0));
+    let across = perpendicular_unit(u, normal);
+    // The CPU passes finite curvature; clamp as the reference does.
+    let curvature = clamp(scalp.w, -MAX_CURVATURE, MAX_CURVATURE);
+    return across * offset.x + cross(normal, across) * offset.y
+        - normal * (0.5 * curvature * dot(offset, offset));
+}
+
+// Mirrors `hair_sim::groom::children::on_scalp`.
+fn on_scalp(s_in: f32) -> f32 {
+    let s = clamp(s_in, 0.0, 1.0);
+    return 1.0 - s * s * (3.0 - 2.0 * s);
+}
+
+// Mirrors `hair_sim::groom::children::outside_only`.
+fn outside_only(offset: vec3<f32>, at: vec3<f32>, scalp: vec4<f32>) -> vec3<f32> {
+    let out = unit_or(at - head_centre(), unit_or(scalp.xyz, vec3(0.0, 1.0, 0.0)));
+    return offset - out * min(dot(offset, out), 0.0);
+}
+
 // A point of a rendered strand: on the curve (guide) or offset around it (child), moved
 // across the strand to one side of a ribbon that faces the view and tapers root → tip.
 struct StrandPoint {
@@ -200,9 +238,13 @@ fn strand_point(hair_vertex: vec2<u32>) -> StrandPoint {
     let curve = evaluate(guide, s);
     var position = curve.position;
     if child > 0u {
+        // Mirrors `hair_sim::groom::children::child_curve`.
         let frame = frame_at(guide, s, curve.tangent);
         let offset = child_offset(guide, child - 1u, t);
-        position += offset.x * frame[0] + offset.y * frame[1];
+        let scalp = root_scalp(guide);
+        let along_guide = outside_only(offset.x * frame[0] + offset.y * frame[1], curve.position, scalp);
+        let w = on_scalp(s);
+        position += scalp_offset(scalp, frame_u(guide, 0u), offset) * w + along_guide * (1.0 - w);
     }
 
     // In the shadow pass the "camera" is the light: the ribbon faces it and casts its width.

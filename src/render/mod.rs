@@ -25,7 +25,7 @@ use bevy::diagnostic::Diagnostics;
 use bevy::light::NotShadowCaster;
 use bevy::prelude::*;
 use bevy::render::storage::ShaderBuffer;
-use hair_sim::groom::{ChildParams, transport_frames};
+use hair_sim::groom::{ChildParams, MAX_CURVATURE, transport_frames};
 
 /// Draws every groom: added by [`HairPlugin`](crate::HairPlugin) when the `render`
 /// feature is on and the app renders.
@@ -136,8 +136,17 @@ pub struct HairDrawing {
     pub material: Handle<HairMaterial>,
     /// The mesh layout drawn.
     pub layout: StrandLayout,
-    /// Each guide's root frame `u` in head space (rotated by the head each frame).
-    root_u: Vec<Vec3>,
+    /// Each guide's root in head space (rotated by the head each frame): its frame `u`,
+    /// and the scalp's normal and curvature there.
+    roots: Vec<DrawnRoot>,
+}
+
+/// A guide's root as the children need it, head space.
+#[derive(Clone, Copy, Debug)]
+struct DrawnRoot {
+    u: Vec3,
+    normal: Vec3,
+    curvature: f32,
 }
 
 /// On a head: the entity that draws its hair. Set that entity's [`Visibility`] to hide
@@ -198,11 +207,20 @@ fn sync_drawing(
         {
             continue;
         }
-        let root_u: Vec<Vec3> = state.roots().iter().map(|r| from_sim(r.tangent(state.head_mesh()))).collect();
+        let mesh = state.head_mesh();
+        let roots: Vec<DrawnRoot> = state
+            .roots()
+            .iter()
+            .map(|r| DrawnRoot {
+                u: from_sim(r.tangent(mesh)),
+                normal: from_sim(r.normal(mesh)),
+                curvature: r.curvature(mesh),
+            })
+            .collect();
         let bytes = guide_buffer_len(&layout) * size_of::<Vec4>();
         let guides = buffers.add(ShaderBuffer::with_size(bytes, default()));
         let material = materials.add(HairMaterial { guides: guides.clone(), uniform: uniform(&layout, groom, look) });
-        let drawing = HairDrawing { head, guides, material: material.clone(), layout, root_u };
+        let drawing = HairDrawing { head, guides, material: material.clone(), layout, roots };
         let bundle = (Mesh3d(meshes.add(layout.mesh())), MeshMaterial3d(material), drawing, Transform::IDENTITY);
         match existing {
             Some((entity, _)) => _ = commands.entity(entity).insert(bundle),
@@ -226,9 +244,10 @@ fn sync_drawing(
     }
 }
 
-/// One `vec4` per guide particle for its position, then one per particle for its frame.
+/// One `vec4` per guide particle for its position, then one per particle for its frame,
+/// then one per guide for the scalp at its root, then the head's centre.
 fn guide_buffer_len(layout: &StrandLayout) -> usize {
-    2 * (layout.guides * layout.particles) as usize
+    (2 * layout.guides * layout.particles + layout.guides + 1) as usize
 }
 
 /// Writes this frame's guide particles (interpolated between the last two hair steps, on
@@ -247,7 +266,7 @@ fn upload_guides(
     let overstep = clock.overstep_fraction();
     let mut write = |drawing: &HairDrawing, placed: &GlobalTransform, frame: &mut HairRenderStats| -> Option<Aabb> {
         let (state, groom, look) = heads.get(drawing.head).ok()?;
-        if state.roots().len() != drawing.root_u.len() {
+        if state.roots().len() != drawing.roots.len() {
             return None; // regrown with another guide count; sync_drawing rebuilds next frame
         }
         let rotation = quat_from_sim(state.drawn_head_pose().rotation);
@@ -265,12 +284,16 @@ fn upload_guides(
         // root in every vertex of every child.
         let n = state.particles_per_strand();
         let mut guide = Vec::with_capacity(n);
-        for (points, &root_u) in positions.chunks_exact(n).zip(&drawing.root_u) {
+        for (points, root) in positions.chunks_exact(n).zip(&drawing.roots) {
             guide.clear();
             guide.extend(points.iter().map(|&p| to_sim(p)));
-            let frames = transport_frames(&guide, to_sim(rotation * root_u));
+            let frames = transport_frames(&guide, to_sim(rotation * root.u));
             data.extend(frames.into_iter().map(|u| from_sim(u).extend(0.0)));
         }
+        // The children's scalp: each root's normal and curvature, and the head's centre.
+        data.extend(drawing.roots.iter().map(|root| (rotation * root.normal).extend(root.curvature)));
+        let pose = state.drawn_head_pose();
+        data.push(from_sim(pose.transform_point(state.collider().centre())).extend(1.0));
         frame.uploaded_bytes += (data.len() * size_of::<Vec4>()) as u64;
         frame.rendered_strands += drawing.layout.strands() as u64;
         frame.rendered_vertices += drawing.layout.vertices() as u64;
@@ -304,7 +327,11 @@ fn upload_guides(
 fn child_reach(children: &ChildParams) -> f32 {
     match children.per_guide {
         0 => 0.0,
-        n => children.spiral.radius(n - 1) + children.tip_spread,
+        n => {
+            // At the root the spiral bends onto the scalp by at most `MAX_CURVATURE·r²/2`.
+            let r = children.spiral.radius(n - 1);
+            r + 0.5 * MAX_CURVATURE * r * r + children.tip_spread
+        }
     }
 }
 

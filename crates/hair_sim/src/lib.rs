@@ -47,8 +47,9 @@ pub mod solver;
 pub mod prelude {
     pub use crate::collide::{DEFAULT_GRID_RESOLUTION, ExtraCollider, HeadCollider};
     pub use crate::groom::{
-        ChildParams, CurvePoint, GroomError, GuideParams, RootBinding, Spiral, child_curve, child_curves, grow_guides,
-        sample_roots, sample_roots_at_vertices, sample_roots_poisson, settle, tessellate, transport_frames,
+        ChildParams, ChildRoot, CurvePoint, GroomError, GuideParams, RootBinding, Spiral, child_curve, child_curves,
+        grow_guides, sample_roots, sample_roots_at_vertices, sample_roots_poisson, settle, tessellate,
+        transport_frames,
     };
     pub use crate::math::{Pose, Quat, Vec3};
     pub use crate::mesh::{HeadMesh, MeshError, test_head};

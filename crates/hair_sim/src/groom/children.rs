@@ -1,13 +1,21 @@
 //! Child strands: extra rendered strands around each simulated guide, placed on the
-//! reference's Archimedean spiral `x = (a + bθ) cos θ`, `y = (a + bθ) sin θ` in the guide's
-//! local frame, drawn toward the guide along its length (clumping) and fanned out at the
-//! tip by a per-child random direction.
+//! reference's Archimedean spiral `x = (a + bθ) cos θ`, `y = (a + bθ) sin θ`, drawn toward
+//! the guide along its length (clumping) and fanned out at the tip by a per-child random
+//! direction.
+//!
+//! At the root the spiral lies on the scalp (its tangent plane, bent down by the scalp's
+//! curvature), so children grow out of the skin beside their guide instead of floating
+//! over it or starting under it; within the first segment it turns into the guide's own
+//! frame. Along the strand an offset never points into the head: where a guide lies on
+//! the head, its children spread beside and over it, not through the skull.
 //!
 //! Only guides are simulated; children follow them. These functions are the CPU reference
 //! for the hair vertex shader, which mirrors them line by line and receives the
 //! parameters already sanitized.
 
-use super::curve::{CurvePoint, frame_at, tessellate, tessellation_parameter, transport_frames};
+use super::curve::{
+    CurvePoint, frame_at, perpendicular_unit, tessellate, tessellation_parameter, transport_frames, unit_or,
+};
 use crate::math::Vec3;
 use crate::solver::ParamIssue;
 use std::f32::consts::TAU;
@@ -138,6 +146,59 @@ pub fn spiral_offset(spiral: &Spiral, child: u32) -> [f32; 2] {
     [radius * theta.cos(), radius * theta.sin()]
 }
 
+/// Where a guide's children start and which way is out of the head, world space in the
+/// head's current pose: what keeps child strands on the scalp.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ChildRoot {
+    /// The guide's root tangent ([`RootBinding::tangent`](super::RootBinding::tangent)):
+    /// the transport frames start from it, so children do not spin about their guide.
+    pub u: Vec3,
+    /// The scalp's outward normal at the root ([`RootBinding::normal`](super::RootBinding::normal)).
+    pub normal: Vec3,
+    /// The scalp's curvature at the root, 1/m, positive where it bulges as a skull does
+    /// ([`RootBinding::curvature`](super::RootBinding::curvature)): a child root `r` from
+    /// the guide's drops by `curvature · r² / 2`, onto the scalp.
+    pub curvature: f32,
+    /// A point inside the head, which "into the head" means toward: the centre of the
+    /// head mesh's bounds.
+    pub head_centre: Vec3,
+}
+
+/// The offset in the scalp's tangent plane, bent onto the scalp by its curvature: where a
+/// child starts, relative to its guide's root. `u` is the guide's frame at the root.
+///
+/// Mirrored in `src/render/hair.wgsl` (`fn scalp_offset`).
+#[inline]
+fn scalp_offset(root: &ChildRoot, u: Vec3, [x, y]: [f32; 2]) -> Vec3 {
+    let normal = unit_or(root.normal, Vec3::Y);
+    let across = perpendicular_unit(u, normal);
+    let curvature = if root.curvature.is_finite() { root.curvature.clamp(-MAX_CURVATURE, MAX_CURVATURE) } else { 0.0 };
+    across * x + normal.cross(across) * y - normal * (0.5 * curvature * (x * x + y * y))
+}
+
+/// The most curvature [`ChildRoot::curvature`] is trusted with, 1/m (a 1 cm radius): a
+/// sharper estimate comes from a sliver, not from a scalp.
+pub const MAX_CURVATURE: f32 = 100.0;
+
+/// How much of a child's offset is still the scalp's at particle parameter `s`: 1 at the
+/// root, easing to 0 at the second particle.
+///
+/// Mirrored in `src/render/hair.wgsl` (`fn on_scalp`).
+#[inline]
+fn on_scalp(s: f32) -> f32 {
+    let s = if s.is_nan() { 0.0 } else { s.clamp(0.0, 1.0) };
+    1.0 - s * s * (3.0 - 2.0 * s)
+}
+
+/// `offset` without its part pointing from `at` toward the head centre.
+///
+/// Mirrored in `src/render/hair.wgsl` (`fn outside_only`).
+#[inline]
+fn outside_only(offset: Vec3, at: Vec3, root: &ChildRoot) -> Vec3 {
+    let out = unit_or(at - root.head_centre, unit_or(root.normal, Vec3::Y));
+    offset - out * offset.dot(out).min(0.0)
+}
+
 /// The PCG hash (Jarzynski & Olano 2020, "Hash Functions for GPU Rendering"): 32 well
 /// mixed bits from 32, the same on the CPU and in WGSL.
 ///
@@ -181,49 +242,52 @@ fn sanitized_offset(params: &ChildParams, guide: u32, child: u32, t: f32) -> [f3
 }
 
 /// Child `child` of guide `guide`, tessellated like the guide: [`tessellate`] the guide
-/// particles, and move each point by [`child_offset`] along the parallel-transport frame
-/// (`u`, `v`) there ([`transport_frames`], [`frame_at`]). `t` is the particle parameter
-/// as a fraction of the strand (`s / (n − 1)`), not arc length: simulated segments keep
-/// their length, so the two agree.
+/// particles, and move each point by [`child_offset`] `(x, y)`. Along the strand that
+/// offset is `x·u + y·v` in the parallel-transport frame there ([`transport_frames`],
+/// [`frame_at`]) less any part pointing into the head (toward `root.head_centre`); at the
+/// root it lies on the scalp instead (in the tangent plane across `root.normal`, dropped
+/// by the curvature), easing into the guide's frame by the second particle. `t` is the
+/// particle parameter as a fraction of the strand (`s / (n − 1)`), not arc length:
+/// simulated segments keep their length, so the two agree.
 ///
-/// `root_u` is the guide's root tangent ([`RootBinding::tangent`](super::RootBinding::tangent)),
-/// carried by the head pose when the head moves, so children do not spin around their
-/// guide. The tangent is the guide's at the same parameter, not the child's own: offsets
-/// are at most about a centimetre on a strand of ~20 cm, so they differ by a few degrees at
-/// most, and the shader saves a second curve evaluation per vertex.
+/// The tangent is the guide's at the same parameter, not the child's own: offsets are at
+/// most about a centimetre on a strand of ~20 cm, so they differ by a few degrees at most,
+/// and the shader saves a second curve evaluation per vertex.
 ///
-/// Mirrored in `src/render/hair.wgsl` (`fn vertex`).
+/// Mirrored in `src/render/hair.wgsl` (`fn strand_point`).
 pub fn child_curve(
     guide_points: &[Vec3],
-    root_u: Vec3,
+    root: &ChildRoot,
     params: &ChildParams,
     guide: u32,
     child: u32,
     subdivisions: u32,
 ) -> Vec<CurvePoint> {
     let params = params.sanitize_with(|_| ());
-    child_curve_sanitized(guide_points, &transport_frames(guide_points, root_u), &params, guide, child, subdivisions)
+    let frames = transport_frames(guide_points, root.u);
+    child_curve_sanitized(guide_points, &frames, root, &params, guide, child, subdivisions)
 }
 
 /// All `per_guide` children of guide `guide` (see [`child_curve`]), after sanitizing
 /// `params`; the frames are built once for all of them.
 pub fn child_curves(
     guide_points: &[Vec3],
-    root_u: Vec3,
+    root: &ChildRoot,
     params: &ChildParams,
     guide: u32,
     subdivisions: u32,
 ) -> Vec<Vec<CurvePoint>> {
     let params = params.sanitize_with(|_| ());
-    let frames = transport_frames(guide_points, root_u);
+    let frames = transport_frames(guide_points, root.u);
     (0..params.per_guide)
-        .map(|child| child_curve_sanitized(guide_points, &frames, &params, guide, child, subdivisions))
+        .map(|child| child_curve_sanitized(guide_points, &frames, root, &params, guide, child, subdivisions))
         .collect()
 }
 
 fn child_curve_sanitized(
     guide_points: &[Vec3],
     frames: &[Vec3],
+    root: &ChildRoot,
     params: &ChildParams,
     guide: u32,
     child: u32,
@@ -231,14 +295,19 @@ fn child_curve_sanitized(
 ) -> Vec<CurvePoint> {
     let subdivisions = subdivisions.max(1);
     let last = guide_points.len().saturating_sub(1).max(1) as f32;
+    let root_u = frames.first().copied().unwrap_or(Vec3::X);
     tessellate(guide_points, subdivisions)
         .into_iter()
         .enumerate()
         .map(|(k, point)| {
             let s = tessellation_parameter(k, subdivisions);
             let (u, v) = frame_at(frames, s, point.tangent);
-            let [x, y] = sanitized_offset(params, guide, child, s / last);
-            CurvePoint { position: point.position + u * x + v * y, tangent: point.tangent }
+            let offset = sanitized_offset(params, guide, child, s / last);
+            let [x, y] = offset;
+            let along_guide = outside_only(u * x + v * y, point.position, root);
+            let w = on_scalp(s);
+            let moved = scalp_offset(root, root_u, offset) * w + along_guide * (1.0 - w);
+            CurvePoint { position: point.position + moved, tangent: point.tangent }
         })
         .collect()
 }
@@ -344,6 +413,13 @@ mod tests {
         assert!(x.is_finite() && y.is_finite());
     }
 
+    /// A flat scalp across the first segment, the head far behind the root: the spiral
+    /// and the guide's frame agree at the root, and nothing points into the head.
+    fn flat_root(points: &[Vec3], u: Vec3) -> ChildRoot {
+        let first = (points[1] - points[0]).normalize();
+        ChildRoot { u, normal: first, curvature: 0.0, head_centre: points[0] - first * 1e3 }
+    }
+
     #[test]
     fn a_child_curve_starts_on_the_spiral_around_the_guide_root() {
         let points = guide();
@@ -351,7 +427,7 @@ mod tests {
         let first = (points[1] - points[0]).normalize();
         let root_u = Vec3::X;
         for child in [0, 7, 15] {
-            let curve = child_curve(&points, root_u, &params, 4, child, 4);
+            let curve = child_curve(&points, &flat_root(&points, root_u), &params, 4, child, 4);
             assert_eq!(curve.len(), 41);
             let offset = curve[0].position - points[0];
             assert!((offset.length() - params.spiral.radius(child)).abs() <= 1e-6);
@@ -377,9 +453,11 @@ mod tests {
         for tip_spread in [0.0, 0.002] {
             let params = ChildParams { clumping: 1.0, tip_spread, ..ChildParams::default() };
             for child in 0..16 {
-                let tip = child_curve(&points, Vec3::Z, &params, 9, child, 3).last().unwrap().position;
+                let tip =
+                    child_curve(&points, &flat_root(&points, Vec3::Z), &params, 9, child, 3).last().unwrap().position;
+                // The tip spread, less any part of it that would point into the head.
                 let miss = (tip - points[10]).length();
-                assert!((miss - tip_spread).abs() <= 1e-6, "child {child}: {miss}");
+                assert!(miss <= tip_spread + 1e-6 && miss >= 0.5 * tip_spread, "child {child}: {miss}");
             }
         }
     }
@@ -388,11 +466,42 @@ mod tests {
     fn child_curves_gives_per_guide_children() {
         let points = guide();
         let params = ChildParams { per_guide: 5, ..ChildParams::default() };
-        let children = child_curves(&points, Vec3::X, &params, 2, 3);
+        let root = flat_root(&points, Vec3::X);
+        let children = child_curves(&points, &root, &params, 2, 3);
         assert_eq!(children.len(), 5);
         for (child, curve) in children.iter().enumerate() {
-            assert_eq!(curve, &child_curve(&points, Vec3::X, &params, 2, child as u32, 3));
+            assert_eq!(curve, &child_curve(&points, &root, &params, 2, child as u32, 3));
         }
-        assert!(child_curves(&points, Vec3::X, &ChildParams { per_guide: 0, ..params }, 2, 3).is_empty());
+        assert!(child_curves(&points, &root, &ChildParams { per_guide: 0, ..params }, 2, 3).is_empty());
+    }
+
+    #[test]
+    fn at_the_root_children_lie_on_the_scalp_and_never_point_into_the_head() {
+        // A guide leaving a sphere of radius 8 cm at 45° to its normal, then lying along it.
+        let radius = 0.08;
+        let normal = Vec3::new(0.0, 1.0, 0.0);
+        let root_point = normal * radius;
+        let points: Vec<Vec3> = (0..11)
+            .map(|j| {
+                let angle = 0.02 * j as f32 / radius; // 2 cm per segment along a great circle
+                Vec3::new(angle.sin(), angle.cos(), 0.0) * (radius + 0.003 * (j as f32).min(1.0))
+            })
+            .collect();
+        let root = ChildRoot { u: Vec3::Z, normal, curvature: 1.0 / radius, head_centre: Vec3::ZERO };
+        let params = ChildParams { per_guide: 16, tip_spread: 0.0, ..ChildParams::default() };
+        for (child, curve) in child_curves(&points, &root, &params, 0, 4).iter().enumerate() {
+            // Root: r from the guide's root, on the tangent plane dropped onto the sphere.
+            let start = curve[0].position;
+            let r = params.spiral.radius(child as u32);
+            assert!(((start - root_point).length() - r).abs() < 1e-4 * r.max(1e-3) + 2e-5);
+            let off_sphere = (start.length() - radius).abs();
+            assert!(off_sphere < 5e-5, "child {child} root {:.3} mm off the scalp", off_sphere * 1e3);
+            // Along the strand: never closer to the centre than the guide point is, less the
+            // sagitta of a 1 cm step over the sphere.
+            for (point, guide_point) in curve.iter().zip(tessellate(&points, 4)) {
+                let sagitta = r * r / (2.0 * radius);
+                assert!(point.position.length() >= guide_point.position.length() - sagitta - 1e-6);
+            }
+        }
     }
 }

@@ -13,8 +13,8 @@ mod rng;
 mod vertex_roots;
 
 pub use children::{
-    ChildParams, GOLDEN_ANGLE, MAX_CHILDREN_PER_GUIDE, Spiral, child_curve, child_curves, child_offset, hash_unit,
-    pcg_hash, spiral_offset,
+    ChildParams, ChildRoot, GOLDEN_ANGLE, MAX_CHILDREN_PER_GUIDE, MAX_CURVATURE, Spiral, child_curve, child_curves,
+    child_offset, hash_unit, pcg_hash, spiral_offset,
 };
 pub use curve::{CurvePoint, bezier_controls, evaluate, frame_at, tessellate, transport_frames};
 pub use labels::{labels_from_colors, triangle_weights};
@@ -46,6 +46,22 @@ impl RootBinding {
     /// The interpolated surface normal at the root.
     pub fn normal(&self, mesh: &HeadMesh) -> Vec3 {
         mesh.normal_at(self.triangle as usize, self.barycentric)
+    }
+
+    /// The surface's curvature at the root, 1/m, positive where it bulges outward: the
+    /// mean over the root triangle's edges of the normal curvature each edge shows,
+    /// `(n_a − n_b)·(a − b) / |a − b|²` from its corners' vertex normals. 0 on a flat or
+    /// degenerate triangle.
+    pub fn curvature(&self, mesh: &HeadMesh) -> f32 {
+        let triangle = mesh.triangles[self.triangle as usize];
+        let corner = |k: usize| (mesh.positions[triangle[k] as usize], mesh.normals[triangle[k] as usize]);
+        let edges = [(0, 1), (1, 2), (2, 0)].map(|(i, j)| {
+            let ((a, na), (b, nb)) = (corner(i), corner(j));
+            let length2 = (a - b).length_squared();
+            if length2 > 1e-12 { (na - nb).dot(a - b) / length2 } else { 0.0 }
+        });
+        let mean = edges.iter().sum::<f32>() / 3.0;
+        if mean.is_finite() { mean } else { 0.0 }
     }
 
     /// A unit vector across the surface at the root, perpendicular to [`Self::normal`]: the

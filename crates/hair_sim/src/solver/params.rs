@@ -155,6 +155,24 @@ impl fmt::Display for ParamIssue {
 }
 
 impl SimParams {
+    /// The reference's simulation as written: mass springs (`k_s` = 20 N/m, `k_d` =
+    /// 0.02 N·s/m on particles of 1 g) with the ±10 % length constraint, no shape keeping,
+    /// and penetrating particles pushed out along the ray from the head's centre.
+    pub fn reference() -> Self {
+        SimParams {
+            length_mode: LengthMode::Springs,
+            spring_stiffness: 20.0,
+            spring_damping: 0.02,
+            particle_mass: 1e-3,
+            length_tolerance: 0.1,
+            local_stiffness: 0.0,
+            global_stiffness_root: 0.0,
+            global_stiffness_tip: 0.0,
+            collision_response: CollisionResponse::CentreRay { offset: [0.0; 3] },
+            ..SimParams::default()
+        }
+    }
+
     /// Returns settings the solver can always run with, and the list of fields that had to
     /// change: NaN or infinite values take the default, others are clamped to their range.
     pub fn sanitized(&self) -> (SimParams, Vec<ParamIssue>) {
