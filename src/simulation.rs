@@ -13,7 +13,7 @@ use crate::convert::{from_sim, pose_and_scale, to_sim};
 use crate::diagnostics::HairDiagnostics;
 use crate::groom::{GroomStatus, Grown, HairGroom, head_frame};
 use crate::settings::{HairSettings, HairSettingsOverride, effective};
-use crate::skinning::{RootSkin, ScalpJoint};
+use crate::skinning::{RootSkin, ScalpJoint, SkinPatch};
 use bevy::diagnostic::Diagnostics;
 use bevy::platform::time::Instant;
 use bevy::prelude::*;
@@ -66,6 +66,9 @@ pub struct HairState {
     /// A skinned head's root triangles, skinned every frame to pin the roots (empty when the
     /// scalp moves rigidly with its joint).
     root_skin: RootSkin,
+    /// A skinned head's skin that moves against its scalp joint (a blended neck), skinned
+    /// every frame and collided with as drawn.
+    pub(crate) skin_patch: Option<SkinPatch>,
     /// Fields of the settings last reported as unusable (names, not values: NaN ≠ NaN).
     reported_issues: Vec<&'static str>,
 }
@@ -76,6 +79,7 @@ impl HairState {
         // A scalp skinned to its joint alone moves rigidly with it: nothing to skin per frame.
         let root_skin =
             joint.as_ref().filter(|j| j.share < 1.0).map(|j| j.root_skin(&head, scale, &roots)).unwrap_or_default();
+        let skin_patch = joint.as_ref().and_then(|j| j.skin_patch(&head, scale));
         let origin = pose.transform_point(collider.centre());
         strands.reset(relative_to(pose, origin));
         let current: Vec<Vec3> = strands.positions().iter().map(|&p| from_sim(p + origin)).collect();
@@ -101,6 +105,7 @@ impl HairState {
             last_step_time: Duration::ZERO,
             joint,
             root_skin,
+            skin_patch,
             reported_issues: Vec::new(),
         }
     }
@@ -302,14 +307,18 @@ pub(crate) fn track_heads(
             commands.entity(entity).remove::<HairState>().insert(GroomStatus::WaitingForMesh);
             continue;
         }
-        // A skinned head's roots ride their skinned triangles: pinned there, in head space.
+        // A skinned head's roots ride their skinned triangles: pinned there, in head space;
+        // and the skin that moves against the head is collided with where it is drawn.
         if let Some(joint) = &state.joint
-            && !state.root_skin.is_empty()
+            && (!state.root_skin.is_empty() || state.skin_patch.is_some())
         {
             let matrices = joint.skinning_matrices(&joints);
             let state = &mut *state;
             for (strand, world) in state.root_skin.skinned_roots(&matrices).enumerate() {
                 state.strands.set_rest_root(strand, pose.inverse_transform_point(to_sim(world)));
+            }
+            if let Some(patch) = &mut state.skin_patch {
+                patch.update(&matrices, pose);
             }
         }
         let frame = StampedPose { time: now, pose };
@@ -381,6 +390,7 @@ pub(crate) fn simulate(
             head_to: relative_to(state.pose_to, origin),
             collider: Some(&state.collider),
             extra_colliders: &extra,
+            surface_patch: state.skin_patch.as_ref().map(SkinPatch::patch),
             params: &params,
         };
         let strands_per_task =

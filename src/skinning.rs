@@ -7,14 +7,23 @@
 //! the head's frame here: the collider and the strands follow it. Where the scalp is
 //! blended with other joints, each root also rides its skinned triangle: every frame the
 //! root triangles alone are skinned on the CPU ([`RootSkin`]) and the roots are pinned
-//! there, in the dominant joint's frame.
+//! there, in the dominant joint's frame. Likewise the skin that moves against that joint
+//! (a neck blended toward another joint, bending as the head turns) is skinned every frame
+//! ([`SkinPatch`]) and collided with as it is drawn, beside the collider baked at bind pose.
 
+use crate::convert::to_sim;
 use bevy::math::Affine3A;
 use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
 use bevy::mesh::{Mesh, VertexAttributeValues};
 use bevy::prelude::*;
+use hair_sim::collide::SurfacePatch;
 use hair_sim::groom::RootBinding;
+use hair_sim::math::Pose;
 use hair_sim::mesh::HeadMesh;
+
+/// How far from the moving skin its patch answers collision queries, metres: beyond any
+/// sane collision thickness; deeper points are the baked collider's.
+const PATCH_REACH: f32 = 0.02;
 
 /// The joint a skinned head's hair follows, found at growth.
 #[derive(Clone, Debug, PartialEq)]
@@ -26,6 +35,8 @@ pub struct ScalpJoint {
     /// The share of the scalp's joint weight this joint carries, 0..1 (1: the whole scalp
     /// is skinned to it alone and moves rigidly with it).
     pub share: f32,
+    /// Its index in the skin's joints (`JOINTS_0` values).
+    index: usize,
     /// Every joint of the skin with its inverse bind matrix, for skinning the roots.
     joints: Vec<(Entity, Affine3A)>,
     /// Each vertex's joints and weights (the mesh's JOINTS_0 and WEIGHTS_0).
@@ -99,6 +110,7 @@ impl ScalpJoint {
             joint: skin.joints[index],
             inverse_bind: Affine3A::from_mat4(*inverse_bind),
             share: (best / total) as f32,
+            index,
             joints,
             vertex_joints,
         })
@@ -113,6 +125,40 @@ impl ScalpJoint {
         };
         let roots = roots.iter().map(|r| (head.triangles[r.triangle as usize].map(corner), r.barycentric)).collect();
         RootSkin { roots }
+    }
+
+    /// The skin that does not move rigidly with this joint, as a patch to collide with
+    /// (`None` when all of the head does): every triangle of `head` (scaled by `scale`)
+    /// with a corner weighted to another joint.
+    pub(crate) fn skin_patch(&self, head: &HeadMesh, scale: Vec3) -> Option<SkinPatch> {
+        let rigid = |v: u32| {
+            let influences = self.vertex_joints.get(v as usize).copied().unwrap_or_default();
+            let total: f32 = influences.iter().map(|(_, w)| w.max(0.0)).sum();
+            let own: f32 = influences.iter().filter(|(j, _)| *j as usize == self.index).map(|(_, w)| w.max(0.0)).sum();
+            total > 0.0 && own >= total * (1.0 - 1e-4)
+        };
+        let moving: Vec<[u32; 3]> = head.triangles.iter().copied().filter(|t| !t.iter().all(|&v| rigid(v))).collect();
+        if moving.is_empty() {
+            return None;
+        }
+        // The patch's own vertex numbering, over the corners it uses.
+        let mut numbering = std::collections::HashMap::new();
+        let mut vertices: Vec<SkinnedVertex> = Vec::new();
+        let triangles = moving
+            .iter()
+            .map(|t| {
+                t.map(|v| {
+                    *numbering.entry(v).or_insert_with(|| {
+                        let position = Vec3::from_array(head.positions[v as usize].to_array()) / scale;
+                        vertices.push((position, self.vertex_joints.get(v as usize).copied().unwrap_or_default()));
+                        (vertices.len() - 1) as u32
+                    })
+                })
+            })
+            .collect();
+        // At bind pose the skin is where the collider was baked (scaled into head space).
+        let bind: Vec<hair_sim::math::Vec3> = vertices.iter().map(|(p, _)| to_sim(*p * scale)).collect();
+        Some(SkinPatch { vertices, patch: SurfacePatch::new(triangles, bind, PATCH_REACH) })
     }
 
     /// Each joint's skinning matrix this frame (`joint · inverse_bind`); identity for a joint
@@ -132,6 +178,40 @@ impl ScalpJoint {
     }
 }
 
+/// The part of a skinned head that moves against its scalp joint, skinned on the CPU every
+/// frame and handed to the solver as a [`SurfacePatch`] in the joint's (head) frame.
+#[derive(Clone, Debug)]
+pub(crate) struct SkinPatch {
+    vertices: Vec<SkinnedVertex>,
+    patch: SurfacePatch,
+}
+
+impl SkinPatch {
+    /// The patch as the skin was last drawn.
+    pub(crate) fn patch(&self) -> &SurfacePatch {
+        &self.patch
+    }
+
+    /// Skins the patch with this frame's `matrices` and brings it into the head frame `pose`.
+    pub(crate) fn update(&mut self, matrices: &[Affine3A], pose: Pose) {
+        let local: Vec<hair_sim::math::Vec3> =
+            self.vertices.iter().map(|v| pose.inverse_transform_point(to_sim(skin_vertex(v, matrices)))).collect();
+        self.patch.update(&local);
+    }
+}
+
+/// Where linear blend skinning with `matrices` puts a vertex, world space. Weights that do
+/// not sum to 1 are normalised, as the GPU's skinning expects.
+fn skin_vertex((v, weights): &SkinnedVertex, matrices: &[Affine3A]) -> Vec3 {
+    let blended: Vec3 = weights
+        .iter()
+        .filter(|(_, w)| *w > 0.0)
+        .filter_map(|&(j, w)| matrices.get(j as usize).map(|m| w * m.transform_point3(*v)))
+        .sum();
+    let total: f32 = weights.iter().filter(|(_, w)| *w > 0.0).map(|(_, w)| w).sum();
+    if total > 0.0 { blended / total } else { *v }
+}
+
 impl RootSkin {
     /// Whether there are no roots to skin.
     pub(crate) fn is_empty(&self) -> bool {
@@ -141,16 +221,8 @@ impl RootSkin {
     /// Each root where the skin puts it this frame, world space: its triangle's corners
     /// skinned with `matrices` ([`ScalpJoint::skinning_matrices`]), then interpolated.
     pub(crate) fn skinned_roots<'a>(&'a self, matrices: &'a [Affine3A]) -> impl Iterator<Item = Vec3> + 'a {
-        let skin = move |(v, weights): &SkinnedVertex| -> Vec3 {
-            let blended: Vec3 = weights
-                .iter()
-                .filter(|(_, w)| *w > 0.0)
-                .filter_map(|&(j, w)| matrices.get(j as usize).map(|m| w * m.transform_point3(*v)))
-                .sum();
-            let total: f32 = weights.iter().filter(|(_, w)| *w > 0.0).map(|(_, w)| w).sum();
-            // Weights that do not sum to 1 are normalised, as the GPU's skinning expects.
-            if total > 0.0 { blended / total } else { *v }
-        };
-        self.roots.iter().map(move |(corners, bary)| corners.iter().zip(bary).map(|(c, b)| *b * skin(c)).sum())
+        self.roots
+            .iter()
+            .map(move |(corners, bary)| corners.iter().zip(bary).map(|(c, b)| *b * skin_vertex(c, matrices)).sum())
     }
 }

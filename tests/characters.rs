@@ -5,10 +5,12 @@
 mod common;
 
 use bevy::math::Affine3A;
-use bevy::mesh::VertexAttributeValues;
 use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
+use bevy::mesh::{Indices, VertexAttributeValues};
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
+use bevy_hair::hair_sim::math::Vec3 as SimVec3;
+use bevy_hair::hair_sim::mesh::{HeadMesh, InsideTest};
 use bevy_hair::prelude::*;
 use bevy_hair::{ScalpJoint, procedural_head_mesh};
 use common::*;
@@ -191,8 +193,9 @@ struct Rig {
     neck: Entity,
     head_joint: Entity,
     head: Entity,
-    /// Bind-pose vertex positions and their (joint, weight) pairs.
+    /// Bind-pose vertex positions and their (joint, weight) pairs, and the triangles.
     positions: Vec<Vec3>,
+    triangles: Vec<[u32; 3]>,
     weights: Vec<[(usize, f32); 2]>,
     inverse_binds: [Affine3A; 2],
 }
@@ -206,6 +209,8 @@ fn spawn_rig(app: &mut App, blend_top: f32) -> Rig {
         panic!("float positions")
     };
     let positions: Vec<Vec3> = positions.iter().map(|&p| Vec3::from_array(p)).collect();
+    let Some(Indices::U32(indices)) = mesh.indices() else { panic!("u32 indices") };
+    let triangles: Vec<[u32; 3]> = indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
     let weights: Vec<[(usize, f32); 2]> = positions
         .iter()
         .map(|p| {
@@ -235,7 +240,7 @@ fn spawn_rig(app: &mut App, blend_top: f32) -> Rig {
     let head_joint = world.spawn((Transform::from_translation(HEAD_JOINT_ABOVE_NECK), ChildOf(neck))).id();
     let skin = SkinnedMesh { inverse_bindposes: bindposes, joints: vec![neck, head_joint] };
     let head = world.spawn((Mesh3d(mesh), skin, Transform::default(), ChildOf(root), small_groom(7))).id();
-    Rig { root, neck, head_joint, head, positions, weights, inverse_binds }
+    Rig { root, neck, head_joint, head, positions, triangles, weights, inverse_binds }
 }
 
 impl Rig {
@@ -266,15 +271,15 @@ impl Rig {
 
 /// Plays the rig for 2 s at 30 fps; returns the scalp joint's share of the scalp, how far
 /// the drawn roots got from the scalp skinned independently (joint matrices × inverse bind
-/// matrices, corner by corner), and the deepest drawn particle below the head surface in
-/// the head joint's frame.
+/// matrices, corner by corner), and the deepest drawn particle inside the head as skinned
+/// (ray parity and exact distance on the skinned triangles, `InsideTest`).
 fn ride(blend_top: f32) -> (ScalpJoint, f32, f32) {
     let mut app = app();
     let rig = spawn_rig(&mut app, blend_top);
     wait_until_ready(&mut app, rig.head);
     let joint = state(&app, rig.head).scalp_joint().expect("a skinned head follows a joint").clone();
     app.insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(1.0 / 30.0)));
-    let (mut worst_root, mut deepest) = (0.0f32, f32::MIN);
+    let (mut worst_root, mut deepest) = (0.0f32, 0.0f32);
     for frame in 0..60 {
         rig.animate(&mut app, frame as f32 / 30.0);
         app.update();
@@ -293,18 +298,19 @@ fn ride(blend_top: f32) -> (ScalpJoint, f32, f32) {
                 .sum();
             worst_root = worst_root.max(strand[0].distance(skinned));
         }
-        // Penetration of the drawn strands, in the frame the joint matrices give now (not
-        // the plugin's pose), against the bind-pose head.
-        let head_frame = {
-            let joint = app.world().get::<GlobalTransform>(rig.head_joint).unwrap().affine();
-            (joint * rig.inverse_binds[1]).inverse()
+        // Penetration of the drawn strands into the head as it is skinned now.
+        let sim = |p: Vec3| SimVec3::from_array(p.to_array());
+        let skinned = HeadMesh {
+            positions: rig.positions.iter().zip(&rig.weights).map(|(&p, w)| sim(rig.skin(&app, p, w))).collect(),
+            normals: vec![SimVec3::Y; rig.positions.len()],
+            triangles: rig.triangles.clone(),
         };
+        let inside = InsideTest::new(&skinned);
         for (i, p) in drawn.iter().enumerate().filter(|(i, _)| i % n != 0) {
-            let local = head_frame.transform_point3(*p);
-            let depth =
-                -state.collider().signed_distance(bevy_hair::hair_sim::math::Vec3::from_array(local.to_array()));
-            deepest = deepest.max(depth);
             assert!(p.is_finite(), "particle {i}");
+            if let Some(depth) = inside.depth(sim(*p)) {
+                deepest = deepest.max(depth);
+            }
         }
     }
     (joint, worst_root, deepest)
@@ -312,7 +318,6 @@ fn ride(blend_top: f32) -> (ScalpJoint, f32, f32) {
 
 #[test]
 fn hair_on_a_skinned_head_rides_the_skin() {
-    let thickness = SimParams::default().collision_thickness;
     // Scalp and skull on the head joint alone: the roots move rigidly with it.
     let (joint, worst_root, deepest) = ride(-0.02);
     println!(
@@ -322,11 +327,7 @@ fn hair_on_a_skinned_head_rides_the_skin() {
     );
     assert_eq!(joint.share, 1.0, "the head joint carries the whole scalp");
     assert!(worst_root <= 2e-4, "a drawn root is {} mm off the skinned scalp", worst_root * 1e3);
-    // The subject here is the skinned frame: with a wrong one, whole strands sit centimetres
-    // inside. The solver itself still leaves a particle up to 2.8 mm inside (in the step's
-    // own state) in the first frames of this abrupt 12 rad/s start: its length pass runs
-    // after collision. Issue #14 ("never inside") tightens this to 0.1 mm.
-    assert!(deepest <= thickness, "a particle is {} mm inside the skinned head", deepest * 1e3);
+    assert!(deepest <= 1e-4, "a particle is {} mm inside the skinned head", deepest * 1e3);
 
     // The neck blend reaching 4.5 cm into the scalp: the strands follow the head joint, the
     // roots their skinned triangles (following the joint rigidly they were 41 mm off).
@@ -339,6 +340,8 @@ fn hair_on_a_skinned_head_rides_the_skin() {
     );
     assert!(joint.share < 0.95);
     assert!(worst_root <= 2e-4, "a drawn root is {} mm off the blended skinned scalp", worst_root * 1e3);
+    // The skin blended away from the head joint is collided with as it is drawn.
+    assert!(deepest <= 1e-4, "a particle is {} mm inside the blended skinned head", deepest * 1e3);
 }
 
 /// Spawns a skinned procedural head with one joint; `weights` adds joint attributes.

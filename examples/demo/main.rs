@@ -107,11 +107,12 @@ fn main() -> AppExit {
             // missing meshes; interactively, asynchronous compilation shows the window sooner.
             .set(RenderPlugin { synchronous_pipeline_compilation: screenshot_mode, ..default() }),
     )
-    .add_plugins((HairPlugin::default(), FrameTimeDiagnosticsPlugin::default(), EguiPlugin::default()))
+    .add_plugins((HairPlugin::default(), FrameTimeDiagnosticsPlugin::default()))
     .insert_resource(scene::StartingPreset(options.preset))
     .add_plugins((scene::plugin, motion::plugin));
+    // egui only with its panel: an egui context nothing draws into fails its frame.
     if options.panel {
-        app.add_plugins(panel::plugin);
+        app.add_plugins((EguiPlugin::default(), panel::plugin));
     }
     if let Some(path) = options.screenshot {
         app.add_plugins(screenshot::ScreenshotPlugin { path, frames: options.frames });

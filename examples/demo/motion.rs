@@ -80,11 +80,12 @@ fn start_the_clip(
 /// Space pauses, D toggles dragging the head, R puts the hair back at rest.
 fn keys(
     keys: Res<ButtonInput<KeyCode>>,
-    egui: Res<EguiWantsInput>,
+    // Absent without the panel (`--no-panel`).
+    egui: Option<Res<EguiWantsInput>>,
     mut motion: ResMut<Motion>,
     mut hair: Query<&mut HairState>,
 ) {
-    if egui.wants_any_keyboard_input() {
+    if egui.as_ref().is_some_and(|e| e.wants_any_keyboard_input()) {
         return;
     }
     if keys.just_pressed(KeyCode::Space) {
@@ -106,7 +107,8 @@ fn drag_head(
     buttons: Res<ButtonInput<MouseButton>>,
     keys: Res<ButtonInput<KeyCode>>,
     mouse_motion: Res<AccumulatedMouseMotion>,
-    egui: Res<EguiWantsInput>,
+    // Absent without the panel (`--no-panel`).
+    egui: Option<Res<EguiWantsInput>>,
     camera: Single<(&Transform, &OrbitCamera, &Projection), Without<Character>>,
     window: Single<&Window>,
     mut head: Single<&mut Transform, With<Character>>,
@@ -116,7 +118,7 @@ fn drag_head(
         *dragging = false;
         return;
     }
-    if buttons.just_pressed(MouseButton::Left) && !egui.wants_any_pointer_input() {
+    if buttons.just_pressed(MouseButton::Left) && !egui.as_ref().is_some_and(|e| e.wants_any_pointer_input()) {
         *dragging = true;
     }
     let delta = mouse_motion.delta;

@@ -157,12 +157,15 @@ fn orbit_camera(
     buttons: Res<ButtonInput<MouseButton>>,
     mouse_motion: Res<AccumulatedMouseMotion>,
     scroll: Res<AccumulatedMouseScroll>,
-    egui: Res<EguiWantsInput>,
+    // Absent without the panel (`--no-panel`).
+    egui: Option<Res<EguiWantsInput>>,
     motion: Res<Motion>,
     mut dragging: Local<bool>,
 ) {
     let orbit_button = |b| b == MouseButton::Right || (b == MouseButton::Left && !motion.drag_head);
-    if buttons.get_just_pressed().any(|&b| orbit_button(b)) && !egui.wants_any_pointer_input() {
+    if buttons.get_just_pressed().any(|&b| orbit_button(b))
+        && !egui.as_ref().is_some_and(|e| e.wants_any_pointer_input())
+    {
         *dragging = true;
     }
     if !buttons.get_pressed().any(|&b| orbit_button(b)) {
@@ -175,7 +178,7 @@ fn orbit_camera(
         orbit.pitch = (orbit.pitch + mouse_motion.delta.y * 0.006).clamp(-1.2, 1.4);
         changed = true;
     }
-    if scroll.delta.y != 0.0 && !egui.is_pointer_over_area() {
+    if scroll.delta.y != 0.0 && !egui.as_ref().is_some_and(|e| e.is_pointer_over_area()) {
         let lines = match scroll.unit {
             MouseScrollUnit::Line => scroll.delta.y,
             MouseScrollUnit::Pixel => scroll.delta.y / 40.0,

@@ -99,6 +99,7 @@ fn strand_step(c: &mut Criterion) {
                     head_to: head_pose(frame + 1),
                     collider: Some(&collider),
                     extra_colliders: &[],
+                    surface_patch: None,
                     params: &params,
                 };
                 frame += 1;

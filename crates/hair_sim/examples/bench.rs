@@ -97,6 +97,7 @@ fn main() {
             head_to: head_pose(time + dt),
             collider: Some(&collider),
             extra_colliders: &[],
+            surface_patch: None,
             params: &params,
         }
     };

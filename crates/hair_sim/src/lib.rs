@@ -23,6 +23,7 @@
 //!         head_to: Pose::IDENTITY,
 //!         collider: Some(&collider),
 //!         extra_colliders: &[],
+//!         surface_patch: None,
 //!         params: &params,
 //!     });
 //! }

@@ -174,6 +174,7 @@ fn children_grow_from_the_scalp_and_stay_out_of_the_head() {
             head_to: pose((k + 1) as f32 * dt),
             collider: Some(&collider),
             extra_colliders: &[],
+            surface_patch: None,
             params: &params_sim,
         });
         if k % 6 == 5 {

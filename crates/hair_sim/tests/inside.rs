@@ -101,6 +101,7 @@ fn run_on(
             head_to: to,
             collider: Some(&g.collider),
             extra_colliders: &[],
+            surface_patch: None,
             params,
         };
         inside.contact_stretches += strands.step(&input).contact_stretches;
@@ -284,7 +285,7 @@ proptest! {
                 pose.translation + velocity * dt,
             );
             let input = StepInput {
-                dt, time, head_from: pose, head_to: to, collider: Some(&g.collider), extra_colliders: &[], params: &params,
+                dt, time, head_from: pose, head_to: to, collider: Some(&g.collider), extra_colliders: &[], surface_patch: None, params: &params,
             };
             strands.step(&input);
             measure(&strands, to, g, &mut inside);

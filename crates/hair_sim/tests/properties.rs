@@ -205,6 +205,7 @@ fn check_wild_run(params: &SimParams, steps: &[(Pose, f32, f32)], neck: bool) ->
             head_to: to,
             collider: Some(&g.collider),
             extra_colliders,
+            surface_patch: None,
             params,
         });
         // Steps shorter than MIN_STEP are skipped, as are invalid ones.

@@ -32,7 +32,16 @@ fn input<'a>(
     collider: Option<&'a HeadCollider>,
     params: &'a SimParams,
 ) -> StepInput<'a> {
-    StepInput { dt: DT, time: k as f32 * DT, head_from: from, head_to: to, collider, extra_colliders: &[], params }
+    StepInput {
+        dt: DT,
+        time: k as f32 * DT,
+        head_from: from,
+        head_to: to,
+        collider,
+        extra_colliders: &[],
+        surface_patch: None,
+        params,
+    }
 }
 
 /// Runs `steps` steps with the head still at the identity pose.
@@ -66,6 +75,7 @@ fn chunked_stepping_is_bit_identical_to_step() {
     for k in 0..120 {
         let step = StepInput {
             extra_colliders: &neck,
+            surface_patch: None,
             ..input(k, moving_head(k), moving_head(k + 1), Some(&g.collider), &params)
         };
         let expected = reference.step(&step);

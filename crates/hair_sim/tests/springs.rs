@@ -41,6 +41,7 @@ fn step(strands: &mut Strands, params: &SimParams, k: usize) -> StepReport {
         head_to: Pose::IDENTITY,
         collider: None,
         extra_colliders: &[],
+        surface_patch: None,
         params,
     })
 }
@@ -198,6 +199,7 @@ fn any_stiffness_is_stable_and_the_clamp_holds_while_the_head_whips() {
                     head_to: whip(k + 1),
                     collider: Some(&g.collider),
                     extra_colliders: &[],
+                    surface_patch: None,
                     params: &params,
                 });
                 resets += report.nan_resets + report.teleport_resets;

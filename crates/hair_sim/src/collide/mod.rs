@@ -10,10 +10,12 @@
 
 mod candidates;
 mod distance_grid;
+mod patch;
 mod shapes;
 mod triangles;
 
 pub use distance_grid::DistanceGrid;
+pub use patch::SurfacePatch;
 pub use shapes::ExtraCollider;
 
 use crate::math::Vec3;

@@ -315,6 +315,7 @@ pub fn settle(
             head_to: Pose::IDENTITY,
             collider,
             extra_colliders: &[],
+            surface_patch: None,
             params: &params,
         };
         strands.step(&input);

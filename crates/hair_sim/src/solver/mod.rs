@@ -15,7 +15,7 @@ mod wind;
 pub use params::{CollisionResponse, LengthMode, ParamIssue, SimParams, Wind, stiffness_per_application};
 pub use wind::wind_at;
 
-use crate::collide::{ContactHint, ExtraCollider, HeadCollider};
+use crate::collide::{ContactHint, ExtraCollider, HeadCollider, SurfacePatch};
 use crate::math::{Pose, Quat, Vec3};
 use std::fmt;
 
@@ -177,6 +177,9 @@ pub struct StepInput<'a> {
     pub collider: Option<&'a HeadCollider>,
     /// Extra world-space colliders.
     pub extra_colliders: &'a [ExtraCollider],
+    /// The part of the head that moves against the collider's frame (a skinned neck
+    /// bending), as it is at the end of the step, head-local like the collider.
+    pub surface_patch: Option<&'a SurfacePatch>,
     /// Settings; pass them through [`SimParams::sanitized`] first.
     pub params: &'a SimParams,
 }

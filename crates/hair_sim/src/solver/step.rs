@@ -621,6 +621,15 @@ fn collide(
                     g.moved[j] |= 1 << l;
                     touch(&contact);
                 }
+                // The skin that moved against the head's frame, as it is now.
+                if let Some(patch) = input.surface_patch
+                    && let Some(contact) = patch.resolve(g.local[j].lane(l), p.collision_thickness)
+                {
+                    let local_start = poses.before.local_point(g.start[j].lane(l));
+                    g.local[j].set_lane(l, with_friction(contact, local_start, p.friction));
+                    g.moved[j] |= 1 << l;
+                    touch(&contact);
+                }
             }
         }
         for ((x, &local), &moved) in g.positions.iter_mut().zip(&g.local).zip(&g.moved) {
@@ -726,11 +735,15 @@ fn keep_outside(
                 let contact_at = |x: Vec3| -> Option<Contact> {
                     // Along the normal whatever the response: turning the segment onto the
                     // tangent plane needs the plane.
-                    let head = input.collider.and_then(|collider| {
-                        collider
-                            .resolve_hinted(poses.now_one.local_point(x), p.collision_thickness, hint)
-                            .map(|c| poses.now_one.world_contact(c))
-                    });
+                    // The head as baked and the skin that moved against it: the deeper contact.
+                    let local = poses.now_one.local_point(x);
+                    let baked = input.collider.and_then(|c| c.resolve_hinted(local, p.collision_thickness, hint));
+                    let moved = input.surface_patch.and_then(|patch| patch.resolve(local, p.collision_thickness));
+                    let head = match (baked, moved) {
+                        (Some(b), Some(m)) => Some(if m.depth > b.depth { m } else { b }),
+                        (b, m) => b.or(m),
+                    };
+                    let head = head.map(|c| poses.now_one.world_contact(c));
                     head.or_else(|| input.extra_colliders.iter().find_map(|e| e.resolve(x, p.collision_thickness)))
                 };
                 let (outside, kept_length) =
