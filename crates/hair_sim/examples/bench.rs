@@ -3,7 +3,7 @@
 //!
 //! ```text
 //! cargo run --release -p hair_sim --example bench -- --guides 2048 --particles 16 --steps 600
-//! # also: --threads T, --no-collision
+//! # also: --threads T, --no-collision, --segment-collision
 //! ```
 
 use hair_sim::prelude::*;
@@ -82,7 +82,10 @@ fn main() {
     let params = SimParams::default();
     let rest = settle(rest, Some(&collider), &params, 120, Vec3::ZERO).expect("settle");
     // `--no-collision` measures the solver alone (the groom still settles on the head).
-    let params = SimParams { collision: !std::env::args().any(|a| a == "--no-collision"), ..params };
+    // `--segment-collision` adds the exact segment test (`SimParams::segment_collision`).
+    let flag = |name: &str| std::env::args().any(|a| a == name);
+    let params =
+        SimParams { collision: !flag("--no-collision"), segment_collision: flag("--segment-collision"), ..params };
     let mut strands = Strands::new(rest, head_pose(0.0));
 
     let chunk = strands.strand_count().div_ceil(threads * 4).next_multiple_of(STRANDS_PER_GROUP);

@@ -53,13 +53,21 @@ fn wild_params() -> impl Strategy<Value = SimParams> {
     (
         (prop::array::uniform3(wild_f32()), wild_count(), wild_count(), wild_f32(), mode, wild_f32(), wild_f32()),
         (wild_f32(), wild_f32(), wild_f32(), wild_f32(), wild_f32(), wild_f32(), wind),
-        (any::<bool>(), wild_f32(), response, wild_f32(), wild_f32(), wild_f32()),
+        (any::<bool>(), wild_f32(), response, any::<bool>(), wild_f32(), wild_f32(), wild_f32()),
     )
         .prop_map(
             |(
                 (gravity, substeps, iterations, drag, length_mode, particle_mass, spring_stiffness),
                 (spring_damping, length_tolerance, ftl_damping, local_stiffness, global_root, global_tip, wind),
-                (collision, collision_thickness, collision_response, friction, max_speed, teleport_distance),
+                (
+                    collision,
+                    collision_thickness,
+                    collision_response,
+                    segment_collision,
+                    friction,
+                    max_speed,
+                    teleport_distance,
+                ),
             )| SimParams {
                 gravity,
                 substeps,
@@ -78,6 +86,7 @@ fn wild_params() -> impl Strategy<Value = SimParams> {
                 collision,
                 collision_thickness,
                 collision_response,
+                segment_collision,
                 friction,
                 max_speed,
                 teleport_distance,

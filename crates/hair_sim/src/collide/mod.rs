@@ -224,6 +224,31 @@ impl HeadCollider {
         Some(Contact { position, normal: direction, depth: contact.depth })
     }
 
+    /// A distance `p` (head-local) is known to be from the surface, from what its hint
+    /// remembers (the empty ball of its last query, less how far it has moved since): 0 when
+    /// the hint knows nothing, or the particle last touched the head.
+    pub fn known_clearance(&self, p: Vec3, hint: &ContactHint) -> f32 {
+        match hint.0 {
+            Hint::Clear { at, distance, collider } if collider == self.id => {
+                (distance - (p - self.centre - at).length()).max(0.0)
+            }
+            _ => 0.0,
+        }
+    }
+
+    /// Where the segment `a`–`b` (head-local) runs through the head: the distances from `a`
+    /// along it to where it first enters and last leaves the surface, or `None` when it
+    /// crosses no triangle. For a segment whose ends are both outside, a crossing means it
+    /// cuts through a thin part (an ear's rim).
+    pub fn segment_crossing(&self, a: Vec3, b: Vec3) -> Option<(f32, f32)> {
+        let length = (b - a).length();
+        let direction = (b - a).try_normalize()?;
+        let (a, b) = (a - self.centre, b - self.centre);
+        let enters = self.mesh.cast_local_ray(&Ray::new(a, direction), length, false)?;
+        let leaves = self.mesh.cast_local_ray(&Ray::new(b, -direction), length, false).map_or(enters, |t| length - t);
+        Some((enters, leaves.max(enters)))
+    }
+
     /// [`Self::resolve_hinted`] for a point relative to [`Self::centre`].
     #[inline]
     fn resolve_centred(&self, p: Vec3, thickness: f32, hint: &mut ContactHint) -> Option<Contact> {

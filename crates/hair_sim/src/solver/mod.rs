@@ -149,6 +149,9 @@ pub struct StepReport {
     /// segment's length (a crease tighter than a segment): collision won and the segment
     /// stretched. Summed over substeps.
     pub contact_stretches: u32,
+    /// Segments turned because they cut through the head between two particles outside it
+    /// (an ear's rim). Summed over substeps.
+    pub segment_turns: u32,
 }
 
 impl StepReport {
@@ -159,6 +162,7 @@ impl StepReport {
         self.contacts += other.contacts;
         self.max_depth = self.max_depth.max(other.max_depth);
         self.contact_stretches += other.contact_stretches;
+        self.segment_turns += other.segment_turns;
     }
 }
 

@@ -414,6 +414,9 @@ fn substep(
         g.collided.copy_from_slice(&g.positions);
         length_pass(g, p);
         keep_outside(g, state, p, poses, input, report);
+        if p.segment_collision {
+            keep_segments_outside(g, state, p, poses, input, report);
+        }
     }
 
     // 5. Velocities: what the integrator's `x = base + step · v` makes of where the
@@ -715,49 +718,139 @@ fn keep_outside(
         }
         pending &= !far;
     }
-    let down = Vec3::NEG_Y;
     for l in (0..g.lanes).filter(|&l| first[l] < n) {
-        let hints = &mut state.hints[g.strands[l] * n..][..n];
-        let mut parent = g.positions[first[l] - 1].lane(l);
-        for (j, hint) in hints.iter_mut().enumerate().skip(first[l]) {
-            let collided = g.collided[j].lane(l);
-            let rest_length = g.lengths[j].get(l);
-            let towards = collided - parent;
-            let length = match p.length_mode {
-                LengthMode::Inextensible => rest_length,
-                LengthMode::Springs => {
-                    let tolerance = p.length_tolerance;
-                    towards.length().clamp(rest_length * (1.0 - tolerance), rest_length * (1.0 + tolerance))
-                }
-            };
-            let mut placed = parent + towards.normalize_or(down) * length;
-            if (placed - collided).length() > margin {
-                let contact_at = |x: Vec3| -> Option<Contact> {
-                    // Along the normal whatever the response: turning the segment onto the
-                    // tangent plane needs the plane.
-                    // The head as baked and the skin that moved against it: the deeper contact.
-                    let local = poses.now_one.local_point(x);
-                    let baked = input.collider.and_then(|c| c.resolve_hinted(local, p.collision_thickness, hint));
-                    let moved = input.surface_patch.and_then(|patch| patch.resolve(local, p.collision_thickness));
-                    let head = match (baked, moved) {
-                        (Some(b), Some(m)) => Some(if m.depth > b.depth { m } else { b }),
-                        (b, m) => b.or(m),
-                    };
-                    let head = head.map(|c| poses.now_one.world_contact(c));
-                    head.or_else(|| input.extra_colliders.iter().find_map(|e| e.resolve(x, p.collision_thickness)))
-                };
-                let (outside, kept_length) =
-                    outside_at_length(placed, parent, length, p.collision_thickness, contact_at);
-                placed = outside;
-                report.contact_stretches += u32::from(!kept_length);
+        place_outside(g, state, p, poses, input, report, l, first[l], false);
+    }
+}
+
+/// The final length pass of lane `l` from particle `from` to the tip, each particle where
+/// collision put it (`g.collided`) brought to its segment's length from its (already
+/// placed) parent and, if that is inside a collider or its shell, turned about the parent
+/// until it is out ([`outside_at_length`]). Unless `verify`, `g.collided` is known to be
+/// outside, and only particles moved further than [`LENGTH_SLACK`] from it are tested.
+#[allow(clippy::too_many_arguments)]
+fn place_outside(
+    g: &mut GroupState,
+    state: &mut ChunkState,
+    p: &SimParams,
+    poses: &SubstepPoses,
+    input: &StepInput,
+    report: &mut StepReport,
+    l: usize,
+    from: usize,
+    verify: bool,
+) {
+    let n = g.positions.len();
+    let margin = LENGTH_SLACK * p.collision_thickness;
+    let down = Vec3::NEG_Y;
+    let hints = &mut state.hints[g.strands[l] * n..][..n];
+    let mut parent = g.positions[from - 1].lane(l);
+    for (j, hint) in hints.iter_mut().enumerate().skip(from) {
+        let collided = g.collided[j].lane(l);
+        let rest_length = g.lengths[j].get(l);
+        let towards = collided - parent;
+        let length = match p.length_mode {
+            LengthMode::Inextensible => rest_length,
+            LengthMode::Springs => {
+                let tolerance = p.length_tolerance;
+                towards.length().clamp(rest_length * (1.0 - tolerance), rest_length * (1.0 + tolerance))
             }
-            if p.length_mode == LengthMode::Inextensible {
-                let length_pass_placed = g.positions[j].lane(l);
-                let correction = g.ftl_correction[j].lane(l) + (placed - length_pass_placed);
-                g.ftl_correction[j].set_lane(l, correction);
+        };
+        let mut placed = parent + towards.normalize_or(down) * length;
+        if verify || (placed - collided).length() > margin {
+            let (outside, kept_length) = outside_at_length(placed, parent, length, p.collision_thickness, |x| {
+                contact_at(x, p, poses, input, hint)
+            });
+            placed = outside;
+            report.contact_stretches += u32::from(!kept_length);
+        }
+        set_final(g, p, l, j, placed);
+        parent = placed;
+    }
+}
+
+/// Moves particle `j` of lane `l` to `placed` in the final pass; FTL's velocity correction
+/// counts the move.
+fn set_final(g: &mut GroupState, p: &SimParams, l: usize, j: usize, placed: Vec3) {
+    if p.length_mode == LengthMode::Inextensible {
+        let length_pass_placed = g.positions[j].lane(l);
+        let correction = g.ftl_correction[j].lane(l) + (placed - length_pass_placed);
+        g.ftl_correction[j].set_lane(l, correction);
+    }
+    g.positions[j].set_lane(l, placed);
+}
+
+/// The deepest contact at world point `x` with anything: the head as baked or the skin that
+/// moved against it, else an extra collider. Along the normal whatever the response:
+/// turning a segment onto the tangent plane needs the plane.
+fn contact_at(
+    x: Vec3,
+    p: &SimParams,
+    poses: &SubstepPoses,
+    input: &StepInput,
+    hint: &mut ContactHint,
+) -> Option<Contact> {
+    let local = poses.now_one.local_point(x);
+    let baked = input.collider.and_then(|c| c.resolve_hinted(local, p.collision_thickness, hint));
+    let moved = input.surface_patch.and_then(|patch| patch.resolve(local, p.collision_thickness));
+    let head = match (baked, moved) {
+        (Some(b), Some(m)) => Some(if m.depth > b.depth { m } else { b }),
+        (b, m) => b.or(m),
+    };
+    let head = head.map(|c| poses.now_one.world_contact(c));
+    head.or_else(|| input.extra_colliders.iter().find_map(|e| e.resolve(x, p.collision_thickness)))
+}
+
+/// Segments whose two ends are outside can still cut through a thin part of the head
+/// between them (an ear's rim). Each segment that may reach the head (its ends' known clear
+/// balls do not cover it) is tested exactly, by a ray along it through the collider's BVH. Where it crosses, it
+/// turns about its parent until the middle of the crossed stretch is out on the collision
+/// shell (a few turns at most), the strand below moves along, and the final pass places
+/// the rest outside from there ([`place_outside`]).
+fn keep_segments_outside(
+    g: &mut GroupState,
+    state: &mut ChunkState,
+    p: &SimParams,
+    poses: &SubstepPoses,
+    input: &StepInput,
+    report: &mut StepReport,
+) {
+    let Some(collider) = input.collider else { return };
+    let n = g.positions.len();
+    for l in 0..g.lanes {
+        for j in 2..n {
+            let (parent, child) = (g.positions[j - 1].lane(l), g.positions[j].lane(l));
+            let length = (child - parent).length();
+            // Every point of the segment is within `length` of an end together: where the
+            // ends' known clear balls add up to more, it cannot reach the surface.
+            let hints = &state.hints[g.strands[l] * n..][..n];
+            let clear = |x: Vec3, hint: &ContactHint| collider.known_clearance(poses.now_one.local_point(x), hint);
+            if clear(parent, &hints[j - 1]) + clear(child, &hints[j]) > length {
+                continue;
             }
-            g.positions[j].set_lane(l, placed);
-            parent = placed;
+            let mut turned = child;
+            for _ in 0..MAX_TURNS {
+                let (a, b) = (poses.now_one.local_point(parent), poses.now_one.local_point(turned));
+                let Some((enters, leaves)) = collider.segment_crossing(a, b) else { break };
+                // The middle of the stretch inside, out onto the shell.
+                let inside = a + (b - a) * (0.5 * (enters + leaves) / length.max(1e-9));
+                let mut hint = ContactHint::NONE;
+                let Some(contact) = collider.resolve_hinted(inside, p.collision_thickness, &mut hint) else { break };
+                let target = poses.now_one.world_contact(contact).position;
+                turned = parent + (target - parent).normalize_or(Vec3::Y) * length;
+            }
+            if turned == child {
+                continue;
+            }
+            // The strand below follows the turned segment unchanged, then is placed outside.
+            let shift = turned - child;
+            for k in j + 1..n {
+                let moved = g.positions[k].lane(l) + shift;
+                g.collided[k].set_lane(l, moved);
+            }
+            g.collided[j].set_lane(l, turned);
+            report.segment_turns += 1;
+            place_outside(g, state, p, poses, input, report, l, j, true);
         }
     }
 }
