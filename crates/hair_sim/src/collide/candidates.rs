@@ -42,6 +42,9 @@ const LIST_THICKNESS: f32 = 0.01;
 const INSIDE_CELLS: f32 = 2.0;
 /// A cell with more candidates than this uses the BVH.
 const MAX_CANDIDATES: usize = 96;
+/// Triangles in a cell's search box beyond which its list is not even attempted: a box
+/// holds a few times the triangles its ball does.
+const BOX_LIMIT: usize = 4 * MAX_CANDIDATES;
 /// Absorbs f32 rounding in the bake-time distances and the run-time bounds, metres.
 const SLACK: f32 = 1e-5;
 /// How far beyond a particle's distance the gap certificate looks for rising triangles,
@@ -110,7 +113,9 @@ impl CandidateGrid {
             ranges: vec![NONE; dims[0] * dims[1] * dims[2]],
             blocks: Vec::new(),
         };
-        for z in 0..dims[2] - 1 {
+        // The lists, a z-slice per work item on all cores; assembled in cell order below.
+        let slices = crate::parallel::map(dims[2] - 1, |z| {
+            let mut lists = Vec::new();
             for y in 0..dims[1] - 1 {
                 for x in 0..dims[0] - 1 {
                     // Trilinear samples in a cell lie between its corner values: a cell
@@ -119,32 +124,34 @@ impl CandidateGrid {
                     if !(lo <= upper && hi >= lower) {
                         continue;
                     }
-                    let list = cell_list(mesh, grid.origin(), out.cell, [x, y, z]);
-                    if list.is_empty() || list.len() > MAX_CANDIDATES {
-                        continue;
-                    }
-                    let index = (z * dims[1] + y) * dims[0] + x;
-                    let first = u32::try_from(out.blocks.len()).ok().filter(|&f| f < NONE >> COUNT_BITS);
-                    let Some(first) = first else {
-                        continue; // a table this large is beyond any head; the BVH still answers
-                    };
-                    out.ranges[index] = (first << COUNT_BITS) | list.len().div_ceil(4) as u32;
-                    for four in list.chunks(4) {
-                        let lane = |i: usize, f: fn(&Candidate) -> f32, pad: f32| four.get(i).map_or(pad, f);
-                        let lanes = |f: fn(&Candidate) -> f32, pad: f32| {
-                            Vec4::new(lane(0, f, pad), lane(1, f, pad), lane(2, f, pad), lane(3, f, pad))
-                        };
-                        out.blocks.push(Block {
-                            centre_distance: lanes(|c| c.centre_distance, f32::INFINITY),
-                            gradient: [
-                                lanes(|c| c.gradient.x, 0.0),
-                                lanes(|c| c.gradient.y, 0.0),
-                                lanes(|c| c.gradient.z, 0.0),
-                            ],
-                            triangles: std::array::from_fn(|i| four.get(i).map_or(0, |c| c.triangle)),
-                        });
+                    let list = cell_list(mesh, grid.origin(), grid.cell_size(), [x, y, z]);
+                    if !list.is_empty() && list.len() <= MAX_CANDIDATES {
+                        lists.push(((z * dims[1] + y) * dims[0] + x, list));
                     }
                 }
+            }
+            lists
+        });
+        for (index, list) in slices.into_iter().flatten() {
+            let first = u32::try_from(out.blocks.len()).ok().filter(|&f| f < NONE >> COUNT_BITS);
+            let Some(first) = first else {
+                continue; // a table this large is beyond any head; the BVH still answers
+            };
+            out.ranges[index] = (first << COUNT_BITS) | list.len().div_ceil(4) as u32;
+            for four in list.chunks(4) {
+                let lane = |i: usize, f: fn(&Candidate) -> f32, pad: f32| four.get(i).map_or(pad, f);
+                let lanes = |f: fn(&Candidate) -> f32, pad: f32| {
+                    Vec4::new(lane(0, f, pad), lane(1, f, pad), lane(2, f, pad), lane(3, f, pad))
+                };
+                out.blocks.push(Block {
+                    centre_distance: lanes(|c| c.centre_distance, f32::INFINITY),
+                    gradient: [
+                        lanes(|c| c.gradient.x, 0.0),
+                        lanes(|c| c.gradient.y, 0.0),
+                        lanes(|c| c.gradient.z, 0.0),
+                    ],
+                    triangles: std::array::from_fn(|i| four.get(i).map_or(0, |c| c.triangle)),
+                });
             }
         }
         out
@@ -244,9 +251,14 @@ fn cell_list(mesh: &TriMesh, origin: Vec3, size: f32, [x, y, z]: [usize; 3]) -> 
     // Parry signs the distance on an oriented mesh; the bound needs its magnitude.
     let reach = mesh.distance_to_local_point(centre, false).abs() + 2.0 * half_diagonal + SLACK;
     let aabb = Aabb::new(centre - Vec3::splat(reach), centre + Vec3::splat(reach));
-    let mut list: Vec<Candidate> = mesh
-        .bvh()
-        .intersect_aabb(&aabb)
+    let near: Vec<u32> = mesh.bvh().intersect_aabb(&aabb).collect();
+    // Far more than a list may hold (a fine mesh): the list would be dropped anyway, so
+    // spare projecting them all.
+    if near.len() > BOX_LIMIT {
+        return Vec::new();
+    }
+    let mut list: Vec<Candidate> = near
+        .into_iter()
         .map(|triangle| {
             let closest = mesh.triangle(triangle).project_local_point(centre, false).point;
             let offset = centre - closest;

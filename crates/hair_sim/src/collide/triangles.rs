@@ -53,6 +53,13 @@ pub const PLANE_TOLERANCE: f32 = 1e-6;
 /// The largest clearance baked, metres: triangles poking above the plane are searched for
 /// this far (twice it) around each triangle.
 const MAX_CLEARANCE: f32 = 0.01;
+/// The smallest clearance cap, metres: above the default 3 mm collision shell, so a particle
+/// resting on the shell can still be certified.
+const MIN_CLEARANCE_CAP: f32 = 0.004;
+/// The clearance cap in a triangle's own sizes: on a fine mesh the search stays within a
+/// few rings of neighbours (their number, not the search radius, is what costs), so the
+/// bake stays linear in the triangle count.
+const CLEARANCE_CAP_PER_SIZE: f32 = 2.0;
 /// Taken off every baked triangle–triangle distance, metres, so it stays a lower bound.
 const DISTANCE_SLACK: f32 = 1e-5;
 
@@ -176,7 +183,8 @@ impl FlatTriangles {
 
 /// Half the distance from `shape` (a triangle or an edge, within `bounds`) to the nearest
 /// of the mesh's `triangles` that rises above the plane of any of `bases`, capped at
-/// [`MAX_CLEARANCE`].
+/// [`MAX_CLEARANCE`], or on a fine mesh at [`CLEARANCE_CAP_PER_SIZE`] times the shape's
+/// size (but not below [`MIN_CLEARANCE_CAP`]).
 fn clearance(
     mesh: &TriMesh,
     triangles: &[FlatTriangle],
@@ -184,14 +192,28 @@ fn clearance(
     bounds: (Vec3, Vec3),
     bases: &[&FlatTriangle],
 ) -> f32 {
-    let reach = 2.0 * MAX_CLEARANCE;
+    let size = (bounds.1 - bounds.0).max_element();
+    let reach = 2.0 * (CLEARANCE_CAP_PER_SIZE * size).clamp(MIN_CLEARANCE_CAP, MAX_CLEARANCE);
     let aabb = Aabb::new(bounds.0 - Vec3::splat(reach), bounds.1 + Vec3::splat(reach));
     // The gap between bounding boxes is a lower bound of the distance: nearest boxes first,
     // and no exact distance for a triangle whose box is farther than the nearest found.
     // On a fine mesh the reach holds thousands of triangles; this keeps the bake linear.
+    // A BVH node whose box lies wholly below every base's plane holds no triangle rising
+    // above it: on a smooth surface that prunes nearly all of the box's neighbourhood.
+    let (low, high) = (aabb.mins, aabb.maxs);
+    let rising_box = |node: &parry3d::partitioning::BvhNode| {
+        let (mins, maxs) = (node.mins(), node.maxs());
+        let (centre, half) = (0.5 * (mins + maxs), 0.5 * (maxs - mins));
+        mins.cmple(high).all()
+            && maxs.cmpge(low).all()
+            && bases.iter().any(|base| {
+                let height = base.normal.dot(centre - Vec3::from(base.a)) + base.normal.abs().dot(half);
+                height > PLANE_TOLERANCE
+            })
+    };
     let mut rising: Vec<(f32, u32)> = mesh
         .bvh()
-        .intersect_aabb(&aabb)
+        .leaves(rising_box)
         .filter(|&i| bases.iter().any(|base| triangles[i as usize].rises_above(base)))
         .map(|i| (box_gap(bounds, triangles[i as usize].bounds()), i))
         .filter(|&(gap, _)| gap < reach)
