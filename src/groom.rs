@@ -1,11 +1,11 @@
 //! Growing a groom on a head entity: description, status, and the growth task.
 
-use crate::HairError;
 use crate::convert::{pose_and_scale, to_sim};
 use crate::head_mesh::{ScalpWeights, read_head_mesh, scalp_weights};
 use crate::settings::{HairSettings, HairSettingsOverride, effective};
 use crate::simulation::HairState;
 use crate::skinning::ScalpJoint;
+use crate::{HairError, HairErrorKind};
 use bevy::asset::LoadState;
 use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
 use bevy::prelude::*;
@@ -159,9 +159,9 @@ pub enum GroomStatus {
         /// Particles per guide.
         particles_per_strand: usize,
     },
-    /// Could not grow; the reason is readable. The groom stays inert until its
-    /// description or mesh changes.
-    Failed(String),
+    /// Could not grow, and why. The groom stays inert until its description or mesh
+    /// changes.
+    Failed(HairErrorKind),
 }
 
 /// Everything a background growth task hands back.
@@ -176,7 +176,7 @@ pub(crate) struct Grown {
 
 #[derive(Component)]
 pub(crate) struct GrowthTask {
-    task: Task<Result<Grown, String>>,
+    task: Task<Result<Grown, HairErrorKind>>,
     /// A skinned head's scalp joint, found before the task started.
     joint: Option<ScalpJoint>,
 }
@@ -187,12 +187,12 @@ pub(crate) fn head_frame(
     transform: &GlobalTransform,
     joint: Option<&ScalpJoint>,
     joints: &Query<&GlobalTransform>,
-) -> Result<GlobalTransform, String> {
+) -> Result<GlobalTransform, HairErrorKind> {
     match joint {
         None => Ok(*transform),
-        Some(joint) => joint
-            .frame(joints)
-            .ok_or_else(|| format!("the skin's scalp joint {} has no GlobalTransform (despawned?)", joint.joint)),
+        Some(joint) => joint.frame(joints).ok_or_else(|| {
+            HairErrorKind::Skin(format!("the skin's scalp joint {} has no GlobalTransform (despawned?)", joint.joint))
+        }),
     }
 }
 
@@ -256,22 +256,22 @@ pub(crate) fn start_growth(
         if *status != GroomStatus::WaitingForMesh {
             continue;
         }
-        let mut fail = |reason: String| {
-            warn!("hair on {entity}: {reason}");
-            errors.write(HairError { entity, reason: reason.clone() });
-            *status = GroomStatus::Failed(reason);
+        let mut fail = |kind: HairErrorKind| {
+            warn!("hair on {entity}: {kind}");
+            errors.write(HairError { entity, kind: kind.clone() });
+            *status = GroomStatus::Failed(kind);
         };
         let Some(mesh3d) = mesh3d else {
-            fail("the entity has a HairGroom but no Mesh3d to grow on".into());
+            fail(HairErrorKind::NoMesh);
             continue;
         };
         let Some(meshes) = meshes.as_deref() else {
-            fail("there is no Assets<Mesh>: add MeshPlugin (part of DefaultPlugins)".into());
+            fail(HairErrorKind::NoMeshAssets);
             continue;
         };
         let Some(mesh) = meshes.get(&mesh3d.0) else {
             if let Some(LoadState::Failed(e)) = server.as_ref().map(|s| s.load_state(&mesh3d.0)) {
-                fail(format!("the head mesh failed to load: {e}"));
+                fail(HairErrorKind::MeshLoad(e.to_string()));
             }
             continue; // still loading
         };
@@ -282,8 +282,8 @@ pub(crate) fn start_growth(
             Some((skin, None)) => {
                 match server.as_ref().map(|s| s.load_state(&skin.inverse_bindposes)) {
                     Some(LoadState::Loading) => {}
-                    Some(LoadState::Failed(e)) => fail(format!("the head's inverse bind matrices failed to load: {e}")),
-                    _ => fail("the head's SkinnedMesh names inverse bind matrices that are not in Assets".into()),
+                    Some(LoadState::Failed(e)) => fail(HairErrorKind::Bindposes(format!("failed to load: {e}"))),
+                    _ => fail(HairErrorKind::Bindposes("named by the SkinnedMesh are not in Assets".into())),
                 }
                 continue;
             }
@@ -339,29 +339,31 @@ pub(crate) fn start_growth(
 }
 
 /// Rejects descriptions that cannot grow anything, with a reason a user understands.
-fn check_groom(groom: &HairGroom) -> Result<(), String> {
+fn check_groom(groom: &HairGroom) -> Result<(), HairErrorKind> {
+    let bad = |field: &'static str, message: String| Err(HairErrorKind::Groom { field, message });
     if groom.guides == 0 {
-        return Err("the groom asks for 0 guides".into());
+        return bad("guides", "the groom asks for 0 guides".into());
     }
     if groom.segments == 0 || groom.segments > 256 {
-        return Err(format!("the groom asks for {} segments per strand; use 1 to 256", groom.segments));
+        return bad("segments", format!("the groom asks for {} segments per strand; use 1 to 256", groom.segments));
     }
     if !(groom.length.is_finite() && groom.length > 0.0) {
-        return Err(format!("the groom length {} is not a positive number of metres", groom.length));
+        return bad("length", format!("the groom length {} is not a positive number of metres", groom.length));
     }
     if !(groom.length_variation.is_finite() && (0.0..1.0).contains(&groom.length_variation)) {
-        return Err(format!("the groom length variation {} must be in 0..1", groom.length_variation));
+        let message = format!("the groom length variation {} must be in 0..1", groom.length_variation);
+        return bad("length_variation", message);
     }
     if !groom.curl.is_finite() {
-        return Err(format!("the groom curl {} is not a number", groom.curl));
+        return bad("curl", format!("the groom curl {} is not a number", groom.curl));
     }
     if !groom.comb.is_finite() {
-        return Err(format!("the groom comb direction {} is not finite", groom.comb));
+        return bad("comb", format!("the groom comb direction {} is not finite", groom.comb));
     }
     if let RootDistribution::Vertices { jitter } = groom.distribution
         && !(0.0..=1.0).contains(&jitter)
     {
-        return Err(format!("the root jitter {jitter} must be in 0..=1 (0: on the vertex)"));
+        return bad("distribution", format!("the root jitter {jitter} must be in 0..=1 (0: on the vertex)"));
     }
     Ok(())
 }
@@ -374,15 +376,14 @@ fn grow(
     params: SimParams,
     pose: Pose,
     scale: Vec3,
-) -> Result<Grown, String> {
+) -> Result<Grown, HairErrorKind> {
     let roots = match groom.distribution {
         RootDistribution::Vertices { jitter } => {
             sample_roots_at_vertices(&head, &weights.vertices, groom.guides, jitter, groom.seed)
         }
         RootDistribution::Uniform => sample_roots(&head, &weights.triangles, groom.guides, groom.seed),
         RootDistribution::Poisson => sample_roots_poisson(&head, &weights.triangles, groom.guides, groom.seed),
-    }
-    .map_err(|e| e.to_string())?;
+    }?;
     let guide_params = GuideParams {
         segments: groom.segments,
         length: groom.length,
@@ -390,11 +391,10 @@ fn grow(
         curl: groom.curl,
         comb: to_sim(groom.comb),
     };
-    let guides = grow_guides(&head, &roots, &guide_params, groom.seed).map_err(|e| e.to_string())?;
-    let rest = RestShape::new(guides, groom.segments + 1).map_err(|e| e.to_string())?;
-    let collider = HeadCollider::new(&head, DEFAULT_GRID_RESOLUTION).map_err(|e| e.to_string())?;
-    let rest = settle(rest, Some(&collider), &params, groom.settle_steps as usize, guide_params.comb)
-        .map_err(|e| e.to_string())?;
+    let guides = grow_guides(&head, &roots, &guide_params, groom.seed)?;
+    let rest = RestShape::new(guides, groom.segments + 1)?;
+    let collider = HeadCollider::new(&head, DEFAULT_GRID_RESOLUTION)?;
+    let rest = settle(rest, Some(&collider), &params, groom.settle_steps as usize, guide_params.comb)?;
     let strands = Strands::new(rest, pose);
     Ok(Grown { strands, collider: Arc::new(collider), head: Arc::new(head), roots, scale, groom })
 }
@@ -422,10 +422,10 @@ pub(crate) fn finish_growth(
                 let (pose, _) = pose_and_scale(&frame);
                 commands.entity(entity).insert(HairState::new(grown, pose, task.joint.take()));
             }
-            Err(reason) => {
-                warn!("hair on {entity}: {reason}");
-                errors.write(HairError { entity, reason: reason.clone() });
-                *status = GroomStatus::Failed(reason);
+            Err(kind) => {
+                warn!("hair on {entity}: {kind}");
+                errors.write(HairError { entity, kind: kind.clone() });
+                *status = GroomStatus::Failed(kind);
             }
         }
     }

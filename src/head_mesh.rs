@@ -1,5 +1,6 @@
 //! Reading a Bevy [`Mesh`] as a head: triangles, normals and scalp labels.
 
+use crate::HairErrorKind;
 use crate::convert::{from_sim, to_sim};
 use crate::groom::ScalpSource;
 use bevy::asset::RenderAssetUsages;
@@ -20,17 +21,20 @@ const SKIN: [f32; 4] = [0.8, 0.55, 0.45, 1.0];
 /// Reads a Bevy mesh as a head (scaled by `scale`), repairing what can be repaired
 /// (triangles without area, inside-out winding: see [`HeadMesh::repaired`]), or says why
 /// it cannot be read.
-pub(crate) fn read_head_mesh(mesh: &Mesh, scale: Vec3) -> Result<(HeadMesh, MeshRepairs), String> {
+pub(crate) fn read_head_mesh(mesh: &Mesh, scale: Vec3) -> Result<(HeadMesh, MeshRepairs), HairErrorKind> {
     if mesh.primitive_topology() != PrimitiveTopology::TriangleList {
-        return Err(format!("the head mesh is a {:?}; a TriangleList is needed", mesh.primitive_topology()));
+        return Err(HairErrorKind::MeshFormat(format!(
+            "the head mesh is a {:?}; a TriangleList is needed",
+            mesh.primitive_topology()
+        )));
     }
     let positions = match mesh.try_attribute(Mesh::ATTRIBUTE_POSITION) {
         Ok(VertexAttributeValues::Float32x3(p)) => p,
-        Ok(_) => return Err("the head mesh positions are not Float32x3".into()),
+        Ok(_) => return Err(HairErrorKind::MeshFormat("the head mesh positions are not Float32x3".into())),
         Err(e) => {
-            return Err(format!(
+            return Err(HairErrorKind::MeshFormat(format!(
                 "cannot read the head mesh positions ({e}); keep the mesh in the main world (RenderAssetUsages::MAIN_WORLD)"
-            ));
+            )));
         }
     };
     let positions: Vec<_> = positions.iter().map(|&p| to_sim(Vec3::from_array(p) * scale)).collect();
@@ -38,10 +42,10 @@ pub(crate) fn read_head_mesh(mesh: &Mesh, scale: Vec3) -> Result<(HeadMesh, Mesh
         Ok(Some(Indices::U16(i))) => i.iter().map(|&i| i as u32).collect(),
         Ok(Some(Indices::U32(i))) => i.clone(),
         Ok(None) => (0..positions.len() as u32).collect(),
-        Err(e) => return Err(format!("cannot read the head mesh indices ({e})")),
+        Err(e) => return Err(HairErrorKind::MeshFormat(format!("cannot read the head mesh indices ({e})"))),
     };
     let triangles = indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
-    let (mut head, repairs) = HeadMesh::repaired(positions, triangles).map_err(|e| e.to_string())?;
+    let (mut head, repairs) = HeadMesh::repaired(positions, triangles)?;
     // Authored normals are smoother than recomputed ones across UV seams: prefer them.
     // Under non-uniform scale a normal transforms by the inverse scale.
     if let Ok(VertexAttributeValues::Float32x3(normals)) = mesh.try_attribute(Mesh::ATTRIBUTE_NORMAL)
@@ -72,42 +76,43 @@ pub(crate) fn scalp_weights(
     source: ScalpSource,
     predicate: Option<fn(Vec3) -> bool>,
     scale: Vec3,
-) -> Result<ScalpWeights, String> {
+) -> Result<ScalpWeights, HairErrorKind> {
     let vertex_weights: Vec<f32> = match source {
         ScalpSource::Predicate => {
-            let predicate = predicate.ok_or("ScalpSource::Predicate needs a ScalpPredicate component on the head")?;
+            let predicate = predicate.ok_or_else(|| {
+                HairErrorKind::ScalpLabels("ScalpSource::Predicate needs a ScalpPredicate component on the head".into())
+            })?;
             head.positions.iter().map(|&p| if predicate(from_sim(p) / scale) { 1.0 } else { 0.0 }).collect()
         }
         ScalpSource::Everywhere => vec![1.0; head.positions.len()],
         ScalpSource::VertexColor { threshold } => match mesh.try_attribute(Mesh::ATTRIBUTE_COLOR) {
             Ok(VertexAttributeValues::Float32x4(colors)) => labels_from_colors(colors, threshold),
-            Ok(_) => return Err("the head mesh COLOR_0 is not Float32x4".into()),
+            Ok(_) => return Err(HairErrorKind::ScalpLabels("the head mesh COLOR_0 is not Float32x4".into())),
             Err(_) => {
-                return Err("the head mesh has no vertex colours (COLOR_0) to read the painted scalp from".into());
+                return Err(HairErrorKind::ScalpLabels(
+                    "the head mesh has no vertex colours (COLOR_0) to read the painted scalp from".into(),
+                ));
             }
         },
         ScalpSource::Attribute => match mesh.try_attribute(ATTRIBUTE_SCALP) {
             Ok(VertexAttributeValues::Float32(w)) => w.clone(),
-            _ => return Err("the head mesh has no _SCALP attribute to read scalp density from".into()),
+            _ => {
+                return Err(HairErrorKind::ScalpLabels(
+                    "the head mesh has no _SCALP attribute to read scalp density from".into(),
+                ));
+            }
         },
     };
     if vertex_weights.len() != head.positions.len() {
-        return Err(format!(
+        return Err(HairErrorKind::ScalpLabels(format!(
             "the scalp labels cover {} vertices but the mesh has {}",
             vertex_weights.len(),
             head.positions.len()
-        ));
+        )));
     }
     let weights = triangle_weights(head, &vertex_weights);
     if weights.iter().all(|&w| w <= 0.0) {
-        return Err(match source {
-            ScalpSource::VertexColor { threshold } => format!(
-                "no triangle of the head mesh is painted as scalp: COLOR_0 has no three-vertex region darker than {threshold}"
-            ),
-            ScalpSource::Attribute => "no triangle of the head mesh has a _SCALP weight above 0".into(),
-            ScalpSource::Predicate => "the scalp predicate accepted no triangle of the head mesh".into(),
-            ScalpSource::Everywhere => "the head mesh has no usable triangles".into(),
-        });
+        return Err(HairErrorKind::NoScalp(source));
     }
     Ok(ScalpWeights { vertices: vertex_weights, triangles: weights })
 }

@@ -40,6 +40,7 @@ mod clock;
 mod colliders;
 mod convert;
 mod diagnostics;
+mod error;
 mod groom;
 mod head_mesh;
 #[cfg(feature = "render")]
@@ -51,6 +52,7 @@ mod skinning;
 pub use clock::{Hair, HairSchedule, HairTime};
 pub use colliders::HairCollider;
 pub use diagnostics::HairDiagnostics;
+pub use error::{HairError, HairErrorKind};
 pub use groom::{GroomStatus, HairGroom, RootDistribution, ScalpPredicate, ScalpSource};
 pub use hair_sim;
 pub use hair_sim::groom::{ChildParams, Spiral};
@@ -70,9 +72,9 @@ use std::time::Duration;
 /// Everything needed to add hair to an app.
 pub mod prelude {
     pub use crate::{
-        ChildParams, CollisionResponse, GroomStatus, Hair, HairCollider, HairDiagnostics, HairError, HairGroom,
-        HairPlugin, HairSchedule, HairSettings, HairSettingsOverride, HairState, HairSystems, HairTime, LengthMode,
-        RootDistribution, ScalpPredicate, ScalpSource, SimParams, Spiral, Wind,
+        ChildParams, CollisionResponse, GroomStatus, Hair, HairCollider, HairDiagnostics, HairError, HairErrorKind,
+        HairGroom, HairPlugin, HairSchedule, HairSettings, HairSettingsOverride, HairState, HairSystems, HairTime,
+        LengthMode, RootDistribution, ScalpPredicate, ScalpSource, SimParams, Spiral, Wind,
     };
     #[cfg(feature = "render")]
     pub use crate::{HairLook, HairRenderStats, SpecularLobe};
@@ -124,22 +126,6 @@ pub enum HairSystems {
     Writeback,
     /// Uploads interpolated guide positions for drawing (feature `render`).
     Draw,
-}
-
-/// Something is wrong with a groom: its head, its mesh, its description or its settings.
-/// The groom stays inert (or runs with the bad settings replaced) until it is fixed.
-#[derive(Message, Clone, Debug, PartialEq)]
-pub struct HairError {
-    /// The head entity whose groom has the problem.
-    pub entity: Entity,
-    /// What is wrong, in words.
-    pub reason: String,
-}
-
-impl std::fmt::Display for HairError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "hair on {}: {}", self.entity, self.reason)
-    }
 }
 
 impl Plugin for HairPlugin {

@@ -6,7 +6,6 @@
 //! keeps the positions in head space ([`writeback`]) for drawing on the head as it is
 //! posed in the frame.
 
-use crate::HairError;
 use crate::clock::{Hair, HairTime};
 use crate::colliders::HairCollider;
 use crate::convert::{from_sim, pose_and_scale, to_sim};
@@ -14,6 +13,7 @@ use crate::diagnostics::HairDiagnostics;
 use crate::groom::{GroomStatus, Grown, HairGroom, head_frame};
 use crate::settings::{HairSettings, HairSettingsOverride, effective};
 use crate::skinning::{RootSkin, ScalpJoint, SkinPatch};
+use crate::{HairError, HairErrorKind};
 use bevy::diagnostic::Diagnostics;
 use bevy::platform::time::Instant;
 use bevy::prelude::*;
@@ -372,10 +372,9 @@ pub(crate) fn simulate(
         let fields: Vec<&'static str> = issues.iter().map(|i| i.field).collect();
         if fields != state.reported_issues {
             if !issues.is_empty() {
-                let list: Vec<String> = issues.iter().map(ToString::to_string).collect();
-                let reason = format!("invalid hair settings: {}", list.join("; "));
-                warn!("hair on {entity}: {reason}");
-                errors.write(HairError { entity, reason });
+                let kind = HairErrorKind::Settings(issues);
+                warn!("hair on {entity}: {kind}");
+                errors.write(HairError { entity, kind });
             }
             state.reported_issues = fields;
         }

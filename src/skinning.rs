@@ -11,6 +11,7 @@
 //! (a neck blended toward another joint, bending as the head turns) is skinned every frame
 //! ([`SkinPatch`]) and collided with as it is drawn, beside the collider baked at bind pose.
 
+use crate::HairErrorKind;
 use crate::convert::to_sim;
 use bevy::math::Affine3A;
 use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
@@ -65,24 +66,29 @@ impl ScalpJoint {
         bindposes: &SkinnedMeshInverseBindposes,
         head: &HeadMesh,
         scalp: &[f32],
-    ) -> Result<ScalpJoint, String> {
+    ) -> Result<ScalpJoint, HairErrorKind> {
         let (Some(VertexAttributeValues::Uint16x4(indices)), Some(VertexAttributeValues::Float32x4(weights))) =
             (mesh.attribute(Mesh::ATTRIBUTE_JOINT_INDEX), mesh.attribute(Mesh::ATTRIBUTE_JOINT_WEIGHT))
         else {
-            return Err("the head has a SkinnedMesh but its mesh has no joint indices and weights (JOINTS_0, \
-                        WEIGHTS_0 as Uint16x4 and Float32x4)"
-                .into());
+            return Err(HairErrorKind::Skin(
+                "the head has a SkinnedMesh but its mesh has no joint indices and weights (JOINTS_0, WEIGHTS_0 as \
+                 Uint16x4 and Float32x4)"
+                    .into(),
+            ));
         };
         let mut per_joint = vec![0.0f64; skin.joints.len()];
         for (triangle, &w) in head.triangles.iter().zip(scalp).filter(|(_, w)| **w > 0.0) {
             for &v in triangle {
                 let (Some(joints), Some(weights)) = (indices.get(v as usize), weights.get(v as usize)) else {
-                    return Err("the head mesh has fewer joint weights than vertices".into());
+                    return Err(HairErrorKind::Skin("the head mesh has fewer joint weights than vertices".into()));
                 };
                 for (&j, &jw) in joints.iter().zip(weights) {
                     if jw > 0.0 && jw.is_finite() {
                         let slot = per_joint.get_mut(j as usize).ok_or_else(|| {
-                            format!("a scalp vertex names joint {j}, but the skin has {} joints", skin.joints.len())
+                            let joints = skin.joints.len();
+                            HairErrorKind::Skin(format!(
+                                "a scalp vertex names joint {j}, but the skin has {joints} joints"
+                            ))
                         })?;
                         *slot += f64::from(w * jw);
                     }
@@ -91,13 +97,14 @@ impl ScalpJoint {
         }
         let total: f64 = per_joint.iter().sum();
         let Some((index, &best)) = per_joint.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)) else {
-            return Err("the head's SkinnedMesh has no joints".into());
+            return Err(HairErrorKind::Skin("the head's SkinnedMesh has no joints".into()));
         };
         if total <= 0.0 {
-            return Err("no scalp vertex of the skinned head has a joint weight above 0".into());
+            return Err(HairErrorKind::Skin("no scalp vertex of the skinned head has a joint weight above 0".into()));
         }
         let inverse_bind = bindposes.get(index).ok_or_else(|| {
-            format!("the skin has {} joints but {} inverse bind matrices", skin.joints.len(), bindposes.len())
+            let (joints, matrices) = (skin.joints.len(), bindposes.len());
+            HairErrorKind::Skin(format!("the skin has {joints} joints but {matrices} inverse bind matrices"))
         })?;
         let joints = skin
             .joints

@@ -11,13 +11,13 @@ use bevy_hair::hair_sim::mesh::HeadMesh;
 use bevy_hair::prelude::*;
 use common::*;
 
-fn errors(app: &App) -> Vec<String> {
+fn errors(app: &App) -> Vec<HairErrorKind> {
     let messages = app.world().resource::<Messages<HairError>>();
-    messages.iter_current_update_messages().map(|e| e.reason.clone()).collect()
+    messages.iter_current_update_messages().map(|e| e.kind.clone()).collect()
 }
 
 /// Updates until the groom fails, collecting every error message on the way.
-fn failure(app: &mut App, head: Entity) -> (String, Vec<String>) {
+fn failure(app: &mut App, head: Entity) -> (HairErrorKind, Vec<HairErrorKind>) {
     let mut seen = Vec::new();
     for _ in 0..50 {
         app.update();
@@ -39,7 +39,8 @@ fn unpainted_head_names_the_missing_paint() {
     let head = app.world_mut().spawn((Mesh3d(mesh), groom())).id();
     let (reason, messages) = failure(&mut app, head);
     println!("{reason}");
-    assert!(reason.contains("COLOR_0"), "{reason}");
+    assert_eq!(reason, HairErrorKind::NoScalp(ScalpSource::VertexColor { threshold: 0.5 }));
+    assert!(reason.to_string().contains("COLOR_0"), "{reason}");
     assert_eq!(messages, [reason]);
     assert!(app.world().get::<HairState>(head).is_none());
     run(&mut app, 5); // keeps running, stays inert
@@ -61,12 +62,14 @@ fn mesh_without_colours_or_triangles_is_reported() {
         let mesh = app.world_mut().resource_mut::<Assets<Mesh>>().add(mesh);
         let head = app.world_mut().spawn((Mesh3d(mesh), groom())).id();
         let (reason, _) = failure(&mut app, head);
-        println!("{reason}");
-        assert!(reason.contains(expected), "{reason:?} should mention {expected:?}");
+        println!("{reason:?}: {reason}");
+        assert!(matches!(reason, HairErrorKind::ScalpLabels(_) | HairErrorKind::Mesh(_)), "{reason:?}");
+        assert!(reason.to_string().contains(expected), "{reason:?} should mention {expected:?}");
     }
     let bare = app.world_mut().spawn(groom()).id();
     let (reason, _) = failure(&mut app, bare);
-    assert!(reason.contains("no Mesh3d"), "{reason}");
+    assert_eq!(reason, HairErrorKind::NoMesh);
+    assert!(reason.to_string().contains("no Mesh3d"), "{reason}");
 }
 
 #[test]
@@ -74,7 +77,8 @@ fn bad_groom_description_is_reported() {
     let mut app = app();
     let head = spawn_head(&mut app, HairGroom { length: f32::NAN, ..groom() }, Transform::default());
     let (reason, _) = failure(&mut app, head);
-    assert!(reason.contains("length NaN"), "{reason}");
+    assert!(matches!(reason, HairErrorKind::Groom { field: "length", .. }), "{reason:?}");
+    assert!(reason.to_string().contains("length NaN"), "{reason}");
     // Fixing the description regrows the groom.
     app.world_mut().get_mut::<HairGroom>(head).unwrap().length = 0.2;
     wait_until_ready(&mut app, head);
@@ -83,7 +87,8 @@ fn bad_groom_description_is_reported() {
     let vertices = |jitter| HairGroom { distribution: RootDistribution::Vertices { jitter }, ..groom() };
     let head = spawn_head(&mut app, vertices(f32::NAN), Transform::default());
     let (reason, _) = failure(&mut app, head);
-    assert!(reason.contains("root jitter NaN"), "{reason}");
+    assert!(matches!(reason, HairErrorKind::Groom { field: "distribution", .. }), "{reason:?}");
+    assert!(reason.to_string().contains("root jitter NaN"), "{reason}");
     app.world_mut().get_mut::<HairGroom>(head).unwrap().distribution = RootDistribution::Vertices { jitter: 0.5 };
     wait_until_ready(&mut app, head);
     assert_eq!(state(&app, head).strands().strand_count(), 200);
@@ -100,9 +105,11 @@ fn nan_settings_are_named_once_and_never_simulated() {
     app.update();
     let reported = errors(&app);
     println!("{reported:?}");
-    assert_eq!(reported.len(), 1);
-    for field in ["friction", "collision_thickness", "gravity.y"] {
-        assert!(reported[0].contains(field), "{field} missing in {reported:?}");
+    let [HairErrorKind::Settings(issues)] = reported.as_slice() else { panic!("one settings error: {reported:?}") };
+    let fields: Vec<&str> = issues.iter().map(|i| i.field).collect();
+    assert_eq!(fields, ["collision_thickness", "friction", "gravity.y"]);
+    for field in fields {
+        assert!(reported[0].to_string().contains(field), "{field} missing in {}", reported[0]);
     }
     run(&mut app, 60);
     assert!(errors(&app).is_empty(), "reported once, not every step");
