@@ -1,178 +1,24 @@
-//! Growing a groom on a head entity: description, status, and the growth task.
+//! Growing a groom on a head entity: from its description ([`HairGroom`]) and mesh to a
+//! simulating [`HairState`], on a background task; [`GroomPlugin`] wires it.
 
+use crate::HairSystems;
 use crate::convert::{pose_and_scale, to_sim};
+use crate::description::{GroomStatus, HairError, HairErrorKind, HairGroom, RootDistribution, ScalpPredicate};
 use crate::head_mesh::{ScalpWeights, read_head_mesh, scalp_weights};
 use crate::settings::{HairSettings, HairSettingsOverride, effective};
+use crate::simulation::Grown;
 use crate::simulation::HairState;
-use crate::skinning::ScalpJoint;
-use crate::{HairError, HairErrorKind};
+use crate::skinning::{ScalpJoint, head_frame};
 use bevy::asset::LoadState;
 use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
 use bevy::prelude::*;
 use bevy::tasks::{AsyncComputeTaskPool, Task, block_on, futures_lite::future};
 use hair_sim::collide::{BAKE_TRIANGLE_BUDGET, DEFAULT_GRID_RESOLUTION, HeadCollider};
-use hair_sim::groom::{
-    ChildParams, GuideParams, grow_guides, sample_roots, sample_roots_at_vertices, sample_roots_poisson, settle,
-};
+use hair_sim::groom::{GuideParams, grow_guides, sample_roots, sample_roots_at_vertices, sample_roots_poisson, settle};
 use hair_sim::math::Pose;
 use hair_sim::mesh::HeadMesh;
 use hair_sim::solver::{RestShape, SimParams, Strands};
 use std::sync::Arc;
-
-/// Where on the head hair may grow.
-#[derive(Reflect, Clone, Copy, Debug, PartialEq)]
-pub enum ScalpSource {
-    /// Vertices painted darker than `threshold` in `COLOR_0` (luminance of linear RGB):
-    /// the reference's convention, and what Blender's vertex paint exports to glTF.
-    VertexColor {
-        /// Luminance below which a vertex is scalp.
-        threshold: f32,
-    },
-    /// The float vertex attribute `_SCALP` ([`ATTRIBUTE_SCALP`](crate::ATTRIBUTE_SCALP)),
-    /// a density weight 0..1.
-    Attribute,
-    /// The [`ScalpPredicate`] component on the same entity decides per vertex.
-    Predicate,
-    /// The whole mesh.
-    Everywhere,
-}
-
-impl Default for ScalpSource {
-    fn default() -> Self {
-        ScalpSource::VertexColor { threshold: 0.5 }
-    }
-}
-
-/// How roots are spread over the scalp.
-#[derive(Reflect, Clone, Copy, Debug, Default, PartialEq)]
-pub enum RootDistribution {
-    /// The reference's roots: drawn uniformly from the scalp-labelled vertices, each
-    /// growing along its vertex normal. Density follows the tessellation (a finely meshed
-    /// region gets more hair); see [`sample_roots_at_vertices`](hair_sim::groom::sample_roots_at_vertices).
-    Vertices {
-        /// 0: on the vertex; up to 1: anywhere in the triangles around it (roots that
-        /// repeat a vertex then spread out instead of growing as one).
-        jitter: f32,
-    },
-    /// Independent samples, uniform by area: even on average over uneven tessellation,
-    /// but some clump and some leave gaps.
-    Uniform,
-    /// Poisson-disk: uniform by area, but no two roots closer than about 0.7 of the mean
-    /// spacing, so coverage is even.
-    #[default]
-    Poisson,
-}
-
-/// A user rule for [`ScalpSource::Predicate`]: `true` for head-local vertex positions
-/// (in the mesh's own units, before the entity's scale) that are scalp.
-#[derive(Component, Clone, Copy)]
-pub struct ScalpPredicate(pub fn(Vec3) -> bool);
-
-/// Put hair on this entity: the description of a groom. The entity needs a [`Mesh3d`]
-/// (the head) and a transform. The plugin grows the strands once the mesh is loaded, and
-/// again whenever this component changes.
-#[derive(Component, Reflect, Clone, Debug, PartialEq)]
-#[reflect(Component, Default)]
-#[require(GroomStatus, Transform)]
-pub struct HairGroom {
-    /// Number of guide strands (simulated).
-    pub guides: usize,
-    /// Segments per guide (the reference uses 10).
-    pub segments: usize,
-    /// Strand length, metres.
-    pub length: f32,
-    /// Random length variation, fraction of `length`.
-    pub length_variation: f32,
-    /// Curl, radians per segment.
-    pub curl: f32,
-    /// Combing, in the head mesh's frame: strands start along the surface normal tilted
-    /// toward this direction (length 1 tilts by 45°), and the settle pass brushes them
-    /// that way (`|g|·comb` added to gravity) before taking the rest shape. Zero grows
-    /// straight out and lets the hair fall where gravity puts it, as the reference does.
-    /// `Vec3::new(0.0, 0.0, -1.5)` on a +Z-facing head sweeps the hair back, out of the face.
-    pub comb: Vec3,
-    /// Seed: the same seed grows the same groom.
-    pub seed: u64,
-    /// Which part of the mesh is scalp.
-    pub scalp: ScalpSource,
-    /// How roots are spread over the scalp.
-    pub distribution: RootDistribution,
-    /// Child strands drawn around each guide (the Archimedean spiral, clumping, tip
-    /// spread). Changing only this does not regrow the guides.
-    pub children: ChildParams,
-    /// Steps of the settle ("comb") pass that lets freshly grown hair fall onto the head
-    /// before it becomes the rest shape; 0 keeps the strands standing along the normals.
-    pub settle_steps: u32,
-}
-
-impl Default for HairGroom {
-    fn default() -> Self {
-        HairGroom {
-            guides: 1024,
-            segments: 10,
-            length: 0.25,
-            length_variation: 0.2,
-            curl: 0.0,
-            comb: Vec3::ZERO,
-            seed: 1,
-            scalp: ScalpSource::default(),
-            distribution: RootDistribution::default(),
-            children: ChildParams::default(),
-            settle_steps: 180,
-        }
-    }
-}
-
-impl HairGroom {
-    /// The reference's groom: roots on the scalp-labelled vertices along their normals,
-    /// 10 segments per guide, children on the spiral with a = b = 2. Pair it with
-    /// [`SimParams::reference`] for the reference's simulation.
-    pub fn reference() -> Self {
-        HairGroom {
-            segments: 10,
-            distribution: RootDistribution::Vertices { jitter: 0.0 },
-            children: ChildParams { spiral: hair_sim::groom::Spiral { a: 2.0, b: 2.0, ..default() }, ..default() },
-            ..default()
-        }
-    }
-
-    /// Whether `other` grows the same guides: equal in everything but the children,
-    /// which are placed at draw time.
-    pub fn grows_like(&self, other: &HairGroom) -> bool {
-        HairGroom { children: other.children, ..self.clone() } == *other
-    }
-}
-
-/// Where a groom stands. Check it (or read [`HairError`] messages) to learn why a head
-/// has no hair.
-#[derive(Component, Clone, Debug, Default, PartialEq)]
-pub enum GroomStatus {
-    /// Waiting for the head's mesh asset to load.
-    #[default]
-    WaitingForMesh,
-    /// Strands are being grown on a background task.
-    Growing,
-    /// Simulating.
-    Ready {
-        /// Guide strands.
-        guides: usize,
-        /// Particles per guide.
-        particles_per_strand: usize,
-    },
-    /// Could not grow, and why. The groom stays inert until its description or mesh
-    /// changes.
-    Failed(HairErrorKind),
-}
-
-/// Everything a background growth task hands back.
-pub(crate) struct Grown {
-    pub strands: Strands,
-    pub collider: Arc<HeadCollider>,
-    pub head: Arc<HeadMesh>,
-    pub roots: Vec<hair_sim::groom::RootBinding>,
-    pub scale: Vec3,
-    pub groom: HairGroom,
-}
 
 #[derive(Component)]
 pub(crate) struct GrowthTask {
@@ -181,18 +27,20 @@ pub(crate) struct GrowthTask {
     joint: Option<ScalpJoint>,
 }
 
-/// Where the head is drawn this frame: its own transform, or for a skinned head where its
-/// scalp joint puts the bind-pose mesh.
-pub(crate) fn head_frame(
-    transform: &GlobalTransform,
-    joint: Option<&ScalpJoint>,
-    joints: &Query<&GlobalTransform>,
-) -> Result<GlobalTransform, HairErrorKind> {
-    match joint {
-        None => Ok(*transform),
-        Some(joint) => joint.frame(joints).ok_or_else(|| {
-            HairErrorKind::Skin(format!("the skin's scalp joint {} has no GlobalTransform (despawned?)", joint.joint))
-        }),
+/// Growth: a [`HairGroom`] on a head with a mesh becomes a simulating
+/// [`HairState`](crate::HairState), in [`HairSystems::Grow`]. Part of
+/// [`HairPlugin`](crate::HairPlugin).
+pub struct GroomPlugin;
+
+impl Plugin for GroomPlugin {
+    fn build(&self, app: &mut App) {
+        app.register_type::<HairGroom>()
+            .add_message::<HairError>()
+            // Read to regrow hot-reloaded heads; present with `MeshPlugin`, added here so a
+            // missing one is reported by growth instead of failing the system.
+            .add_message::<AssetEvent<Mesh>>()
+            .add_observer(forget_groom)
+            .add_systems(PostUpdate, (request_growth, start_growth, finish_growth).chain().in_set(HairSystems::Grow));
     }
 }
 

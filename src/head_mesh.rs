@@ -1,8 +1,7 @@
 //! Reading a Bevy [`Mesh`] as a head: triangles, normals and scalp labels.
 
-use crate::HairErrorKind;
 use crate::convert::{from_sim, to_sim};
-use crate::groom::ScalpSource;
+use crate::description::{HairErrorKind, ScalpSource};
 use bevy::asset::RenderAssetUsages;
 use bevy::math::Vec3;
 use bevy::mesh::{Indices, Mesh, MeshVertexAttribute, PrimitiveTopology, VertexAttributeValues, VertexFormat};

@@ -39,8 +39,8 @@
 mod clock;
 mod colliders;
 mod convert;
+mod description;
 mod diagnostics;
-mod error;
 mod groom;
 mod head_mesh;
 #[cfg(feature = "render")]
@@ -51,9 +51,11 @@ mod skinning;
 
 pub use clock::{Hair, HairSchedule, HairTime};
 pub use colliders::HairCollider;
+pub use description::{
+    GroomStatus, HairError, HairErrorKind, HairGroom, RootDistribution, ScalpPredicate, ScalpSource,
+};
 pub use diagnostics::HairDiagnostics;
-pub use error::{HairError, HairErrorKind};
-pub use groom::{GroomStatus, HairGroom, RootDistribution, ScalpPredicate, ScalpSource};
+pub use groom::GroomPlugin;
 pub use hair_sim;
 pub use hair_sim::groom::{ChildParams, Spiral};
 pub use hair_sim::solver::{CollisionResponse, LengthMode, SimParams, StepReport, Wind};
@@ -62,6 +64,7 @@ pub use head_mesh::{ATTRIBUTE_SCALP, is_procedural_scalp, procedural_head_mesh};
 pub use render::{HairLook, HairRenderStats, SpecularLobe};
 pub use settings::{HairSettings, HairSettingsOverride};
 pub use simulation::HairState;
+pub use simulation::SimulationPlugin;
 pub use skinning::ScalpJoint;
 
 use bevy::diagnostic::{Diagnostic, RegisterDiagnostic};
@@ -135,44 +138,13 @@ impl Plugin for HairPlugin {
         clock.set_timestep(self.timestep);
         app.insert_resource(clock);
         app.init_schedule(HairSchedule);
-        app.init_resource::<HairSettings>()
-            .register_type::<HairSettings>()
-            .register_type::<HairSettingsOverride>()
-            .register_type::<HairGroom>()
-            .register_type::<HairCollider>()
-            .register_type::<Hair>()
-            .add_message::<HairError>()
-            // Read to regrow hot-reloaded heads; present with `MeshPlugin`, added here so a
-            // missing one is reported by growth instead of failing the system.
-            .add_message::<AssetEvent<Mesh>>()
-            .add_observer(groom::forget_groom)
-            .configure_sets(
-                HairSchedule,
-                (HairSystems::SyncRoots, HairSystems::Simulate, HairSystems::Writeback).chain(),
-            )
-            .add_systems(
-                HairSchedule,
-                (
-                    simulation::sync_roots.in_set(HairSystems::SyncRoots),
-                    simulation::simulate.in_set(HairSystems::Simulate),
-                    simulation::writeback.in_set(HairSystems::Writeback),
-                ),
-            )
+        app.register_type::<Hair>()
             .configure_sets(
                 PostUpdate,
                 (HairSystems::Grow, HairSystems::Step, HairSystems::Draw).chain().after(TransformSystems::Propagate),
             )
-            .add_systems(
-                PostUpdate,
-                (
-                    (groom::request_growth, groom::start_growth, groom::finish_growth)
-                        .chain()
-                        .in_set(HairSystems::Grow),
-                    (clock::advance_clock, simulation::track_heads, clock::run_hair_schedule)
-                        .chain()
-                        .in_set(HairSystems::Step),
-                ),
-            );
+            .add_systems(PostUpdate, (clock::advance_clock, clock::run_hair_schedule).chain().in_set(HairSystems::Step))
+            .add_plugins((GroomPlugin, SimulationPlugin));
         for path in HairDiagnostics::ALL {
             app.register_diagnostic(Diagnostic::new(path));
         }

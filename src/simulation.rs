@@ -6,14 +6,14 @@
 //! keeps the positions in head space ([`writeback`]) for drawing on the head as it is
 //! posed in the frame.
 
-use crate::clock::{Hair, HairTime};
+use crate::clock::{Hair, HairTime, advance_clock, run_hair_schedule};
 use crate::colliders::HairCollider;
 use crate::convert::{from_sim, pose_and_scale, to_sim};
+use crate::description::{GroomStatus, HairError, HairErrorKind, HairGroom};
 use crate::diagnostics::HairDiagnostics;
-use crate::groom::{GroomStatus, Grown, HairGroom, head_frame};
 use crate::settings::{HairSettings, HairSettingsOverride, effective};
-use crate::skinning::{RootSkin, ScalpJoint, SkinPatch};
-use crate::{HairError, HairErrorKind};
+use crate::skinning::{RootSkin, ScalpJoint, SkinPatch, head_frame};
+use crate::{HairSchedule, HairSystems};
 use bevy::diagnostic::Diagnostics;
 use bevy::platform::time::Instant;
 use bevy::prelude::*;
@@ -25,6 +25,17 @@ use hair_sim::mesh::HeadMesh;
 use hair_sim::solver::{STRANDS_PER_GROUP, StepInput, StepReport, Strands};
 use std::sync::Arc;
 use std::time::Duration;
+
+/// A freshly grown groom, what a [`HairState`] starts from (handed back by the growth
+/// task).
+pub(crate) struct Grown {
+    pub strands: Strands,
+    pub collider: Arc<HeadCollider>,
+    pub head: Arc<HeadMesh>,
+    pub roots: Vec<hair_sim::groom::RootBinding>,
+    pub scale: Vec3,
+    pub groom: HairGroom,
+}
 
 /// Fewest strands worth a task of their own.
 const MIN_STRANDS_PER_TASK: usize = 64;
@@ -286,6 +297,37 @@ struct StampedPose {
 /// Positions → head space, both relative to the same origin.
 fn to_head_space(positions: &[SimVec3], pose: Pose) -> impl Iterator<Item = Vec3> + '_ {
     positions.iter().map(move |&p| from_sim(pose.inverse_transform_point(p)))
+}
+
+/// Simulation: the settings, the extra colliders, and every hair step of every grown groom
+/// ([`HairSchedule`](crate::HairSchedule): roots, solver, positions), with each head's pose
+/// tracked once a frame. Part of [`HairPlugin`](crate::HairPlugin), which runs the clock.
+pub struct SimulationPlugin;
+
+impl Plugin for SimulationPlugin {
+    fn build(&self, app: &mut App) {
+        app.init_resource::<HairSettings>()
+            .register_type::<HairSettings>()
+            .register_type::<HairSettingsOverride>()
+            .register_type::<HairCollider>()
+            .configure_sets(
+                HairSchedule,
+                (HairSystems::SyncRoots, HairSystems::Simulate, HairSystems::Writeback).chain(),
+            )
+            .add_systems(
+                HairSchedule,
+                (
+                    sync_roots.in_set(HairSystems::SyncRoots),
+                    simulate.in_set(HairSystems::Simulate),
+                    writeback.in_set(HairSystems::Writeback),
+                ),
+            )
+            // Each frame's head pose, before the clock runs that frame's steps.
+            .add_systems(
+                PostUpdate,
+                track_heads.in_set(HairSystems::Step).after(advance_clock).before(run_hair_schedule),
+            );
+    }
 }
 
 /// [`HairSystems::Step`](crate::HairSystems), before the steps: stamps each head's final

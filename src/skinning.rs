@@ -11,8 +11,8 @@
 //! (a neck blended toward another joint, bending as the head turns) is skinned every frame
 //! ([`SkinPatch`]) and collided with as it is drawn, beside the collider baked at bind pose.
 
-use crate::HairErrorKind;
 use crate::convert::to_sim;
+use crate::description::HairErrorKind;
 use bevy::math::Affine3A;
 use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
 use bevy::mesh::{Mesh, VertexAttributeValues};
@@ -55,6 +55,21 @@ type SkinnedVertex = (Vec3, Influences);
 pub(crate) struct RootSkin {
     /// Per root: its triangle's corners and the root's barycentric coordinates.
     roots: Vec<([SkinnedVertex; 3], [f32; 3])>,
+}
+
+/// Where the head is drawn this frame: its own transform, or for a skinned head where its
+/// scalp joint puts the bind-pose mesh.
+pub(crate) fn head_frame(
+    transform: &GlobalTransform,
+    joint: Option<&ScalpJoint>,
+    joints: &Query<&GlobalTransform>,
+) -> Result<GlobalTransform, HairErrorKind> {
+    match joint {
+        None => Ok(*transform),
+        Some(joint) => joint.frame(joints).ok_or_else(|| {
+            HairErrorKind::Skin(format!("the skin's scalp joint {} has no GlobalTransform (despawned?)", joint.joint))
+        }),
+    }
 }
 
 impl ScalpJoint {
