@@ -48,8 +48,8 @@ pub mod solver;
 pub mod prelude {
     pub use crate::collide::{DEFAULT_GRID_RESOLUTION, ExtraCollider, HeadCollider};
     pub use crate::groom::{
-        ChildParams, ChildRoot, CurvePoint, GroomError, GuideParams, RootBinding, Spiral, child_curve, child_curves,
-        grow_guides, sample_roots, sample_roots_at_vertices, sample_roots_poisson, settle, tessellate,
+        ChildParams, ChildRoot, CurvePoint, GroomError, GuideParams, HairFile, RootBinding, Spiral, child_curve,
+        child_curves, grow_guides, sample_roots, sample_roots_at_vertices, sample_roots_poisson, settle, tessellate,
         transport_frames,
     };
     pub use crate::math::{Pose, Quat, Vec3};

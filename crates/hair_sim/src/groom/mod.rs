@@ -7,6 +7,7 @@
 
 mod children;
 mod curve;
+mod hair_file;
 mod labels;
 mod poisson;
 mod rng;
@@ -17,6 +18,7 @@ pub use children::{
     child_offset, hash_unit, pcg_hash, spiral_offset,
 };
 pub use curve::{CurvePoint, bezier_controls, evaluate, frame_at, tessellate, transport_frames};
+pub use hair_file::{HairFile, HairFileError};
 pub use labels::{labels_from_colors, triangle_weights};
 pub use poisson::sample_roots_poisson;
 pub use rng::SplitMix64;
@@ -113,6 +115,13 @@ pub enum GroomError {
     },
     /// A root jitter outside 0..=1 (or NaN).
     Jitter(f32),
+    /// No strands were given to take guides from.
+    NoStrands,
+    /// A given strand has fewer than two points, no length, or a NaN point.
+    BadStrand {
+        /// Its index.
+        strand: usize,
+    },
 }
 
 impl fmt::Display for GroomError {
@@ -132,6 +141,10 @@ impl fmt::Display for GroomError {
                 write!(f, "{weights} scalp weights for {vertices} vertices")
             }
             GroomError::Jitter(j) => write!(f, "a root jitter of {j} was asked for; use 0 (on the vertex) to 1"),
+            GroomError::NoStrands => write!(f, "no strands were given to take guides from"),
+            GroomError::BadStrand { strand } => {
+                write!(f, "strand {strand} has fewer than two points, no length, or a NaN point")
+            }
         }
     }
 }
@@ -277,6 +290,81 @@ pub fn grow_guides(
     Ok(positions)
 }
 
+/// Guides taken from given strands (a `.hair` model, in the head mesh's space) instead of
+/// grown: each resampled to `segments + 1` points evenly along its length, then moved
+/// whole so that its root sits on the nearest point of the scalp (the triangles with a
+/// weight above 0). Returns the roots and the rest positions, strand-major.
+pub fn guides_from_strands(
+    mesh: &HeadMesh,
+    weights: &[f32],
+    strands: &[Vec<Vec3>],
+    segments: usize,
+) -> Result<(Vec<RootBinding>, Vec<Vec3>), GroomError> {
+    mesh.validate()?;
+    if weights.len() != mesh.triangles.len() {
+        return Err(GroomError::WeightCountMismatch { triangles: mesh.triangles.len(), weights: weights.len() });
+    }
+    let scalp: Vec<usize> = (0..weights.len()).filter(|&t| weights[t] > 0.0).collect();
+    if scalp.is_empty() {
+        return Err(GroomError::NoScalp);
+    }
+    if strands.is_empty() {
+        return Err(GroomError::NoStrands);
+    }
+    let segments = segments.max(1);
+    let mut roots = Vec::with_capacity(strands.len());
+    let mut positions = Vec::with_capacity(strands.len() * (segments + 1));
+    for (strand, points) in strands.iter().enumerate() {
+        let resampled = resample(points, segments).ok_or(GroomError::BadStrand { strand })?;
+        let root = resampled[0];
+        let (triangle, barycentric) = scalp
+            .iter()
+            .map(|&t| {
+                let bary = crate::mesh::closest_barycentric(root, &mesh.corners(&mesh.triangles[t]));
+                (t, bary, mesh.point_at(t, bary).distance_squared(root))
+            })
+            .min_by(|a, b| a.2.total_cmp(&b.2))
+            .map(|(t, bary, _)| (t as u32, bary))
+            .expect("a scalp triangle");
+        let binding = RootBinding { triangle, barycentric };
+        let shift = binding.position(mesh) - root;
+        positions.extend(resampled.iter().map(|&p| p + shift));
+        roots.push(binding);
+    }
+    Ok((roots, positions))
+}
+
+/// `points` resampled to `segments + 1` points evenly spaced along the polyline; `None`
+/// for fewer than two points, no length or a non-finite point.
+fn resample(points: &[Vec3], segments: usize) -> Option<Vec<Vec3>> {
+    if points.len() < 2 || !points.iter().all(|p| p.is_finite()) {
+        return None;
+    }
+    let mut along = Vec::with_capacity(points.len());
+    let mut total = 0.0f32;
+    along.push(0.0);
+    for pair in points.windows(2) {
+        total += pair[0].distance(pair[1]);
+        along.push(total);
+    }
+    if !(total > 0.0 && total.is_finite()) {
+        return None;
+    }
+    let mut at = 0;
+    Some(
+        (0..=segments)
+            .map(|k| {
+                let target = total * k as f32 / segments as f32;
+                while at + 2 < along.len() && along[at + 1] < target {
+                    at += 1;
+                }
+                let span = (along[at + 1] - along[at]).max(f32::MIN_POSITIVE);
+                points[at].lerp(points[at + 1], ((target - along[at]) / span).clamp(0.0, 1.0))
+            })
+            .collect(),
+    )
+}
+
 /// `v` with its non-finite components replaced by zero.
 fn finite_or_zero(v: Vec3) -> Vec3 {
     Vec3::from_array(v.to_array().map(|c| if c.is_finite() { c } else { 0.0 }))
@@ -330,6 +418,42 @@ mod tests {
 
     fn top_half(mesh: &HeadMesh) -> Vec<f32> {
         mesh.triangles.iter().map(|t| if mesh.corners(t).iter().all(|p| p.y > 0.0) { 1.0 } else { 0.0 }).collect()
+    }
+
+    #[test]
+    fn guides_from_strands_keep_their_shape_and_root_on_the_scalp() {
+        let mesh = test_head(3);
+        let scalp = top_half(&mesh);
+        let roots = sample_roots(&mesh, &scalp, 40, 2).unwrap();
+        let grown = grow_guides(&mesh, &roots, &GuideParams { curl: 0.2, ..GuideParams::default() }, 2).unwrap();
+        // The same strands 2 mm off the scalp, at 21 points instead of 11.
+        let strands: Vec<Vec<Vec3>> = grown
+            .chunks_exact(11)
+            .zip(&roots)
+            .map(|(strand, root)| {
+                let lift = root.normal(&mesh) * 0.002;
+                let fine = resample(strand, 20).unwrap();
+                fine.iter().map(|&p| p + lift).collect()
+            })
+            .collect();
+        let (bound, rest) = guides_from_strands(&mesh, &scalp, &strands, 10).unwrap();
+        assert_eq!((bound.len(), rest.len()), (40, 440));
+        for ((binding, strand), original) in bound.iter().zip(rest.chunks_exact(11)).zip(grown.chunks_exact(11)) {
+            assert!(scalp[binding.triangle as usize] > 0.0);
+            assert!((strand[0] - binding.position(&mesh)).length() < 1e-6);
+            // Back onto the scalp near where it grew (the nearest point to the lifted root),
+            // the same shape (a curl resampled twice shortens its chords by a hair).
+            assert!((strand[0] - original[0]).length() < 1e-3);
+            for (p, q) in strand.iter().zip(original) {
+                let (shape, expected) = (*p - strand[0], *q - original[0]);
+                assert!((shape - expected).length() < 2e-4, "{shape} vs {expected}");
+            }
+        }
+        assert_eq!(guides_from_strands(&mesh, &scalp, &[], 10), Err(GroomError::NoStrands));
+        let bad = vec![vec![Vec3::ZERO]];
+        assert_eq!(guides_from_strands(&mesh, &scalp, &bad, 10), Err(GroomError::BadStrand { strand: 0 }));
+        let nowhere = vec![0.0; scalp.len()];
+        assert_eq!(guides_from_strands(&mesh, &nowhere, &strands, 10), Err(GroomError::NoScalp));
     }
 
     #[test]

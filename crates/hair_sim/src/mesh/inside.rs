@@ -135,39 +135,50 @@ pub(super) fn ray_hit(origin: Vec3, dir: Vec3, [a, b, c]: &[Vec3; 3]) -> Option<
     (u >= 0.0 && v >= 0.0 && u + v <= 1.0).then(|| e2.dot(r))
 }
 
-/// Closest distance from `p` to a triangle (Ericson, "Real-Time Collision Detection",
-/// 5.1.5).
-fn distance_to_triangle(p: Vec3, [a, b, c]: &[Vec3; 3]) -> f32 {
+/// The point of triangle `a, b, c` closest to `p`, as barycentric coordinates (Ericson,
+/// *Real-Time Collision Detection*, 5.1.5).
+pub(crate) fn closest_barycentric(p: Vec3, [a, b, c]: &[Vec3; 3]) -> [f32; 3] {
     let (a, b, c) = (*a, *b, *c);
     let (ab, ac, ap) = (b - a, c - a, p - a);
     let (d1, d2) = (ab.dot(ap), ac.dot(ap));
     if d1 <= 0.0 && d2 <= 0.0 {
-        return p.distance(a);
+        return [1.0, 0.0, 0.0];
     }
     let bp = p - b;
     let (d3, d4) = (ab.dot(bp), ac.dot(bp));
     if d3 >= 0.0 && d4 <= d3 {
-        return p.distance(b);
+        return [0.0, 1.0, 0.0];
     }
     let vc = d1 * d4 - d3 * d2;
     if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        return p.distance(a + ab * (d1 / (d1 - d3)));
+        let v = d1 / (d1 - d3);
+        return [1.0 - v, v, 0.0];
     }
     let cp = p - c;
     let (d5, d6) = (ab.dot(cp), ac.dot(cp));
     if d6 >= 0.0 && d5 <= d6 {
-        return p.distance(c);
+        return [0.0, 0.0, 1.0];
     }
     let vb = d5 * d2 - d1 * d6;
     if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        return p.distance(a + ac * (d2 / (d2 - d6)));
+        let w = d2 / (d2 - d6);
+        return [1.0 - w, 0.0, w];
     }
     let va = d3 * d6 - d5 * d4;
     if va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0 {
-        return p.distance(b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6))));
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return [0.0, 1.0 - w, w];
     }
     let denom = 1.0 / (va + vb + vc);
-    p.distance(a + ab * (vb * denom) + ac * (vc * denom))
+    let (v, w) = (vb * denom, vc * denom);
+    [1.0 - v - w, v, w]
+}
+
+/// Closest distance from `p` to a triangle (Ericson, "Real-Time Collision Detection",
+/// 5.1.5).
+fn distance_to_triangle(p: Vec3, corners: &[Vec3; 3]) -> f32 {
+    let [u, v, w] = closest_barycentric(p, corners);
+    p.distance(corners[0] * u + corners[1] * v + corners[2] * w)
 }
 
 #[cfg(test)]

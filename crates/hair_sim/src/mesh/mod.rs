@@ -7,6 +7,7 @@
 //! wound inside out is turned the right way, and the caller is told ([`MeshRepairs`]).
 
 mod inside;
+pub(crate) use inside::closest_barycentric;
 mod procedural;
 
 pub use inside::InsideTest;
