@@ -1,12 +1,12 @@
 //! What a user puts on a head and reads back: the groom's description ([`HairGroom`] and
 //! how its scalp and roots are chosen), where it stands ([`GroomStatus`]), and what can be
 //! wrong with it ([`HairError`], whose [`HairErrorKind`] `Display`s the sentence a user
-//! reads). Every other module uses these; this one uses none of them.
+//! reads). Every other module uses these; this one uses only the hair model asset.
 
+use crate::hair_asset::HairAsset;
 use bevy::prelude::*;
 use hair_sim::collide::ColliderError;
-use hair_sim::groom::ChildParams;
-use hair_sim::groom::GroomError;
+use hair_sim::groom::{ChildParams, GroomError};
 use hair_sim::mesh::MeshError;
 use hair_sim::solver::{ParamIssue, StrandsError};
 
@@ -40,6 +40,9 @@ pub enum HairErrorKind {
     /// The head's mesh asset failed to load.
     #[error("the head mesh failed to load: {0}")]
     MeshLoad(String),
+    /// The hair model the groom takes its guides from failed to load.
+    #[error("the hair model failed to load: {0}")]
+    HairModel(String),
     /// The skin's inverse bind matrices failed to load, or are not in `Assets`.
     #[error("the head's inverse bind matrices {0}")]
     Bindposes(String),
@@ -179,6 +182,11 @@ pub struct HairGroom {
     /// Steps of the settle ("comb") pass that lets freshly grown hair fall onto the head
     /// before it becomes the rest shape; 0 keeps the strands standing along the normals.
     pub settle_steps: u32,
+    /// Take the guides from this hair model (a `.hair` file, in the head mesh's space)
+    /// instead of growing them: each strand is resampled to `segments` and moved whole onto
+    /// the nearest scalp point. `guides`, `length`, `curl`, `comb` and the root
+    /// distribution are then unused; the settle pass still runs.
+    pub guides_from: Option<Handle<HairAsset>>,
 }
 
 impl Default for HairGroom {
@@ -195,6 +203,7 @@ impl Default for HairGroom {
             distribution: RootDistribution::default(),
             children: ChildParams::default(),
             settle_steps: 180,
+            guides_from: None,
         }
     }
 }

@@ -4,6 +4,7 @@
 use crate::HairSystems;
 use crate::convert::{pose_and_scale, to_sim};
 use crate::description::{GroomStatus, HairError, HairErrorKind, HairGroom, RootDistribution, ScalpPredicate};
+use crate::hair_asset::{HairAsset, HairAssetLoader};
 use crate::head_mesh::{ScalpWeights, read_head_mesh, scalp_weights};
 use crate::settings::{HairSettings, HairSettingsOverride, effective};
 use crate::simulation::Grown;
@@ -14,8 +15,10 @@ use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
 use bevy::prelude::*;
 use bevy::tasks::{AsyncComputeTaskPool, Task, block_on, futures_lite::future};
 use hair_sim::collide::{BAKE_TRIANGLE_BUDGET, DEFAULT_GRID_RESOLUTION, HeadCollider};
-use hair_sim::groom::{GuideParams, grow_guides, sample_roots, sample_roots_at_vertices, sample_roots_poisson, settle};
-use hair_sim::math::Pose;
+use hair_sim::groom::{
+    GuideParams, grow_guides, guides_from_strands, sample_roots, sample_roots_at_vertices, sample_roots_poisson, settle,
+};
+use hair_sim::math::{Pose, Vec3 as SimVec3};
 use hair_sim::mesh::HeadMesh;
 use hair_sim::solver::{RestShape, SimParams, Strands};
 use std::sync::Arc;
@@ -34,8 +37,11 @@ pub struct GroomPlugin;
 
 impl Plugin for GroomPlugin {
     fn build(&self, app: &mut App) {
-        app.register_type::<HairGroom>()
-            .add_message::<HairError>()
+        app.register_type::<HairGroom>().add_message::<HairError>();
+        if app.is_plugin_added::<AssetPlugin>() {
+            app.init_asset::<HairAsset>().init_asset_loader::<HairAssetLoader>();
+        }
+        app
             // Read to regrow hot-reloaded heads; present with `MeshPlugin`, added here so a
             // missing one is reported by growth instead of failing the system.
             .add_message::<AssetEvent<Mesh>>()
@@ -87,6 +93,7 @@ pub(crate) fn start_growth(
     server: Option<Res<AssetServer>>,
     settings: Res<HairSettings>,
     bindposes: Option<Res<Assets<SkinnedMeshInverseBindposes>>>,
+    models: Option<Res<Assets<HairAsset>>>,
     joints: Query<&GlobalTransform>,
     mut grooms: Query<(
         Entity,
@@ -136,6 +143,21 @@ pub(crate) fn start_growth(
                 continue;
             }
         };
+        // Guides from a hair model wait for it to load.
+        let model = match &groom.guides_from {
+            None => None,
+            Some(handle) => match models.as_deref().and_then(|m| m.get(handle)) {
+                Some(model) => Some(model.0.strands.clone()),
+                None => {
+                    match server.as_ref().map(|s| s.load_state(handle)) {
+                        Some(LoadState::Failed(e)) => fail(HairErrorKind::HairModel(e.to_string())),
+                        Some(LoadState::Loading | LoadState::NotLoaded) => {}
+                        _ => fail(HairErrorKind::HairModel("the handle names no loaded HairAsset".into())),
+                    }
+                    continue;
+                }
+            },
+        };
         let predicate = predicate.map(|p| p.0);
         let prepared = check_groom(groom).and_then(|()| {
             // A skinned head's frame is its scalp joint's, found on the bind-pose mesh.
@@ -177,8 +199,8 @@ pub(crate) fn start_growth(
                 }
                 let (params, _) = effective(&settings, local).sanitized();
                 let groom = groom.clone();
-                let task =
-                    AsyncComputeTaskPool::get().spawn(async move { grow(head, weights, groom, params, pose, scale) });
+                let task = AsyncComputeTaskPool::get()
+                    .spawn(async move { grow(head, weights, model, groom, params, pose, scale) });
                 commands.entity(entity).insert(GrowthTask { task, joint });
                 *status = GroomStatus::Growing;
             }
@@ -216,33 +238,48 @@ fn check_groom(groom: &HairGroom) -> Result<(), HairErrorKind> {
     Ok(())
 }
 
-/// The growth itself, off the main thread: roots, guides, collider, settle.
+/// The growth itself, off the main thread: roots and guides (grown, or taken from a hair
+/// `model` in the mesh's units), collider, settle.
 fn grow(
     head: HeadMesh,
     weights: ScalpWeights,
+    model: Option<Vec<Vec<SimVec3>>>,
     groom: HairGroom,
     params: SimParams,
     pose: Pose,
     scale: Vec3,
 ) -> Result<Grown, HairErrorKind> {
-    let roots = match groom.distribution {
-        RootDistribution::Vertices { jitter } => {
-            sample_roots_at_vertices(&head, &weights.vertices, groom.guides, jitter, groom.seed)
+    let comb = to_sim(groom.comb);
+    let (roots, guides) = match model {
+        Some(strands) => {
+            // The head mesh here is scaled by the entity's scale: so is the model.
+            let scale = to_sim(scale);
+            let scaled: Vec<Vec<SimVec3>> =
+                strands.iter().map(|strand| strand.iter().map(|&p| p * scale).collect()).collect();
+            guides_from_strands(&head, &weights.triangles, &scaled, groom.segments)?
         }
-        RootDistribution::Uniform => sample_roots(&head, &weights.triangles, groom.guides, groom.seed),
-        RootDistribution::Poisson => sample_roots_poisson(&head, &weights.triangles, groom.guides, groom.seed),
-    }?;
-    let guide_params = GuideParams {
-        segments: groom.segments,
-        length: groom.length,
-        length_variation: groom.length_variation,
-        curl: groom.curl,
-        comb: to_sim(groom.comb),
+        None => {
+            let roots = match groom.distribution {
+                RootDistribution::Vertices { jitter } => {
+                    sample_roots_at_vertices(&head, &weights.vertices, groom.guides, jitter, groom.seed)
+                }
+                RootDistribution::Uniform => sample_roots(&head, &weights.triangles, groom.guides, groom.seed),
+                RootDistribution::Poisson => sample_roots_poisson(&head, &weights.triangles, groom.guides, groom.seed),
+            }?;
+            let guide_params = GuideParams {
+                segments: groom.segments,
+                length: groom.length,
+                length_variation: groom.length_variation,
+                curl: groom.curl,
+                comb,
+            };
+            let guides = grow_guides(&head, &roots, &guide_params, groom.seed)?;
+            (roots, guides)
+        }
     };
-    let guides = grow_guides(&head, &roots, &guide_params, groom.seed)?;
     let rest = RestShape::new(guides, groom.segments + 1)?;
     let collider = HeadCollider::new(&head, DEFAULT_GRID_RESOLUTION)?;
-    let rest = settle(rest, Some(&collider), &params, groom.settle_steps as usize, guide_params.comb)?;
+    let rest = settle(rest, Some(&collider), &params, groom.settle_steps as usize, comb)?;
     let strands = Strands::new(rest, pose);
     Ok(Grown { strands, collider: Arc::new(collider), head: Arc::new(head), roots, scale, groom })
 }

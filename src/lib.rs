@@ -42,6 +42,7 @@ mod convert;
 mod description;
 mod diagnostics;
 mod groom;
+mod hair_asset;
 mod head_mesh;
 #[cfg(feature = "render")]
 pub mod render;
@@ -56,6 +57,7 @@ pub use description::{
 };
 pub use diagnostics::HairDiagnostics;
 pub use groom::GroomPlugin;
+pub use hair_asset::{HairAsset, HairAssetError, HairAssetLoader};
 pub use hair_sim;
 pub use hair_sim::groom::{ChildParams, Spiral};
 pub use hair_sim::solver::{CollisionResponse, LengthMode, SimParams, StepReport, Wind};

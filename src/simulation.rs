@@ -19,7 +19,7 @@ use bevy::platform::time::Instant;
 use bevy::prelude::*;
 use bevy::tasks::{ComputeTaskPool, TaskPool};
 use hair_sim::collide::{ExtraCollider, HeadCollider};
-use hair_sim::groom::RootBinding;
+use hair_sim::groom::{HairFile, RootBinding};
 use hair_sim::math::{Pose, Vec3 as SimVec3};
 use hair_sim::mesh::HeadMesh;
 use hair_sim::solver::{STRANDS_PER_GROUP, StepInput, StepReport, Strands};
@@ -131,6 +131,21 @@ impl HairState {
     /// the head mesh at the end of the last step.
     pub fn origin(&self) -> SimVec3 {
         self.origin
+    }
+
+    /// The strands as they are now, as a hair model in the head mesh's own units and space
+    /// (the head's scale taken out): write it with [`HairFile::write`] to get a `.hair`
+    /// file, or load it back as a [`HairAsset`](crate::HairAsset) for
+    /// [`HairGroom::guides_from`].
+    pub fn to_hair_file(&self) -> HairFile {
+        let n = self.particles_per_strand();
+        let scale = self.baked_scale;
+        let strands = self
+            .current_local
+            .chunks_exact(n)
+            .map(|strand| strand.iter().map(|&p| to_sim(p / scale)).collect())
+            .collect();
+        HairFile { strands, info: "bevy_hair".into() }
     }
 
     /// The head mesh as the solver sees it (head-local, scale baked in).
