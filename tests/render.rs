@@ -359,12 +359,14 @@ fn plain_uniform(layout: &StrandLayout, color: Vec4, width: f32) -> HairUniform 
     HairUniform {
         root_color: color,
         tip_color: color,
-        specular: Vec4::new(80.0, 0.0, 20.0, 0.0),
-        shape: Vec4::new(0.0, 0.0, width, width),
-        shading: Vec4::new(0.0, 0.0, 1.0, 0.0),
-        counts: layout.shader_counts(),
+        primary_exponent: 80.0,
+        secondary_exponent: 20.0,
+        root_width: width,
+        tip_width: width,
+        diffuse: 1.0,
         ..default()
     }
+    .with_layout(layout)
 }
 
 /// Two straight strands drawn with the hair material directly: one along the light, one
@@ -449,8 +451,12 @@ fn the_shader_draws_guide_and_children_where_the_cpu_reference_puts_them() {
     let layout = StrandLayout { guides: 1, particles, strands_per_guide: children.per_guide + 1, subdivisions };
     let spiral = children.spiral;
     let uniform = HairUniform {
-        spiral: Vec4::new(spiral.a, spiral.b, spiral.angle_step, spiral.scale),
-        shape: Vec4::new(children.clumping, children.tip_spread, width, width),
+        spiral_a: spiral.a,
+        spiral_b: spiral.b,
+        spiral_angle_step: spiral.angle_step,
+        spiral_scale: spiral.scale,
+        clumping: children.clumping,
+        tip_spread: children.tip_spread,
         ..plain_uniform(&layout, Vec4::new(0.8, 0.8, 0.8, 1.0), width)
     };
     scene.draw_strands(data, &layout, uniform);
@@ -538,7 +544,7 @@ fn strands_cast_shadows() {
     let layout = StrandLayout { guides, particles, strands_per_guide: 1, subdivisions: 2 };
     // Receiving shadows too, as the plugin's default look does.
     let uniform = HairUniform {
-        shading: Vec4::new(0.0, 1.0, 1.0, 0.0),
+        flags: HairUniform::RECEIVE_SHADOWS,
         ..plain_uniform(&layout, Vec4::new(0.05, 0.6, 0.05, 1.0), 0.004)
     };
     let strands = scene.draw_strands(data, &layout, uniform);

@@ -36,17 +36,32 @@ struct HairUniform {
     tip_color: vec4<f32>,
     primary_color: vec4<f32>,
     secondary_color: vec4<f32>,
-    // primary exponent, primary shift, secondary exponent, secondary shift
-    specular: vec4<f32>,
-    // a, b, angle step (rad), scale (m per spiral unit)
-    spiral: vec4<f32>,
-    // clumping, tip spread (m), root width (m), tip width (m)
-    shape: vec4<f32>,
-    // tint variation, receive shadows (0/1), diffuse strength, unused
-    shading: vec4<f32>,
-    // guides, particles per guide, rendered strands per guide (guide + children), subdivisions
-    counts: vec4<u32>,
+    primary_exponent: f32,
+    primary_shift: f32,
+    secondary_exponent: f32,
+    secondary_shift: f32,
+    // The Archimedean spiral r = scale (a + b θ), θ = (child + 1) angle_step.
+    spiral_a: f32,
+    spiral_b: f32,
+    spiral_angle_step: f32,
+    spiral_scale: f32,
+    clumping: f32,
+    tip_spread: f32,
+    root_width: f32,
+    tip_width: f32,
+    tint_variation: f32,
+    diffuse: f32,
+    // HAIR_FLAGS_* bits.
+    flags: u32,
+    guides: u32,
+    particles: u32,
+    // The guide and its children.
+    strands_per_guide: u32,
+    subdivisions: u32,
 }
+
+// Mirrors `bevy_hair::render::HairUniform::RECEIVE_SHADOWS`.
+const HAIR_FLAGS_RECEIVE_SHADOWS: u32 = 1u;
 
 @group(#{MATERIAL_BIND_GROUP}) @binding(0) var<storage, read> guides: array<vec4<f32>>;
 @group(#{MATERIAL_BIND_GROUP}) @binding(1) var<uniform> hair: HairUniform;
@@ -70,22 +85,22 @@ struct VertexOutput {
 };
 
 fn particle(guide: u32, i: u32) -> vec3<f32> {
-    return guides[guide * hair.counts.y + i].xyz;
+    return guides[guide * hair.particles + i].xyz;
 }
 
 // The transport frame vector `u` of particle `i` (`hair_sim::groom::transport_frames`).
 fn frame_u(guide: u32, i: u32) -> vec3<f32> {
-    return guides[(hair.counts.x + guide) * hair.counts.y + i].xyz;
+    return guides[(hair.guides + guide) * hair.particles + i].xyz;
 }
 
 // The scalp at guide `guide`'s root: outward normal (xyz) and curvature (w, 1/m).
 fn root_scalp(guide: u32) -> vec4<f32> {
-    return guides[2u * hair.counts.x * hair.counts.y + guide];
+    return guides[2u * hair.guides * hair.particles + guide];
 }
 
 // A point inside the head (`hair_sim::groom::ChildRoot::head_centre`).
 fn head_centre() -> vec3<f32> {
-    return guides[2u * hair.counts.x * hair.counts.y + hair.counts.x].xyz;
+    return guides[2u * hair.guides * hair.particles + hair.guides].xyz;
 }
 
 // Mirrors `hair_sim::groom::curve::unit_or`.
@@ -113,7 +128,7 @@ fn perpendicular_unit(v: vec3<f32>, axis: vec3<f32>) -> vec3<f32> {
 
 // Mirrors `hair_sim::groom::curve::particle`: neighbours past either end mirrored.
 fn neighbour(guide: u32, i: i32) -> vec3<f32> {
-    let n = i32(hair.counts.y);
+    let n = i32(hair.particles);
     if i < 0 {
         return 2.0 * particle(guide, 0u) - particle(guide, 1u);
     }
@@ -131,7 +146,7 @@ struct CurvePoint {
 // Mirrors `hair_sim::groom::curve::evaluate` (with `bezier_controls` inlined): the C1
 // Catmull-Rom Bézier through the guide particles at `s` in particle units, [0, n - 1].
 fn evaluate(guide: u32, s_in: f32) -> CurvePoint {
-    let last = f32(hair.counts.y - 1u);
+    let last = f32(hair.particles - 1u);
     let s = clamp(s_in, 0.0, last);
     let i = i32(min(floor(s), last - 1.0));
     let t = s - f32(i);
@@ -153,7 +168,7 @@ fn evaluate(guide: u32, s_in: f32) -> CurvePoint {
 
 // Mirrors `hair_sim::groom::curve::frame_at`: the frame (u, v) at `s`.
 fn frame_at(guide: u32, s_in: f32, tangent: vec3<f32>) -> mat2x3<f32> {
-    let last = f32(hair.counts.y - 1u);
+    let last = f32(hair.particles - 1u);
     let s = clamp(s_in, 0.0, last);
     let j = u32(min(floor(s), last - 1.0));
     let u = perpendicular_unit(mix(frame_u(guide, j), frame_u(guide, j + 1u), s - f32(j)), tangent);
@@ -174,16 +189,16 @@ fn hash_unit(x: u32) -> f32 {
 
 // Mirrors `hair_sim::groom::children::spiral_offset`: x = (a + bθ) cos θ, y = (a + bθ) sin θ.
 fn spiral_offset(child: u32) -> vec2<f32> {
-    let theta = f32(child + 1u) * hair.spiral.z;
-    let radius = hair.spiral.w * (hair.spiral.x + hair.spiral.y * theta);
+    let theta = f32(child + 1u) * hair.spiral_angle_step;
+    let radius = hair.spiral_scale * (hair.spiral_a + hair.spiral_b * theta);
     return radius * vec2(cos(theta), sin(theta));
 }
 
 // Mirrors `hair_sim::groom::children::child_offset`: the spiral offset pulled toward the
 // guide (clumping) and pushed out in a random direction (tip spread) toward the tip.
 fn child_offset(guide: u32, child: u32, t: f32) -> vec2<f32> {
-    let clumping = hair.shape.x;
-    let spread = hair.shape.y;
+    let clumping = hair.clumping;
+    let spread = hair.tip_spread;
     let phi = 2.0 * PI * hash_unit(guide * 65536u + child);
     return spiral_offset(child) * (1.0 - clumping * t) + spread * t * t * vec2(cos(phi), sin(phi));
 }
@@ -229,11 +244,11 @@ fn strand_point(hair_vertex: vec2<u32>) -> StrandPoint {
     let strand = hair_vertex.x;
     let sample_index = hair_vertex.y >> 1u;
     let side = f32(hair_vertex.y & 1u) * 2.0 - 1.0;
-    let per_guide = hair.counts.z;
+    let per_guide = hair.strands_per_guide;
     let guide = strand / per_guide;
     let child = strand % per_guide; // 0 is the guide itself
-    let s = f32(sample_index) / f32(hair.counts.w);
-    let t = s / f32(hair.counts.y - 1u);
+    let s = f32(sample_index) / f32(hair.subdivisions);
+    let t = s / f32(hair.particles - 1u);
 
     let curve = evaluate(guide, s);
     var position = curve.position;
@@ -250,7 +265,7 @@ fn strand_point(hair_vertex: vec2<u32>) -> StrandPoint {
     // In the shadow pass the "camera" is the light: the ribbon faces it and casts its width.
     let to_camera = unit_or(view.world_position - position, vec3(0.0, 0.0, 1.0));
     let across = perpendicular_unit(cross(curve.tangent, to_camera), curve.tangent);
-    let width = mix(hair.shape.z, hair.shape.w, t);
+    let width = mix(hair.root_width, hair.tip_width, t);
     var out: StrandPoint;
     out.position = position + across * side * 0.5 * width;
     out.tangent = curve.tangent;
@@ -333,7 +348,7 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
     let tangent = normalize(in.tangent);
     let to_view = normalize(view.world_position - in.world_position.xyz);
     let normal = normalize(in.normal);
-    let tint = 1.0 + hair.shading.x * (hash_unit(in.strand) * 2.0 - 1.0);
+    let tint = 1.0 + hair.tint_variation * (hash_unit(in.strand) * 2.0 - 1.0);
     let albedo = mix(hair.root_color.rgb, hair.tip_color.rgb, in.t) * tint;
 
     let view_z = dot(vec4(view.view_from_world[0].z, view.view_from_world[1].z, view.view_from_world[2].z,
@@ -344,15 +359,15 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
         let directional = &lights.directional_lights[i];
         let to_light = (*directional).direction_to_light;
         var shadow = 1.0;
-        if hair.shading.y > 0.5 && ((*directional).flags & DIRECTIONAL_LIGHT_FLAGS_SHADOWS_ENABLED_BIT) != 0u {
+        if (hair.flags & HAIR_FLAGS_RECEIVE_SHADOWS) != 0u && ((*directional).flags & DIRECTIONAL_LIGHT_FLAGS_SHADOWS_ENABLED_BIT) != 0u {
             shadow = fetch_directional_shadow(i, in.world_position, normal, view_z, in.clip_position.xy);
         }
         let half_vector = normalize(to_light + to_view);
-        let diffuse = hair.shading.z * albedo * kajiya_diffuse(tangent, to_light) / PI;
+        let diffuse = hair.diffuse * albedo * kajiya_diffuse(tangent, to_light) / PI;
         let primary = hair.primary_color.rgb
-            * kajiya_specular(shifted_tangent(tangent, normal, hair.specular.y), half_vector, hair.specular.x);
+            * kajiya_specular(shifted_tangent(tangent, normal, hair.primary_shift), half_vector, hair.primary_exponent);
         let secondary = hair.secondary_color.rgb * albedo
-            * kajiya_specular(shifted_tangent(tangent, normal, hair.specular.w), half_vector, hair.specular.z);
+            * kajiya_specular(shifted_tangent(tangent, normal, hair.secondary_shift), half_vector, hair.secondary_exponent);
         light += (diffuse + primary + secondary) * (*directional).color.rgb * shadow;
     }
 

@@ -5,7 +5,6 @@
 //! while the hair moves.
 
 use bevy::asset::RenderAssetUsages;
-use bevy::math::UVec4;
 use bevy::mesh::{Indices, Mesh, MeshVertexAttribute, PrimitiveTopology, VertexAttributeValues, VertexFormat};
 
 /// The only vertex attribute of a strand mesh: `(rendered strand, curve sample · 2 + side)`.
@@ -28,12 +27,6 @@ pub struct StrandLayout {
 }
 
 impl StrandLayout {
-    /// The `counts` of the shader's uniform block ([`HairUniform`](super::HairUniform)):
-    /// guides, particles per guide, rendered strands per guide, subdivisions.
-    pub fn shader_counts(&self) -> UVec4 {
-        UVec4::new(self.guides, self.particles, self.strands_per_guide, self.subdivisions)
-    }
-
     /// Samples along each rendered strand: `segments · subdivisions + 1`.
     pub fn samples(&self) -> u32 {
         (self.particles - 1) * self.subdivisions + 1

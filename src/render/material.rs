@@ -1,7 +1,7 @@
 //! The strand material: guide particles in a storage buffer, the look in a uniform, and
 //! `hair.wgsl` for both stages.
 
-use super::layout::ATTRIBUTE_HAIR_VERTEX;
+use super::layout::{ATTRIBUTE_HAIR_VERTEX, StrandLayout};
 use bevy::mesh::MeshVertexBufferLayoutRef;
 use bevy::pbr::{MaterialPipeline, MaterialPipelineKey};
 use bevy::prelude::*;
@@ -17,7 +17,8 @@ pub(crate) const SHADER_PATH: &str = "embedded://bevy_hair/render/hair.wgsl";
 #[derive(Asset, TypePath, AsBindGroup, Clone, Debug)]
 pub struct HairMaterial {
     /// Guide particle positions (one `vec4` each, strand-major), then each particle's
-    /// transport frame vector `u` (same order, `w` = 0); rewritten every frame at the same
+    /// transport frame vector `u` (same order, `w` = 0), then per guide the scalp's normal
+    /// and curvature at its root, then the head's centre; rewritten every frame at the same
     /// size.
     #[storage(0, read_only)]
     pub guides: Handle<ShaderBuffer>,
@@ -37,16 +38,60 @@ pub struct HairUniform {
     pub primary_color: Vec4,
     /// Secondary (shifted toward the root, hair-tinted) specular colour.
     pub secondary_color: Vec4,
-    /// Primary exponent, primary shift, secondary exponent, secondary shift.
-    pub specular: Vec4,
-    /// Spiral a, b, angle step (radians), scale (metres per unit).
-    pub spiral: Vec4,
-    /// Clumping, tip spread (m), root width (m), tip width (m).
-    pub shape: Vec4,
-    /// Tint variation, receive shadows (0 or 1), diffuse strength, unused.
-    pub shading: Vec4,
-    /// Guides, particles per guide, rendered strands per guide, subdivisions.
-    pub counts: UVec4,
+    /// Primary lobe exponent (≥ 1).
+    pub primary_exponent: f32,
+    /// Primary lobe shift along the normal, −1..1.
+    pub primary_shift: f32,
+    /// Secondary lobe exponent (≥ 1).
+    pub secondary_exponent: f32,
+    /// Secondary lobe shift along the normal, −1..1.
+    pub secondary_shift: f32,
+    /// Spiral radius at θ = 0, spiral units.
+    pub spiral_a: f32,
+    /// Spiral radius gained per radian, spiral units.
+    pub spiral_b: f32,
+    /// Angle between consecutive children, radians.
+    pub spiral_angle_step: f32,
+    /// Metres per spiral unit.
+    pub spiral_scale: f32,
+    /// How far children are drawn toward the guide at the tip, 0..1.
+    pub clumping: f32,
+    /// How far a child's tip strays, metres.
+    pub tip_spread: f32,
+    /// Ribbon width at the root, metres.
+    pub root_width: f32,
+    /// Ribbon width at the tip, metres.
+    pub tip_width: f32,
+    /// Per-strand brightness variation, 0..1.
+    pub tint_variation: f32,
+    /// Diffuse strength.
+    pub diffuse: f32,
+    /// [`Self::RECEIVE_SHADOWS`] and future switches.
+    pub flags: u32,
+    /// Guides drawn.
+    pub guides: u32,
+    /// Particles per guide.
+    pub particles: u32,
+    /// Rendered strands per guide: the guide and its children.
+    pub strands_per_guide: u32,
+    /// Curve points per guide segment.
+    pub subdivisions: u32,
+}
+
+impl HairUniform {
+    /// Flag: the strands are darkened by the directional lights' shadow maps.
+    pub const RECEIVE_SHADOWS: u32 = 1;
+
+    /// The same uniform drawing `layout` (its guide, particle, strand and subdivision counts).
+    pub fn with_layout(self, layout: &StrandLayout) -> Self {
+        HairUniform {
+            guides: layout.guides,
+            particles: layout.particles,
+            strands_per_guide: layout.strands_per_guide,
+            subdivisions: layout.subdivisions,
+            ..self
+        }
+    }
 }
 
 impl Material for HairMaterial {

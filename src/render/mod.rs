@@ -372,27 +372,24 @@ fn uniform(layout: &StrandLayout, groom: &HairGroom, look: &HairLook) -> HairUni
         tip_color: linear(look.tip_color),
         primary_color: linear(look.primary.color),
         secondary_color: linear(look.secondary.color),
-        specular: Vec4::new(
-            non_negative(look.primary.exponent, defaults.primary.exponent).max(1.0),
-            finite(look.primary.shift, 0.0).clamp(-1.0, 1.0),
-            non_negative(look.secondary.exponent, defaults.secondary.exponent).max(1.0),
-            finite(look.secondary.shift, 0.0).clamp(-1.0, 1.0),
-        ),
-        spiral: Vec4::new(children.spiral.a, children.spiral.b, children.spiral.angle_step, children.spiral.scale),
-        shape: Vec4::new(
-            children.clumping,
-            children.tip_spread,
-            non_negative(look.root_width, defaults.root_width),
-            non_negative(look.tip_width, defaults.tip_width),
-        ),
-        shading: Vec4::new(
-            non_negative(look.tint_variation, 0.0).min(1.0),
-            if look.receive_shadows { 1.0 } else { 0.0 },
-            non_negative(look.diffuse, defaults.diffuse),
-            0.0,
-        ),
-        counts: layout.shader_counts(),
+        primary_exponent: non_negative(look.primary.exponent, defaults.primary.exponent).max(1.0),
+        primary_shift: finite(look.primary.shift, 0.0).clamp(-1.0, 1.0),
+        secondary_exponent: non_negative(look.secondary.exponent, defaults.secondary.exponent).max(1.0),
+        secondary_shift: finite(look.secondary.shift, 0.0).clamp(-1.0, 1.0),
+        spiral_a: children.spiral.a,
+        spiral_b: children.spiral.b,
+        spiral_angle_step: children.spiral.angle_step,
+        spiral_scale: children.spiral.scale,
+        clumping: children.clumping,
+        tip_spread: children.tip_spread,
+        root_width: non_negative(look.root_width, defaults.root_width),
+        tip_width: non_negative(look.tip_width, defaults.tip_width),
+        tint_variation: non_negative(look.tint_variation, 0.0).min(1.0),
+        diffuse: non_negative(look.diffuse, defaults.diffuse),
+        flags: if look.receive_shadows { HairUniform::RECEIVE_SHADOWS } else { 0 },
+        ..default()
     }
+    .with_layout(layout)
 }
 
 #[cfg(test)]
@@ -414,14 +411,34 @@ mod tests {
         let groom =
             HairGroom { children: ChildParams { clumping: f32::NAN, tip_spread: -1.0, ..default() }, ..default() };
         let u = uniform(&layout, &groom, &bad);
-        let values = [u.specular, u.spiral, u.shape, u.shading];
+        let values = [
+            u.primary_exponent,
+            u.primary_shift,
+            u.secondary_exponent,
+            u.secondary_shift,
+            u.spiral_a,
+            u.spiral_b,
+            u.spiral_angle_step,
+            u.spiral_scale,
+            u.clumping,
+            u.tip_spread,
+            u.root_width,
+            u.tip_width,
+            u.tint_variation,
+            u.diffuse,
+        ];
         assert!(values.iter().all(|v| v.is_finite()), "{u:?}");
         let defaults = HairLook::default();
-        assert_eq!((u.shape.z, u.shape.w), (defaults.root_width, 0.0), "NaN width → default, negative → 0");
-        assert_eq!((u.shading.x, u.shading.z), (0.0, defaults.diffuse), "non-finite variation → 0, diffuse → default");
-        assert_eq!((u.specular.x, u.specular.y), (defaults.primary.exponent, 1.0), "exponent default, shift clamped");
-        assert_eq!((u.specular.z, u.specular.w), (1.0, 0.0), "exponent at least 1, NaN shift → 0");
-        assert_eq!((u.shape.x, u.shape.y), (ChildParams::default().clumping, 0.0));
-        assert_eq!(u.counts, UVec4::new(2, 11, 5, 4));
+        assert_eq!((u.root_width, u.tip_width), (defaults.root_width, 0.0), "NaN width → default, negative → 0");
+        assert_eq!(
+            (u.tint_variation, u.diffuse),
+            (0.0, defaults.diffuse),
+            "non-finite variation → 0, diffuse → default"
+        );
+        assert_eq!((u.primary_exponent, u.primary_shift), (defaults.primary.exponent, 1.0), "default, clamped");
+        assert_eq!((u.secondary_exponent, u.secondary_shift), (1.0, 0.0), "exponent at least 1, NaN shift → 0");
+        assert_eq!((u.clumping, u.tip_spread), (ChildParams::default().clumping, 0.0));
+        assert_eq!((u.guides, u.particles, u.strands_per_guide, u.subdivisions), (2, 11, 5, 4));
+        assert_eq!(u.flags, HairUniform::RECEIVE_SHADOWS, "the default look receives shadows");
     }
 }
