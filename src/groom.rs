@@ -176,7 +176,7 @@ pub(crate) fn start_growth(
             Ok((head, repairs, weights, pose, scale, joint))
         });
         match prepared {
-            Err(reason) => fail(reason),
+            Err(kind) => fail(kind),
             Ok((head, repairs, weights, pose, scale, joint)) => {
                 if repairs.any() {
                     warn!("hair on {entity}: the head mesh was repaired: {repairs}");
