@@ -141,12 +141,16 @@ impl ScalpJoint {
     /// The skinning data of each root's triangle, from the head mesh the groom grew on
     /// (scaled by `scale`, the scale of the joint's frame at growth).
     pub(crate) fn root_skin(&self, head: &HeadMesh, scale: Vec3, roots: &[RootBinding]) -> RootSkin {
-        let corner = |v: u32| {
-            let position = Vec3::from_array(head.positions[v as usize].to_array()) / scale;
-            (position, self.vertex_joints.get(v as usize).copied().unwrap_or_default())
-        };
+        let corner = |v: u32| self.skinned_vertex(head, scale, v);
         let roots = roots.iter().map(|r| (head.triangles[r.triangle as usize].map(corner), r.barycentric)).collect();
         RootSkin { roots }
+    }
+
+    /// Vertex `v` of `head` (scaled by `scale`) as the skin sees it: its bind-pose position
+    /// and its joints and weights.
+    fn skinned_vertex(&self, head: &HeadMesh, scale: Vec3, v: u32) -> SkinnedVertex {
+        let position = Vec3::from_array(head.positions[v as usize].to_array()) / scale;
+        (position, self.vertex_joints.get(v as usize).copied().unwrap_or_default())
     }
 
     /// The skin that does not move rigidly with this joint, as a patch to collide with
@@ -165,21 +169,20 @@ impl ScalpJoint {
         }
         // The patch's own vertex numbering, over the corners it uses.
         let mut numbering = std::collections::HashMap::new();
-        let mut vertices: Vec<SkinnedVertex> = Vec::new();
+        let (mut vertices, mut bind) = (Vec::new(), Vec::new());
         let triangles = moving
             .iter()
             .map(|t| {
                 t.map(|v| {
                     *numbering.entry(v).or_insert_with(|| {
-                        let position = Vec3::from_array(head.positions[v as usize].to_array()) / scale;
-                        vertices.push((position, self.vertex_joints.get(v as usize).copied().unwrap_or_default()));
+                        vertices.push(self.skinned_vertex(head, scale, v));
+                        // At bind pose the skin is where the collider was baked.
+                        bind.push(head.positions[v as usize]);
                         (vertices.len() - 1) as u32
                     })
                 })
             })
             .collect();
-        // At bind pose the skin is where the collider was baked (scaled into head space).
-        let bind: Vec<hair_sim::math::Vec3> = vertices.iter().map(|(p, _)| to_sim(*p * scale)).collect();
         Some(SkinPatch { vertices, patch: SurfacePatch::new(triangles, bind, PATCH_REACH) })
     }
 

@@ -971,50 +971,22 @@ fn with_friction(contact: Contact, start: Vec3, friction: f32) -> Vec3 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::solver::Strands;
 
     /// A group holding one strand at `xs`, with rest shape `rest_positions`.
     fn one(rest_positions: Vec<Vec3>, xs: &[Vec3]) -> GroupState {
-        let n = xs.len();
-        let rest = RestShape::new(rest_positions, n).unwrap();
-        let mut arrays = Arrays::new(xs.to_vec());
-        let mut g = GroupState::new(n);
-        g.load(&[0], 0, &rest, &arrays.state(), false);
+        let mut strands = strands_at(RestShape::new(rest_positions, xs.len()).unwrap(), xs);
+        let chunks = strands.chunks_mut(1);
+        let mut g = GroupState::new(xs.len());
+        g.load(&[0], 0, chunks[0].rest, &chunks[0].state, false);
         g
     }
 
-    /// The per-particle arrays a chunk borrows.
-    struct Arrays {
-        positions: Vec<Vec3>,
-        velocities: Vec<Vec3>,
-        hints: Vec<ContactHint>,
-        previous_positions: Vec<Vec3>,
-        previous_velocities: Vec<Vec3>,
-        history_step: Vec<f32>,
-    }
-
-    impl Arrays {
-        fn new(positions: Vec<Vec3>) -> Self {
-            let n = positions.len();
-            Arrays {
-                velocities: vec![Vec3::ZERO; n],
-                hints: vec![ContactHint::NONE; n],
-                previous_positions: positions.clone(),
-                previous_velocities: vec![Vec3::ZERO; n],
-                history_step: vec![0.0; n],
-                positions,
-            }
-        }
-
-        fn state(&mut self) -> ChunkState<'_> {
-            ChunkState {
-                positions: &mut self.positions,
-                velocities: &mut self.velocities,
-                hints: &mut self.hints,
-                previous_positions: &mut self.previous_positions,
-                previous_velocities: &mut self.previous_velocities,
-                history_step: &mut self.history_step,
-            }
-        }
+    /// Strands of rest shape `rest` whose particles are at `xs`.
+    fn strands_at(rest: RestShape, xs: &[Vec3]) -> Strands {
+        let mut strands = Strands::new(rest, Pose::IDENTITY);
+        strands.set_positions(xs).unwrap();
+        strands
     }
 
     fn lane0(values: &[V3]) -> Vec<Vec3> {
@@ -1079,14 +1051,16 @@ mod tests {
     fn empty_lanes_repeat_the_first_strand_and_are_not_stored() {
         let n = 3;
         let rest = RestShape::new([hanging(n), hanging(n)].concat(), n).unwrap();
-        let mut arrays = Arrays::new(rest.positions.iter().map(|p| *p * 2.0).collect());
-        let mut state = arrays.state();
+        let doubled: Vec<Vec3> = rest.positions.iter().map(|p| *p * 2.0).collect();
+        let mut strands = strands_at(rest.clone(), &doubled);
+        let mut chunks = strands.chunks_mut(2);
+        let state = &mut chunks[0].state;
         let mut g = GroupState::new(n);
-        g.load(&[1], 0, &rest, &state, false);
+        g.load(&[1], 0, &rest, state, false);
         assert_eq!((g.lanes, g.strands), (1, [1; LANES]));
         assert!((0..LANES).all(|l| g.positions[2].lane(l) == Vec3::new(0.0, -4.0, 0.0)));
         follow_the_leader(&mut g);
-        g.store(&mut state, false);
+        g.store(state, false);
         assert_eq!(state.positions[n + 2], Vec3::new(0.0, -2.0, 0.0), "strand 1 restored to rest length");
         assert_eq!(state.positions[2], Vec3::new(0.0, -4.0, 0.0), "strand 0 was not in the group");
     }
