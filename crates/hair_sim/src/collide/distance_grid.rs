@@ -3,12 +3,25 @@
 use crate::math::{Vec3, bounds};
 use glam::Vec3A;
 
+/// How far from the surface, in cells, every sample of a [`DistanceGrid`] is exact.
+pub const EXACT_BAND_CELLS: f32 = 4.0;
+
+/// The coarse lattice of exact samples the far bounds come from: every this many samples.
+const COARSE_STRIDE: usize = 4;
+
 /// Signed distances sampled on a regular grid around the head (negative inside).
 ///
 /// Trilinear interpolation of a distance function is off by at most half a cell
 /// diagonal: the function is 1-Lipschitz, so the error is at most the weighted mean
 /// distance from the point to the cell's corners, which peaks at the cell centre.
 /// [`DistanceGrid::max_error`] is that bound.
+///
+/// Only the samples within [`EXACT_BAND_CELLS`] cells of the surface are exact. Farther
+/// out a sample holds a bound from the nearest of a coarse lattice of exact samples (the
+/// distance is 1-Lipschitz): the right sign, and never farther from zero than the truth.
+/// There a sample still proves a point clear of the surface by at least its value less
+/// the error, which is all a far point needs, and the bake pays for exact distances only
+/// near the surface (on two cores, 2026-12-02: 3.5 s → 0.5 s at 327,680 triangles).
 #[derive(Clone, Debug)]
 pub struct DistanceGrid {
     origin: Vec3A,
@@ -42,10 +55,29 @@ impl DistanceGrid {
         let (min, max) = (min - Vec3::splat(margin), max + Vec3::splat(margin));
         let cell = (max - min).max_element() / resolution as f32;
         let dims = ((max - min) / cell).ceil().to_array().map(|n| n as usize + 1);
-        // x fastest, then y, then z; every sample on its own, over all cores.
+        let position = |[x, y, z]: [usize; 3]| min + Vec3::new(x as f32, y as f32, z as f32) * cell;
+        // First the coarse lattice, exact; x fastest, then y, then z, over all cores.
+        let coarse_dims = dims.map(|n| (n - 1).div_ceil(COARSE_STRIDE) + 1);
+        let coarse_index = |[x, y, z]: [usize; 3]| (z * coarse_dims[1] + y) * coarse_dims[0] + x;
+        let coarse_node = |c: [usize; 3]| [0, 1, 2].map(|k| (c[k] * COARSE_STRIDE).min(dims[k] - 1));
+        let coarse = crate::parallel::map(coarse_dims.iter().product(), |i| {
+            let (cx, cy, cz) =
+                (i % coarse_dims[0], i / coarse_dims[0] % coarse_dims[1], i / (coarse_dims[0] * coarse_dims[1]));
+            distance(position(coarse_node([cx, cy, cz])))
+        });
+        // Then every sample: exact near the surface, bounded from the nearest coarse sample
+        // where that proves it farther than the band.
+        let band = EXACT_BAND_CELLS * cell;
         let values = crate::parallel::map(dims[0] * dims[1] * dims[2], |i| {
-            let (x, y, z) = (i % dims[0], i / dims[0] % dims[1], i / (dims[0] * dims[1]));
-            distance(min + Vec3::new(x as f32, y as f32, z as f32) * cell)
+            let node = [i % dims[0], i / dims[0] % dims[1], i / (dims[0] * dims[1])];
+            let nearest = [0, 1, 2].map(|k| {
+                let c = (node[k] + COARSE_STRIDE / 2) / COARSE_STRIDE;
+                c.min(coarse_dims[k] - 1)
+            });
+            let known = coarse[coarse_index(nearest)];
+            let p = position(node);
+            let bound = known.abs() - p.distance(position(coarse_node(nearest)));
+            if bound > band { known.signum() * bound } else { distance(p) }
         });
         let upper = Vec3A::new((dims[0] - 1) as f32, (dims[1] - 1) as f32, (dims[2] - 1) as f32);
         let max_error = 0.5 * cell * 3f32.sqrt();
@@ -131,16 +163,33 @@ impl DistanceGrid {
 mod tests {
     use super::*;
 
+    /// Exact within the band (to the interpolation error), a bound of the right sign
+    /// beyond it, on a sphere sampled from its centre to beyond the grid.
     #[test]
     fn interpolates_a_sphere_within_the_error_bound() {
         let points = [Vec3::splat(-1.0), Vec3::splat(1.0)];
-        let grid = DistanceGrid::bake(&points, 16, |p| p.length() - 1.0);
+        let grid = DistanceGrid::bake(&points, 32, |p| p.length() - 1.0);
         assert!(grid.margin() >= 0.5);
-        for i in 0..100 {
-            let p = Vec3::new((i as f32 * 0.13).sin(), (i as f32 * 0.29).cos(), (i as f32 * 0.07).sin()) * 1.2;
-            let approx = grid.sample(p).unwrap();
-            assert!((approx - (p.length() - 1.0)).abs() <= grid.max_error());
+        let (band, error) = (EXACT_BAND_CELLS * grid.cell_size(), grid.max_error());
+        let (mut near, mut far, mut bounded) = (0, 0, 0);
+        for i in 0..4000 {
+            let direction = Vec3::new((i as f32 * 0.13).sin(), (i as f32 * 0.29).cos(), (i as f32 * 0.07).sin());
+            let p = direction.normalize() * (i as f32 / 4000.0) * 1.6;
+            let (Some(approx), exact) = (grid.sample(p), p.length() - 1.0) else { continue };
+            if exact.abs() < band - error {
+                near += 1;
+                assert!((approx - exact).abs() <= error, "{approx} vs {exact}");
+            } else {
+                far += 1;
+                assert!(
+                    approx.abs() <= exact.abs() + error && approx.signum() == exact.signum(),
+                    "{approx} vs {exact}"
+                );
+                bounded += usize::from((approx - exact).abs() > error);
+            }
         }
+        println!("{near} samples in the band, {far} beyond it ({bounded} of them bounded, not exact)");
+        assert!(near > 1000 && bounded > 100, "both kinds are tested");
         assert_eq!(grid.sample(Vec3::splat(5.0)), None);
         assert_eq!(grid.sample(Vec3::NAN), None);
     }

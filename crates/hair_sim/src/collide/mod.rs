@@ -35,11 +35,11 @@ pub const DEFAULT_GRID_RESOLUTION: u32 = 64;
 pub const GRID_RESOLUTIONS: std::ops::RangeInclusive<u32> = 8..=256;
 
 /// The most triangles a head should have for its collider to bake in a few seconds. On two
-/// cores (2026-12-02) the procedural head bakes in 0.67 s at 5,120 triangles, 1.3 s at
-/// 20,480, 4.0 s at 81,920 and 27 s at 327,680 (the edge clearances grow faster than the
-/// count up there). A collider needs no finer detail than about a millimetre: decimate the
+/// cores (2026-12-02) the procedural head bakes in 0.35 s at 5,120 triangles, 0.99 s at
+/// 81,920 and 3.6 s at 327,680 (about 0.3 s plus 11 µs per triangle), holding 83 MB at
+/// the largest. A collider needs no finer detail than about a millimetre: decimate the
 /// collision mesh to this.
-pub const BAKE_TRIANGLE_BUDGET: usize = 80_000;
+pub const BAKE_TRIANGLE_BUDGET: usize = 350_000;
 
 /// Why a collider cannot be built.
 #[derive(Clone, Debug, PartialEq)]
@@ -436,11 +436,17 @@ mod tests {
     fn grid_agrees_with_the_bvh() {
         let collider = HeadCollider::new(&test_head(3), 24).unwrap();
         let err = collider.grid().max_error();
+        let band = distance_grid::EXACT_BAND_CELLS * collider.grid().cell_size();
         for i in 0..200 {
             let f = i as f32 * 0.37;
             let p = Vec3::new(f.sin() * 0.15, (f * 1.3).cos() * 0.18, (f * 0.7).sin() * 0.16);
             if let Some(approx) = collider.grid().sample(p - collider.centre()) {
-                assert!((approx - collider.signed_distance(p)).abs() <= err, "at {p:?}");
+                let exact = collider.signed_distance(p);
+                if exact.abs() < band - err {
+                    assert!((approx - exact).abs() <= err, "at {p:?}");
+                } else {
+                    assert!(approx.abs() <= exact.abs() + err && approx.signum() == exact.signum(), "at {p:?}");
+                }
             }
         }
     }

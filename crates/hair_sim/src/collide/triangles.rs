@@ -41,11 +41,9 @@
 
 use crate::math::{Vec3, bounds};
 use glam::Vec3A;
-use parry3d::bounding_volume::Aabb;
 use parry3d::math::Pose as Isometry;
 use parry3d::query::PointQueryWithLocation;
 use parry3d::shape::{Segment, Shape, TriMesh, TrianglePointLocation};
-use std::collections::HashMap;
 
 /// How far a neighbour's corner may rise above a triangle's plane and still count as
 /// below it, metres.
@@ -102,16 +100,17 @@ pub(super) struct Certified {
 impl FlatTriangles {
     pub fn bake(mesh: &TriMesh) -> Self {
         let mut triangles: Vec<FlatTriangle> = mesh.triangles().map(|t| FlatTriangle::new(t.a, t.b, t.c)).collect();
+        let vertices = VertexBins::new(mesh);
         let clearances = crate::parallel::map(triangles.len(), |i| {
             let (base, t) = (&triangles[i], mesh.triangle(i as u32));
             if base.normal == Vec3::ZERO {
                 0.0
             } else {
-                clearance(mesh, &triangles, &t, bounds(&[t.a, t.b, t.c]), &[base])
+                clearance(mesh, &triangles, &vertices, &t, bounds(&[t.a, t.b, t.c]), &[base])
             }
         });
         triangles.iter_mut().zip(clearances).for_each(|(t, c)| t.clearance = c);
-        let edges = bake_edges(mesh, &triangles);
+        let edges = bake_edges(mesh, &triangles, &vertices);
         FlatTriangles { triangles, edges }
     }
 
@@ -188,70 +187,176 @@ impl FlatTriangles {
 fn clearance(
     mesh: &TriMesh,
     triangles: &[FlatTriangle],
+    vertices: &VertexBins,
     shape: &dyn Shape,
     bounds: (Vec3, Vec3),
     bases: &[&FlatTriangle],
 ) -> f32 {
     let size = (bounds.1 - bounds.0).max_element();
     let reach = 2.0 * (CLEARANCE_CAP_PER_SIZE * size).clamp(MIN_CLEARANCE_CAP, MAX_CLEARANCE);
-    let aabb = Aabb::new(bounds.0 - Vec3::splat(reach), bounds.1 + Vec3::splat(reach));
-    // The gap between bounding boxes is a lower bound of the distance: nearest boxes first,
-    // and no exact distance for a triangle whose box is farther than the nearest found.
-    // On a fine mesh the reach holds thousands of triangles; this keeps the bake linear.
-    // A BVH node whose box lies wholly below every base's plane holds no triangle rising
-    // above it: on a smooth surface that prunes nearly all of the box's neighbourhood.
-    let (low, high) = (aabb.mins, aabb.maxs);
-    let rising_box = |node: &parry3d::partitioning::BvhNode| {
-        let (mins, maxs) = (node.mins(), node.maxs());
-        let (centre, half) = (0.5 * (mins + maxs), 0.5 * (maxs - mins));
-        mins.cmple(high).all()
-            && maxs.cmpge(low).all()
-            && bases.iter().any(|base| {
-                let height = base.normal.dot(centre - Vec3::from(base.a)) + base.normal.abs().dot(half);
-                height > PLANE_TOLERANCE
-            })
-    };
-    let mut rising: Vec<(f32, u32)> = mesh
-        .bvh()
-        .leaves(rising_box)
-        .filter(|&i| bases.iter().any(|base| triangles[i as usize].rises_above(base)))
-        .map(|i| (box_gap(bounds, triangles[i as usize].bounds()), i))
-        .filter(|&(gap, _)| gap < reach)
+    // A triangle rises above a plane only through a corner, so the rising triangles are
+    // among those around the rising corners near the shape, found by one tight loop over
+    // the nearby vertices; on a convex stretch there are none. A triangle is no nearer
+    // than its rising corner less the longest edge around that corner: corners nearest
+    // first, and no exact distance once that bound passes the nearest found. (A walk over
+    // the hundreds of triangles within reach of each triangle made the bake quadratic on
+    // fine meshes.)
+    let margin = Vec3::splat(reach + vertices.longest_edge);
+    let mut corners: Vec<(f32, u32)> = vertices
+        .rising_corners(bounds.0 - margin, bounds.1 + margin, bases)
+        .map(|(p, v)| (shape.distance_to_local_point(p.into(), true) - vertices.span[v as usize], v))
+        .filter(|&(bound, _)| bound < reach)
         .collect();
-    rising.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+    corners.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
     let mut nearest = reach;
-    for (gap, i) in rising {
+    for (bound, v) in corners {
         // Touching (a concave fold) is as near as it gets.
-        if gap >= nearest || nearest == 0.0 {
+        if bound >= nearest || nearest == 0.0 {
             break;
         }
-        // GJK converges to within rounding; the slack keeps the result a lower bound.
-        let identity = Isometry::IDENTITY;
-        let distance = parry3d::query::distance(&identity, shape, &identity, &mesh.triangle(i))
-            .map_or(0.0, |d| (d.distance - DISTANCE_SLACK).max(0.0));
-        nearest = nearest.min(distance);
+        for i in vertices.triangles_around(v) {
+            if !bases.iter().any(|base| triangles[i as usize].rises_above(base)) {
+                continue;
+            }
+            // GJK converges to within rounding; the slack keeps the result a lower bound.
+            let identity = Isometry::IDENTITY;
+            let distance = parry3d::query::distance(&identity, shape, &identity, &mesh.triangle(i))
+                .map_or(0.0, |d| (d.distance - DISTANCE_SLACK).max(0.0));
+            nearest = nearest.min(distance);
+        }
     }
     0.5 * nearest
 }
 
-/// The distance between two axis-aligned boxes (0 where they overlap).
-fn box_gap(a: (Vec3, Vec3), b: (Vec3, Vec3)) -> f32 {
-    (b.0 - a.1).max(a.0 - b.1).max(Vec3::ZERO).length()
+/// The mesh's vertices binned in a uniform grid, with the triangles around each, to find
+/// the corners near a place that rise above some planes in a tight loop.
+struct VertexBins {
+    origin: Vec3A,
+    inverse_cell: f32,
+    dims: [usize; 3],
+    /// Per cell, where its vertices start in `points` (one more entry at the end).
+    starts: Vec<u32>,
+    /// The vertices, by cell, and their indices in the mesh.
+    points: Vec<(Vec3A, u32)>,
+    /// Per mesh vertex, where its triangles start in `around` (one more at the end).
+    around_starts: Vec<u32>,
+    around: Vec<u32>,
+    /// Per mesh vertex, the longest edge of the triangles around it: every point of those
+    /// triangles is within this of the vertex.
+    span: Vec<f32>,
+    /// The longest edge of any triangle.
+    longest_edge: f32,
+}
+
+impl VertexBins {
+    /// Cell edge, metres: a clearance search box (1–4 cm across) spans a few cells.
+    const CELL: f32 = 0.004;
+    /// The most cells: a mesh too large for [`Self::CELL`] gets larger cells.
+    const MAX_CELLS: f32 = 4.0e6;
+
+    fn new(mesh: &TriMesh) -> Self {
+        let vertices = mesh.vertices();
+        let (low, high) = if vertices.is_empty() { (Vec3::ZERO, Vec3::ZERO) } else { bounds(vertices) };
+        let extent = (high - low).max(Vec3::splat(1e-6));
+        let cell = Self::CELL.max((extent.x * extent.y * extent.z / Self::MAX_CELLS).cbrt());
+        let dims = (extent / cell).to_array().map(|n| n as usize + 1);
+        let mut bins = VertexBins {
+            origin: low.into(),
+            inverse_cell: 1.0 / cell,
+            dims,
+            starts: Vec::new(),
+            points: Vec::new(),
+            around_starts: Vec::new(),
+            around: Vec::new(),
+            span: vec![0.0; vertices.len()],
+            longest_edge: 0.0,
+        };
+        let cells: Vec<usize> = vertices.iter().map(|&v| bins.cell_of(v)).collect();
+        (bins.starts, bins.points) =
+            buckets(dims[0] * dims[1] * dims[2], &cells, |v| (Vec3A::from(vertices[v]), v as u32));
+        let corners: Vec<(usize, u32)> = mesh
+            .indices()
+            .iter()
+            .enumerate()
+            .flat_map(|(t, corners)| corners.map(|v| (v as usize, t as u32)))
+            .collect();
+        let owners: Vec<usize> = corners.iter().map(|c| c.0).collect();
+        (bins.around_starts, bins.around) = buckets(vertices.len(), &owners, |k| corners[k].1);
+        for (t, corners) in mesh.triangles().zip(mesh.indices()) {
+            let longest = t.a.distance(t.b).max(t.b.distance(t.c)).max(t.c.distance(t.a));
+            corners.iter().for_each(|&v| bins.span[v as usize] = bins.span[v as usize].max(longest));
+            bins.longest_edge = bins.longest_edge.max(longest);
+        }
+        bins
+    }
+
+    fn cell_index(&self, p: Vec3) -> [usize; 3] {
+        let c = (Vec3A::from(p) - self.origin) * self.inverse_cell;
+        [0, 1, 2].map(|i| (c[i].max(0.0) as usize).min(self.dims[i] - 1))
+    }
+
+    fn cell_of(&self, p: Vec3) -> usize {
+        let [x, y, z] = self.cell_index(p);
+        x + self.dims[0] * (y + self.dims[1] * z)
+    }
+
+    /// The vertices in the cells overlapping `low`–`high` that lie above the plane of any
+    /// of `bases` by more than [`PLANE_TOLERANCE`], less a rounding margin (so every
+    /// corner [`FlatTriangle::rises_above`] counts is among them).
+    fn rising_corners(&self, low: Vec3, high: Vec3, bases: &[&FlatTriangle]) -> impl Iterator<Item = (Vec3A, u32)> {
+        let tolerance = PLANE_TOLERANCE * 0.9;
+        let (lo, hi) = (self.cell_index(low), self.cell_index(high));
+        let rows =
+            (lo[2]..=hi[2]).flat_map(move |z| (lo[1]..=hi[1]).map(move |y| self.dims[0] * (y + self.dims[1] * z)));
+        rows.flat_map(move |row| &self.points[self.starts[row + lo[0]] as usize..self.starts[row + hi[0] + 1] as usize])
+            .filter(move |(p, _)| bases.iter().any(|base| Vec3A::from(base.normal).dot(*p - base.a) > tolerance))
+            .copied()
+    }
+
+    /// The triangles with mesh vertex `v` as a corner.
+    fn triangles_around(&self, v: u32) -> impl Iterator<Item = u32> + '_ {
+        let range = self.around_starts[v as usize] as usize..self.around_starts[v as usize + 1] as usize;
+        self.around[range].iter().copied()
+    }
+}
+
+/// A counting sort: the items `0..keys.len()` grouped by their key (below `count`), as
+/// `(starts, values)` with key `k`'s values at `starts[k]..starts[k + 1]`.
+fn buckets<T: Copy + Default>(count: usize, keys: &[usize], value: impl Fn(usize) -> T) -> (Vec<u32>, Vec<T>) {
+    let mut starts = vec![0u32; count + 1];
+    keys.iter().for_each(|&k| starts[k + 1] += 1);
+    (1..starts.len()).for_each(|k| starts[k] += starts[k - 1]);
+    let mut next = starts.clone();
+    let mut values = vec![T::default(); keys.len()];
+    for (item, &k) in keys.iter().enumerate() {
+        values[next[k] as usize] = value(item);
+        next[k] += 1;
+    }
+    (starts, values)
 }
 
 /// Pairs the triangles across each edge and bakes the edge clearances. An edge with one
 /// triangle (an open mesh) or more than two gets none.
-fn bake_edges(mesh: &TriMesh, triangles: &[FlatTriangle]) -> Vec<[Edge; 3]> {
-    let mut sides: HashMap<[u32; 2], Vec<(u32, u32)>> = HashMap::new();
-    for (t, corners) in mesh.indices().iter().enumerate() {
-        for i in 0..3 {
-            let (a, b) = (corners[i], corners[(i + 1) % 3]);
-            sides.entry([a.min(b), a.max(b)]).or_default().push((t as u32, i as u32));
-        }
-    }
+fn bake_edges(mesh: &TriMesh, triangles: &[FlatTriangle], vertices: &VertexBins) -> Vec<[Edge; 3]> {
+    // Every triangle side as (its corners in order, triangle, side), sorted so that the
+    // sides of one edge lie together.
+    let mut sides: Vec<([u32; 2], u32, u32)> = mesh
+        .indices()
+        .iter()
+        .enumerate()
+        .flat_map(|(t, corners)| {
+            (0..3).map(move |i| {
+                let (a, b) = (corners[i], corners[(i + 1) % 3]);
+                ([a.min(b), a.max(b)], t as u32, i as u32)
+            })
+        })
+        .collect();
+    sides.sort_unstable();
     // Edges shared by exactly two triangles: (triangle, its edge), twice.
-    let pairs: Vec<[(u32, u32); 2]> =
-        sides.values().filter_map(|pair| if let &[a, b] = pair.as_slice() { Some([a, b]) } else { None }).collect();
+    let pairs: Vec<[(u32, u32); 2]> = sides
+        .chunk_by(|x, y| x.0 == y.0)
+        .filter_map(|edge| if let &[(_, t, i), (_, u, j)] = edge { Some([(t, i), (u, j)]) } else { None })
+        .collect();
     let clearances = crate::parallel::map(pairs.len(), |k| {
         let [(t, i), (u, _)] = pairs[k];
         let (ft, fu) = (&triangles[t as usize], &triangles[u as usize]);
@@ -259,7 +364,7 @@ fn bake_edges(mesh: &TriMesh, triangles: &[FlatTriangle]) -> Vec<[Edge; 3]> {
         let convex = ft.normal != Vec3::ZERO && fu.normal != Vec3::ZERO && !fu.rises_above(ft) && !ft.rises_above(fu);
         if convex {
             let (a, b) = (ft.corner(i).into(), ft.corner((i + 1) % 3).into());
-            clearance(mesh, triangles, &Segment::new(a, b), bounds(&[a, b]), &[ft, fu])
+            clearance(mesh, triangles, vertices, &Segment::new(a, b), bounds(&[a, b]), &[ft, fu])
         } else {
             0.0
         }
@@ -356,12 +461,6 @@ impl FlatTriangle {
     /// Whether a corner of this triangle lies more than [`PLANE_TOLERANCE`] above the plane
     /// of `base` (the triangles that can limit `base`'s certificates).
     #[inline]
-    /// The triangle's axis-aligned bounds.
-    fn bounds(&self) -> (Vec3, Vec3) {
-        let (b, c) = (self.a + self.ab, self.a + self.ac);
-        (self.a.min(b).min(c).into(), self.a.max(b).max(c).into())
-    }
-
     pub fn rises_above(&self, base: &FlatTriangle) -> bool {
         let normal = Vec3A::from(base.normal);
         let a = normal.dot(self.a - base.a);
