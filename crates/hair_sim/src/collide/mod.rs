@@ -11,6 +11,7 @@
 mod candidates;
 mod distance_grid;
 mod patch;
+mod sag;
 mod shapes;
 mod triangles;
 
@@ -23,6 +24,7 @@ use crate::mesh::{HeadMesh, MeshError};
 use candidates::{CandidateGrid, Closest, Near};
 use parry3d::query::{PointQueryWithLocation, Ray, RayCast};
 use parry3d::shape::{TriMesh, TriMeshFlags, TrianglePointLocation};
+use sag::SagGrid;
 use std::sync::atomic::{AtomicU32, Ordering};
 use triangles::FlatTriangles;
 
@@ -93,6 +95,8 @@ pub struct HeadCollider {
     grid: DistanceGrid,
     candidates: CandidateGrid,
     triangles: FlatTriangles,
+    /// How far the surface may rise under a segment near it, per region.
+    sag: SagGrid,
     /// Tells colliders apart, so a hint measured on one is not trusted by another.
     id: u32,
 }
@@ -109,9 +113,10 @@ pub struct ContactHint(Hint);
 enum Hint {
     #[default]
     None,
-    /// The closest triangle at the last query, which was at `at`; every triangle of
-    /// collider `collider` rising above its plane was at least `gap` from there.
-    Touching { triangle: u32, at: Vec3, gap: f32, collider: u32 },
+    /// The closest triangle at the last full search, which was at `at`; every triangle of
+    /// collider `collider` rising above its plane was at least `gap` from there. At the
+    /// last query, at `seen`, the surface was `distance` away (negative inside).
+    Touching { triangle: u32, at: Vec3, gap: f32, seen: Vec3, distance: f32, collider: u32 },
     /// No surface of collider `collider` within `distance` of the head-local point `at`.
     Clear { at: Vec3, distance: f32, collider: u32 },
 }
@@ -147,9 +152,10 @@ impl HeadCollider {
         let grid = DistanceGrid::bake(&positions, resolution, |p| signed_distance_exact(&mesh, p));
         let candidates = CandidateGrid::bake(&grid, &mesh);
         let triangles = FlatTriangles::bake(&mesh);
+        let sag = SagGrid::bake(mesh.vertices(), mesh.indices());
         static NEXT_ID: AtomicU32 = AtomicU32::new(0);
         let id = NEXT_ID.fetch_add(1, Ordering::Relaxed);
-        Ok(HeadCollider { centre, mesh, grid, candidates, triangles, id })
+        Ok(HeadCollider { centre, mesh, grid, candidates, triangles, sag, id })
     }
 
     /// The centre of the mesh's bounds, head-local: the origin of [`Self::grid`].
@@ -226,15 +232,25 @@ impl HeadCollider {
     }
 
     /// A distance `p` (head-local) is known to be from the surface, from what its hint
-    /// remembers (the empty ball of its last query, less how far it has moved since): 0 when
-    /// the hint knows nothing, or the particle last touched the head.
+    /// remembers (the distance at its last query, less how far it has moved since): 0 when
+    /// the hint knows nothing or belongs to another collider, or the particle was inside.
     pub fn known_clearance(&self, p: Vec3, hint: &ContactHint) -> f32 {
-        match hint.0 {
-            Hint::Clear { at, distance, collider } if collider == self.id => {
-                (distance - (p - self.centre - at).length()).max(0.0)
-            }
-            _ => 0.0,
-        }
+        let (at, distance) = match hint.0 {
+            Hint::Clear { at, distance, collider } if collider == self.id => (at, distance),
+            Hint::Touching { seen, distance, collider, .. } if collider == self.id => (seen, distance),
+            _ => return 0.0,
+        };
+        (distance - (p - self.centre - at).length()).max(0.0)
+    }
+
+    /// Whether what the hints of `a` and `b` (head-local) know shows that the segment
+    /// between them stays outside the head, so [`Self::segment_crossing`] need not be asked:
+    /// their clear balls cover it together, or both ends clear the most the surface can
+    /// rise under it (from the curvature baked around it, `collide/sag.rs`). On a smooth
+    /// scalp a segment of hair resting on a 3 mm shell passes; by an ear it does not.
+    pub fn segment_known_clear(&self, a: Vec3, hint_a: &ContactHint, b: Vec3, hint_b: &ContactHint) -> bool {
+        let (clear_a, clear_b) = (self.known_clearance(a, hint_a), self.known_clearance(b, hint_b));
+        clear_a + clear_b > (b - a).length() || clear_a.min(clear_b) > self.sag.bound(a - self.centre, b - self.centre)
     }
 
     /// Where the segment `a`–`b` (head-local) runs through the head: the distances from `a`
@@ -254,11 +270,15 @@ impl HeadCollider {
     #[inline]
     fn resolve_centred(&self, p: Vec3, thickness: f32, hint: &mut ContactHint) -> Option<Contact> {
         match hint.0 {
-            Hint::Touching { triangle, at, gap, collider } => {
+            Hint::Touching { triangle, at, gap, collider, .. } => {
                 // The gap was measured on one collider's triangles; the clearance is the
                 // triangle's own and holds on whatever mesh asks.
                 let gap = || if collider == self.id { gap - (p - at).length() } else { 0.0 };
                 if let Some(certified) = self.triangles.certify(triangle, p, gap) {
+                    if let Hint::Touching { seen, distance, .. } = &mut hint.0 {
+                        // A certified distance may exceed the true one by the plane tolerance.
+                        (*seen, *distance) = (p, certified.distance - triangles::PLANE_TOLERANCE);
+                    }
                     return contact(certified.point, certified.normal, certified.distance, thickness);
                 }
             }
@@ -298,10 +318,17 @@ impl HeadCollider {
             Near::Beyond => return None,
             Near::Unlisted => self.closest_by_bvh(p, approx.abs() + error + thickness)?,
         };
-        hint.0 = Hint::Touching { triangle: closest.triangle, at: p, gap: closest.gap, collider: self.id };
         let offset = p - closest.point;
         let distance = offset.length();
         let signed = if closest.inside { -distance } else { distance };
+        hint.0 = Hint::Touching {
+            triangle: closest.triangle,
+            at: p,
+            gap: closest.gap,
+            seen: p,
+            distance: signed,
+            collider: self.id,
+        };
         if signed >= thickness {
             return None;
         }

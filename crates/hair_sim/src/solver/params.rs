@@ -104,10 +104,13 @@ pub struct SimParams {
     pub collision_response: CollisionResponse,
     /// Keep whole segments out of the head, not only particles: a segment whose two ends
     /// are outside can still cut through a thin part between them (an ear's rim). On, each
-    /// segment that may reach the head is tested exactly (a ray along it through the
-    /// collider's BVH) and turned out where it crosses; that costs about 3× the step on a
-    /// groom resting on the head (2,048 × 16 strands, 2 cores, 2026-12-02: medians of three
-    /// runs 2.0–2.6 ms off, 6.0–7.4 ms on), so it is off by default.
+    /// segment that may reach the head (see [`HeadCollider::segment_known_clear`]) is
+    /// tested exactly (a ray along it through the collider's BVH) and turned out where it
+    /// crosses; that costs about 1.7× the step on the bench's groom (2,048 × 16 strands, 2
+    /// cores, 2026-12-02: medians of three runs 2.19 ms off, 3.82 ms on), so it is off by
+    /// default.
+    ///
+    /// [`HeadCollider::segment_known_clear`]: crate::collide::HeadCollider::segment_known_clear
     pub segment_collision: bool,
     /// Fraction, 0..1, of tangential sliding removed on contact.
     pub friction: f32,

@@ -824,8 +824,8 @@ fn keep_segments_outside(
             // Every point of the segment is within `length` of an end together: where the
             // ends' known clear balls add up to more, it cannot reach the surface.
             let hints = &state.hints[g.strands[l] * n..][..n];
-            let clear = |x: Vec3, hint: &ContactHint| collider.known_clearance(poses.now_one.local_point(x), hint);
-            if clear(parent, &hints[j - 1]) + clear(child, &hints[j]) > length {
+            let local = |x: Vec3| poses.now_one.local_point(x);
+            if collider.segment_known_clear(local(parent), &hints[j - 1], local(child), &hints[j]) {
                 continue;
             }
             let mut turned = child;

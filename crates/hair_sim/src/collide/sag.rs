@@ -1,0 +1,211 @@
+//! How far the head's surface can rise under a straight segment: what lets most hair
+//! segments skip the exact crossing test.
+//!
+//! A segment whose two ends are outside the head can still cut through it between them,
+//! where the surface bulges toward it by more than the ends clear it. Under a chord of
+//! length `L`, a surface whose convex curvature is at most `κ` rises at most `κ L² / 8`
+//! above the line between the ends' heights (a circular arc is the worst case). On a
+//! skull (radii 5–16 cm) a 1.8 cm hair segment needs 0.3–0.8 mm of clearance at its ends;
+//! by an ear's rim (radius of a few millimetres) only the exact test can tell.
+//!
+//! The mesh is flat between its vertices. Where it is convex its facets lie inside the
+//! smooth surface through its vertices, where concave up to `κ e² / 8` outside it (`e` an
+//! edge's length), and the bound adds that. The curvature along an edge `u`–`v` comes
+//! from the vertex normals, `(n_v − n_u)·(v − u) / |v − u|²`: `1 / R` on a sphere of
+//! radius `R`, negative where the surface is concave.
+//!
+//! Both terms are baked per cell of a coarse grid as the largest over the edges within
+//! [`REACH`] of the cell, so a segment up to twice that long, looked up at its midpoint,
+//! sees every edge under it. The bound is an estimate from the vertex normals, not a
+//! proof; `tests::no_segment_it_clears_crosses_the_head` checks it against brute force on
+//! the procedural head, ears included.
+
+use crate::math::{Vec3, bounds};
+use glam::Vec3A;
+
+/// The neighbourhood each cell covers beyond itself, metres: segments up to twice this
+/// long are judged; longer ones always get the exact test.
+pub const REACH: f32 = 0.0125;
+/// Cell size, metres.
+const CELL: f32 = 0.004;
+/// The most cells the grid may have; a mesh too large for [`CELL`]-sized cells at this
+/// count gets larger cells.
+const MAX_CELLS: f32 = 2.0e6;
+/// Where the surface's normal turns by more than this many radians under a segment, it is
+/// no longer a height field under it (an ear's rim), and the bound says nothing.
+const MAX_TURN: f32 = 1.0;
+
+/// Per cell of a grid around the mesh, the largest convex curvature of the surface near
+/// it and the largest facet term.
+#[derive(Clone, Debug)]
+pub(super) struct SagGrid {
+    origin: Vec3A,
+    inverse_cell: f32,
+    dims: [usize; 3],
+    /// Per cell: the largest convex curvature `κ`, 1/m, and the largest `|κ| e² / 8`, m.
+    cells: Vec<(f32, f32)>,
+}
+
+impl SagGrid {
+    /// Bakes the grid for a mesh of `positions` and `triangles` (indices into them).
+    pub fn bake(positions: &[Vec3], triangles: &[[u32; 3]]) -> Self {
+        let (low, high) = if positions.is_empty() { (Vec3::ZERO, Vec3::ZERO) } else { bounds(positions) };
+        let padded = (high - low).max(Vec3::splat(1e-6)) + Vec3::splat(2.0 * REACH);
+        let cell = CELL.max(1.01 * (padded.x * padded.y * padded.z / MAX_CELLS).cbrt());
+        let origin = low - Vec3::splat(REACH);
+        let dims = (padded / cell).to_array().map(|n| n as usize + 1);
+        let mut grid = SagGrid {
+            origin: origin.into(),
+            inverse_cell: 1.0 / cell,
+            dims,
+            cells: vec![(0.0, 0.0); dims[0] * dims[1] * dims[2]],
+        };
+        // Area-weighted vertex normals (the cross product's length is twice the area).
+        let mut normals = vec![Vec3::ZERO; positions.len()];
+        for t in triangles {
+            let [a, b, c] = t.map(|i| positions[i as usize]);
+            let weighted = (b - a).cross(c - a);
+            t.iter().for_each(|&i| normals[i as usize] += weighted);
+        }
+        normals.iter_mut().for_each(|n| *n = n.normalize_or_zero());
+        // Each edge (twice, once from each side: the same value) into the cells it touches.
+        for t in triangles {
+            for k in 0..3 {
+                let (u, v) = (t[k] as usize, t[(k + 1) % 3] as usize);
+                let edge = positions[v] - positions[u];
+                let length_squared = edge.length_squared();
+                if length_squared == 0.0 {
+                    continue;
+                }
+                let curvature = (normals[v] - normals[u]).dot(edge) / length_squared;
+                let value = (curvature.max(0.0), curvature.abs() * length_squared / 8.0);
+                let (lo, hi) =
+                    (grid.cell_index(positions[u].min(positions[v])), grid.cell_index(positions[u].max(positions[v])));
+                for z in lo[2]..=hi[2] {
+                    for y in lo[1]..=hi[1] {
+                        for x in lo[0]..=hi[0] {
+                            let cell = &mut grid.cells[x + dims[0] * (y + dims[1] * z)];
+                            *cell = (cell.0.max(value.0), cell.1.max(value.1));
+                        }
+                    }
+                }
+            }
+        }
+        // Spread each cell's values over the cells within `REACH`: a max filter, one axis
+        // at a time.
+        let radius = (REACH / cell).ceil() as usize;
+        let strides = [1, dims[0], dims[0] * dims[1]];
+        for axis in 0..3 {
+            let before = grid.cells.clone();
+            for (i, cell) in grid.cells.iter_mut().enumerate() {
+                let along = i / strides[axis] % dims[axis];
+                let (first, last) = (along.saturating_sub(radius), (along + radius).min(dims[axis] - 1));
+                for other in first..=last {
+                    let value = before[i - along * strides[axis] + other * strides[axis]];
+                    *cell = (cell.0.max(value.0), cell.1.max(value.1));
+                }
+            }
+        }
+        grid
+    }
+
+    /// How far the surface may rise above the straight line between `a` and `b` (in the
+    /// mesh's frame): where both ends are farther than this from the surface, the segment
+    /// between them does not reach it. Infinite where the grid cannot tell (a segment
+    /// longer than twice [`REACH`], or a surface turning too fast under it).
+    pub fn bound(&self, a: Vec3, b: Vec3) -> f32 {
+        let length = (b - a).length();
+        // (NaN lengths included.)
+        if length.is_nan() || length > 2.0 * REACH {
+            return f32::INFINITY;
+        }
+        let g = (Vec3A::from(0.5 * (a + b)) - self.origin) * self.inverse_cell;
+        let upper = Vec3A::new(self.dims[0] as f32, self.dims[1] as f32, self.dims[2] as f32);
+        if !(g.cmpge(Vec3A::ZERO) & g.cmplt(upper)).all() {
+            // More than `REACH` beyond the mesh's bounds: no triangle comes near.
+            return 0.0;
+        }
+        let [x, y, z] = g.to_array().map(|v| v as usize);
+        let (convex, facet) = self.cells[x + self.dims[0] * (y + self.dims[1] * z)];
+        if convex * length > MAX_TURN {
+            return f32::INFINITY;
+        }
+        convex * length * length / 8.0 + facet
+    }
+
+    fn cell_index(&self, p: Vec3) -> [usize; 3] {
+        let g = (Vec3A::from(p) - self.origin) * self.inverse_cell;
+        [0, 1, 2].map(|k| (g[k].max(0.0) as usize).min(self.dims[k] - 1))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::groom::SplitMix64;
+    use crate::mesh::{InsideTest, test_head};
+
+    /// Random segments near the procedural head (ears included), checked by brute force
+    /// with the independent inside test: none that the bound clears crosses the surface,
+    /// and on the skull it clears most of those resting on a 1–3 mm shell.
+    #[test]
+    fn no_segment_it_clears_crosses_the_head() {
+        for subdivisions in [3, 4, 5] {
+            let head = test_head(subdivisions);
+            let sag = SagGrid::bake(&head.positions, &head.triangles);
+            let inside = InsideTest::new(&head);
+            let mut rng = SplitMix64::new(7);
+            let mut unit = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+            let (mut cleared, mut crossing, mut skull, mut skull_cleared) = (0, 0, 0, 0);
+            for k in 0..10_000 {
+                // From 0–6 mm off a random point of a triangle, a segment up to 2.5 cm long
+                // in any direction; or (every other one) a chord up to 2.5 cm long across
+                // the surface, centred 0–2 mm above it, which crosses wherever the surface
+                // bends more than that.
+                let t = k * 7919 % head.triangles.len();
+                let [u, v, _] = unit().to_array();
+                let bary = if u + v <= 1.0 { [u, v, 1.0 - u - v] } else { [1.0 - u, 1.0 - v, u + v - 1.0] };
+                let [height, length, _] = unit().to_array();
+                let (normal, on_surface) = (head.normal_at(t, bary), head.point_at(t, bary));
+                let direction = (unit() * 2.0 - Vec3::ONE).normalize_or(Vec3::X);
+                let (a, b) = if k % 2 == 0 {
+                    let a = on_surface + normal * height * 0.006;
+                    (a, a + direction * length * 0.025)
+                } else {
+                    let centre = on_surface + normal * height * 0.002;
+                    let across =
+                        (direction - normal * direction.dot(normal)).normalize_or(normal.any_orthonormal_vector());
+                    (centre - across * length * 0.0125, centre + across * length * 0.0125)
+                };
+                if inside.contains(a) || inside.contains(b) {
+                    continue;
+                }
+                let clear = inside.distance(a).min(inside.distance(b));
+                let crosses = inside.segment_crosses(a, b);
+                crossing += usize::from(crosses);
+                let on_skull = a.y > 0.06 && clear > 0.001 && (a - b).length() < 0.02;
+                skull += usize::from(on_skull);
+                if clear > sag.bound(a, b) {
+                    cleared += 1;
+                    skull_cleared += usize::from(on_skull);
+                    assert!(!crosses, "{subdivisions}: {a} – {b} crosses, bound {}", sag.bound(a, b));
+                }
+            }
+            println!(
+                "{} triangles: {cleared} of 10,000 segments cleared, {crossing} crossing; on the crown \
+                 {skull_cleared} of {skull} clearing 1 mm",
+                head.triangles.len()
+            );
+            assert!(crossing > 10, "the sample holds segments that cross");
+            assert!(skull_cleared * 10 > skull * 9, "the bound clears 90 % of the crown's segments");
+        }
+    }
+
+    #[test]
+    fn long_segments_and_far_ones() {
+        let head = test_head(3);
+        let sag = SagGrid::bake(&head.positions, &head.triangles);
+        assert_eq!(sag.bound(Vec3::new(0.0, 0.12, 0.0), Vec3::new(0.0, 0.12, 0.04)), f32::INFINITY);
+        assert_eq!(sag.bound(Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 1.0, 0.01)), 0.0);
+    }
+}
