@@ -38,7 +38,7 @@ pub const GRID_RESOLUTIONS: std::ops::RangeInclusive<u32> = 8..=256;
 
 /// The most triangles a head should have for its collider to bake in a few seconds. On two
 /// cores (2026-12-02) the procedural head bakes in 0.35 s at 5,120 triangles, 0.99 s at
-/// 81,920 and 3.6 s at 327,680 (about 0.3 s plus 11 µs per triangle), holding 83 MB at
+/// 81,920 and 3.6 s at 327,680 (about 0.3 s plus 11 µs per triangle), holding 85 MB at
 /// the largest. A collider needs no finer detail than about a millimetre: decimate the
 /// collision mesh to this.
 pub const BAKE_TRIANGLE_BUDGET: usize = 350_000;
