@@ -63,7 +63,7 @@ pub use hair_sim::groom::{ChildParams, Spiral};
 pub use hair_sim::solver::{CollisionResponse, LengthMode, SimParams, StepReport, Wind};
 pub use head_mesh::{ATTRIBUTE_SCALP, is_procedural_scalp, procedural_head_mesh};
 #[cfg(feature = "render")]
-pub use render::{HairLook, HairRenderStats, SpecularLobe};
+pub use render::{HairLook, HairRenderStats, HairShading, SpecularLobe};
 pub use settings::{HairSettings, HairSettingsOverride};
 pub use simulation::HairState;
 pub use simulation::SimulationPlugin;
@@ -82,7 +82,7 @@ pub mod prelude {
         LengthMode, RootDistribution, ScalpPredicate, ScalpSource, SimParams, Spiral, Wind,
     };
     #[cfg(feature = "render")]
-    pub use crate::{HairLook, HairRenderStats, SpecularLobe};
+    pub use crate::{HairLook, HairRenderStats, HairShading, SpecularLobe};
 }
 
 /// Adds hair growth and simulation, and drawing (feature `render`) when the app renders.

@@ -8,7 +8,7 @@ use bevy::camera::RenderTarget;
 use bevy::camera::visibility::NoFrustumCulling;
 use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::image::Image;
-use bevy::light::{CascadeShadowConfigBuilder, DirectionalLightShadowMap, NotShadowCaster};
+use bevy::light::{CascadeShadowConfigBuilder, DirectionalLightShadowMap, GlobalAmbientLight, NotShadowCaster};
 use bevy::log::LogPlugin;
 use bevy::prelude::*;
 use bevy::render::RenderPlugin;
@@ -350,6 +350,173 @@ fn turning_the_light_moves_the_highlight_and_children_cover_more() {
     }
     assert!(coverage[0] < coverage[1] && coverage[1] < coverage[2], "coverage {coverage:?} does not grow");
     assert!(coverage[2] as f32 > 1.3 * coverage[0] as f32, "coverage {coverage:?}");
+}
+
+/// Where the hair is, then how bright each of its pixels is (linear luminance) with `light`
+/// as the only light
+/// (no directional light, no ambient): the hair is found under the scene's own light (dark
+/// hair would not read as hair), and the head stands still between the two frames.
+fn lit_only_by(scene: &mut Scene, name: &str, light: impl Bundle) -> Vec<(u32, f32)> {
+    let mask = scene.capture(&format!("{name}-mask"));
+    let world = scene.app.world_mut();
+    world.entity_mut(scene.light).despawn();
+    world.insert_resource(GlobalAmbientLight { brightness: 0.0, ..default() });
+    world.spawn(light);
+    scene.frames(3);
+    let lit = scene.capture(name);
+    (0..SIZE * SIZE)
+        .filter(|&i| Picture::is_hair(mask.pixels[i as usize]))
+        .map(|i| (i, linear_luminance(lit.pixels[i as usize])))
+        .collect()
+}
+
+/// Luminance of an sRGB-encoded colour, in linear light (what doubles when the light does).
+fn linear_luminance([r, g, b]: [f32; 3]) -> f32 {
+    let linear = Color::srgb(r, g, b).to_linear();
+    luminance([linear.red, linear.green, linear.blue])
+}
+
+/// A settled groom on the procedural head, seen from the front.
+fn settled_scene() -> Scene {
+    let mut scene = Scene::new();
+    let head = scene.spawn_head(short_groom());
+    scene.wait_until_ready(head);
+    scene.frames(30);
+    scene
+}
+
+fn mean(values: impl Iterator<Item = f32>) -> f32 {
+    let (sum, count) = values.fold((0.0, 0), |(s, n), v| (s + v, n + 1));
+    sum / count.max(1) as f32
+}
+
+/// A point light on the left, casting shadows, lights the hair through the clustered lights,
+/// falling off with distance and shadowed by the head as `StandardMaterial` is: the left
+/// half of the hair is at least twice as bright as the right (linear luminance).
+#[test]
+fn a_point_light_lights_the_hair_near_it() {
+    require_adapter!();
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let mut scene = settled_scene();
+    let light = PointLight { intensity: 2_000.0, range: 3.0, shadow_maps_enabled: true, ..default() };
+    let hair = lit_only_by(&mut scene, "point-light", (light, Transform::from_xyz(-0.3, 0.05, 0.12)));
+    let half = |left: bool| mean(hair.iter().filter(|(i, _)| (i % SIZE < SIZE / 2) == left).map(|&(_, l)| l));
+    let (left, right) = (half(true), half(false));
+    println!("point light on the left: hair luminance {left:.3} left, {right:.3} right ({} hair pixels)", hair.len());
+    assert!(hair.len() > 2000, "the hair is in the picture");
+    assert!(left > 0.05, "the lit side is lit: {left}");
+    assert!(left > 2.0 * right, "left {left} is not twice right {right}");
+}
+
+/// A narrow spot light aimed at the upper left of the hair lights the hair inside its cone
+/// and nothing outside it.
+#[test]
+fn a_spot_light_lights_only_hair_inside_its_cone() {
+    require_adapter!();
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let mut scene = settled_scene();
+    let (from, aim, angle) = (Vec3::new(0.0, 0.1, 0.5), Vec3::new(-0.05, 0.06, 0.05), 0.15);
+    let light = SpotLight { intensity: 40_000.0, outer_angle: angle, inner_angle: angle * 0.8, ..default() };
+    let hair =
+        lit_only_by(&mut scene, "spot-light", (light, Transform::from_translation(from).looking_at(aim, Vec3::Y)));
+    // Which pixels the cone covers, from where the hair at each pixel is: the camera ray
+    // through the pixel meets the hair near the depth of the aim point.
+    let (camera, eye) = {
+        let world = scene.app.world();
+        (world.get::<Camera>(scene.camera).unwrap().clone(), *world.get::<GlobalTransform>(scene.camera).unwrap())
+    };
+    let in_cone = |i: u32| {
+        let pixel = Vec2::new((i % SIZE) as f32 + 0.5, (i / SIZE) as f32 + 0.5);
+        let ray = camera.viewport_to_world(&eye, pixel).unwrap();
+        // Depths from 2 cm in front of the aim point to 8 cm behind it: inside at any.
+        (0..=10).any(|k| {
+            let point = ray.origin + *ray.direction * ((aim - ray.origin).length() - 0.02 + 0.01 * k as f32);
+            (point - from).normalize().angle_between((aim - from).normalize()) < angle
+        })
+    };
+    let inside: Vec<f32> = hair.iter().filter(|(i, _)| in_cone(*i)).map(|&(_, l)| l).collect();
+    let inside_mean = mean(inside.iter().copied());
+    // Lit: a tenth of the cone's mean brightness or more (the cone's soft edge is counted
+    // as inside by the depth range above).
+    let lit = |l: f32| l > 0.1 * inside_mean;
+    let outside = hair.len() - inside.len();
+    let outside_lit = hair.iter().filter(|&&(i, l)| lit(l) && !in_cone(i)).count();
+    let inside_lit = inside.iter().filter(|&&l| lit(l)).count();
+    println!(
+        "spot light: {inside_lit} of {} hair pixels in the cone lit (mean {inside_mean:.3}), {outside_lit} of \
+         {outside} outside",
+        inside.len(),
+    );
+    assert!(inside.len() > 100 && inside_lit * 2 > inside.len(), "the cone's hair is lit");
+    assert!(outside > 500 && outside_lit * 100 <= outside, "{outside_lit} hair pixels outside the cone are lit");
+}
+
+/// An environment map alone (no lights, no ambient) lights the hair, in its own colour: a
+/// warm map makes the hair redder than a cool one does.
+#[test]
+fn environment_light_alone_lights_the_hair_in_its_colour() {
+    require_adapter!();
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let mut scene = settled_scene();
+    let world = scene.app.world_mut();
+    world.entity_mut(scene.light).despawn();
+    world.insert_resource(GlobalAmbientLight { brightness: 0.0, ..default() });
+    let mut redness = Vec::new();
+    for (name, color) in
+        [("environment-warm", Color::srgb(1.0, 0.5, 0.1)), ("environment-cool", Color::srgb(0.1, 0.5, 1.0))]
+    {
+        let world = scene.app.world_mut();
+        let map = EnvironmentMapLight {
+            intensity: 3000.0,
+            ..EnvironmentMapLight::solid_color(&mut world.resource_mut::<Assets<Image>>(), color)
+        };
+        world.entity_mut(scene.camera).insert(map);
+        scene.frames(3);
+        let picture = scene.capture(name);
+        let hair: Vec<[f32; 3]> = picture.pixels.iter().copied().filter(|&c| Picture::is_hair(c)).collect();
+        let luminance = mean(hair.iter().map(|&c| luminance(c)));
+        let red_over_blue = mean(hair.iter().map(|c| c[0])) / mean(hair.iter().map(|c| c[2])).max(1e-6);
+        println!("{name}: {} hair pixels, luminance {luminance:.3}, red / blue {red_over_blue:.2}", hair.len());
+        assert!(hair.len() > 2000 && luminance > 0.02, "{name}: the hair is lit");
+        redness.push(red_over_blue);
+    }
+    assert!(redness[0] > 2.0 * redness[1], "red / blue {redness:?}: the hair does not follow the map");
+}
+
+/// Light from behind the head, no ambient: Marschner's TT lobe (light through the fibres)
+/// makes the hair's silhouette glow brighter than Kajiya-Kay's highlights do.
+#[test]
+fn marschner_transmission_lights_the_silhouette_against_the_light() {
+    require_adapter!();
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let mut scene = Scene::new();
+    let head = scene.spawn_head(short_groom());
+    scene.wait_until_ready(head);
+    scene.frames(30);
+    // The silhouette: hair pixels within two pixels of the background, found under the
+    // scene's own light.
+    let mask = scene.capture("backlit-mask");
+    let near_background = |i: u32| {
+        let (x, y) = (i % SIZE, i / SIZE);
+        (x.saturating_sub(2)..=(x + 2).min(SIZE - 1))
+            .any(|x| (y.saturating_sub(2)..=(y + 2).min(SIZE - 1)).any(|y| Picture::is_background(mask.at((x, y)))))
+    };
+    let silhouette: Vec<u32> =
+        (0..SIZE * SIZE).filter(|&i| Picture::is_hair(mask.pixels[i as usize]) && near_background(i)).collect();
+    scene.light_from(Vec3::new(0.0, 0.35, -1.0));
+    scene.app.world_mut().insert_resource(GlobalAmbientLight { brightness: 0.0, ..default() });
+    let mut glow = Vec::new();
+    for (name, shading) in
+        [("backlit-kajiya-kay", HairShading::KajiyaKay), ("backlit-marschner", HairShading::MARSCHNER)]
+    {
+        scene.app.world_mut().get_mut::<HairLook>(head).unwrap().shading = shading;
+        scene.frames(3);
+        let picture = scene.capture(name);
+        glow.push(mean(silhouette.iter().map(|&i| luminance(picture.pixels[i as usize]))));
+    }
+    println!("back-lit silhouette ({} pixels): Kajiya-Kay {:.4}, Marschner {:.4}", silhouette.len(), glow[0], glow[1]);
+    assert!(silhouette.len() > 300, "the silhouette is in the picture");
+    assert!(glow[1] > 1.2 * glow[0], "Marschner {} is not brighter than Kajiya-Kay {}", glow[1], glow[0]);
 }
 
 /// The uniform for strands drawn with the material directly: one colour root to tip,

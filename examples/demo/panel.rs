@@ -231,6 +231,14 @@ fn look_section(ui: &mut egui::Ui, look: &mut HairLook) {
     ui.add(egui::Slider::new(&mut look.root_width, 0.0001..=0.004).text("root width (m)").fixed_decimals(4));
     ui.add(egui::Slider::new(&mut look.tip_width, 0.0..=0.004).text("tip width (m)").fixed_decimals(4));
     slider(ui, &mut look.diffuse, 0.0..=2.0, "diffuse");
+    let mut marschner = matches!(look.shading, HairShading::Marschner { .. });
+    if ui.checkbox(&mut marschner, "Marschner highlights (R, TT, TRT)").changed() {
+        look.shading = if marschner { HairShading::MARSCHNER } else { HairShading::KajiyaKay };
+    }
+    if let HairShading::Marschner { roughness, cuticle_tilt } = &mut look.shading {
+        slider(ui, roughness, 0.05..=1.0, "roughness");
+        slider(ui, cuticle_tilt, -0.2..=0.2, "cuticle tilt (rad)");
+    }
     for (name, lobe) in [("primary highlight", &mut look.primary), ("secondary highlight", &mut look.secondary)] {
         color_edit(ui, &mut lobe.color, name);
         ui.add(egui::Slider::new(&mut lobe.exponent, 1.0..=500.0).logarithmic(true).text("exponent"));

@@ -22,10 +22,18 @@
 }
 #ifndef PREPASS_PIPELINE
 #import bevy_pbr::{
-    mesh_view_bindings::lights,
-    mesh_view_types::DIRECTIONAL_LIGHT_FLAGS_SHADOWS_ENABLED_BIT,
-    shadows::fetch_directional_shadow,
+    clustered_forward as clustering,
+    lighting::getDistanceAttenuation,
+    mesh_view_bindings::{clustered_lights, lights},
+    mesh_view_types::{
+        DIRECTIONAL_LIGHT_FLAGS_SHADOWS_ENABLED_BIT, POINT_LIGHT_FLAGS_SHADOWS_ENABLED_BIT,
+        POINT_LIGHT_FLAGS_SPOT_LIGHT_Y_NEGATIVE,
+    },
+    shadows::{fetch_directional_shadow, fetch_point_shadow, fetch_spot_shadow},
 }
+#ifdef ENVIRONMENT_MAP
+#import bevy_pbr::{environment_map, lighting::LayerLightingInput}
+#endif
 #ifdef TONEMAP_IN_SHADER
 #import bevy_core_pipeline::tonemapping::tone_mapping
 #endif
@@ -58,10 +66,14 @@ struct HairUniform {
     // The guide and its children.
     strands_per_guide: u32,
     subdivisions: u32,
+    // Marschner: longitudinal roughness and cuticle tilt (radians).
+    roughness: f32,
+    cuticle_tilt: f32,
 }
 
-// Mirrors `bevy_hair::render::HairUniform::RECEIVE_SHADOWS`.
+// Mirror `bevy_hair::render::HairUniform::RECEIVE_SHADOWS` and `MARSCHNER`.
 const HAIR_FLAGS_RECEIVE_SHADOWS: u32 = 1u;
+const HAIR_FLAGS_MARSCHNER: u32 = 2u;
 
 @group(#{MATERIAL_BIND_GROUP}) @binding(0) var<storage, read> guides: array<vec4<f32>>;
 @group(#{MATERIAL_BIND_GROUP}) @binding(1) var<uniform> hair: HairUniform;
@@ -343,6 +355,143 @@ fn shifted_tangent(tangent: vec3<f32>, normal: vec3<f32>, shift: f32) -> vec3<f3
     return normalize(tangent + shift * normal);
 }
 
+// A normalised Gaussian of standard deviation `width`, at `x`.
+fn gaussian(width: f32, x: f32) -> f32 {
+    return exp(-0.5 * x * x / (width * width)) / (sqrt(2.0 * PI) * width);
+}
+
+// Schlick's Fresnel for a hair fibre (index of refraction 1.55).
+fn fibre_fresnel(cos_theta: f32) -> f32 {
+    let f0 = 0.0465;
+    return f0 + (1.0 - f0) * pow(1.0 - saturate(cos_theta), 5.0);
+}
+
+// Marschner et al.'s three lobes in Karis' real-time form ("Physically Based Hair Shading
+// in Unreal", 2016): R, the white reflection off the cuticle; TT, light through the fibre
+// (the glow of back-lit hair); TRT, the coloured highlight reflected inside it. Each is a
+// longitudinal Gaussian around the specular cone, shifted by the cuticle tilt, times an
+// azimuthal term in the angle between light and view around the strand.
+fn marschner(tangent: vec3<f32>, to_view: vec3<f32>, to_light: vec3<f32>, albedo: vec3<f32>) -> vec3<f32> {
+    let sin_l = clamp(dot(tangent, to_light), -1.0, 1.0);
+    let sin_v = clamp(dot(tangent, to_view), -1.0, 1.0);
+    let cos_d = max(cos(0.5 * abs(asin(sin_v) - asin(sin_l))), 1e-3);
+    let across_l = to_light - sin_l * tangent;
+    let across_v = to_view - sin_v * tangent;
+    let cos_phi = clamp(dot(across_l, across_v) * inverseSqrt(max(dot(across_l, across_l) * dot(across_v, across_v), 1e-12)), -1.0, 1.0);
+    let cos_half_phi = sqrt(saturate(0.5 + 0.5 * cos_phi));
+    let width = max(hair.roughness * hair.roughness, 1e-3);
+    let tilt = hair.cuticle_tilt;
+
+    // R: shifted back by twice the tilt, widening where the azimuth opens.
+    let s = sin(-2.0 * tilt);
+    let c = cos(-2.0 * tilt);
+    let shift = 2.0 * s * (c * cos_half_phi * sqrt(max(1.0 - sin_v * sin_v, 0.0)) + s * sin_v);
+    let r = gaussian(width * sqrt(2.0) * max(cos_half_phi, 1e-3), sin_l + sin_v - shift) * 0.25 * cos_half_phi
+        * fibre_fresnel(sqrt(saturate(0.5 + 0.5 * dot(to_light, to_view))));
+
+    // TT: through the fibre, coloured by two passes of its absorption.
+    let refracted = 1.0 / (1.19 / cos_d + 0.36 * cos_d);
+    let h = cos_half_phi * (1.0 + refracted * (0.6 - 0.8 * cos_phi));
+    let f_tt = fibre_fresnel(cos_d * sqrt(saturate(1.0 - h * h)));
+    let absorbed_tt = pow(albedo, vec3(0.5 * sqrt(max(1.0 - h * h * refracted * refracted, 0.0)) / cos_d));
+    let tt = gaussian(0.5 * width, sin_l + sin_v - tilt) * exp(-3.65 * cos_phi - 3.98) * (1.0 - f_tt) * (1.0 - f_tt)
+        * absorbed_tt;
+
+    // TRT: reflected once inside.
+    let f_trt = fibre_fresnel(0.5 * cos_d);
+    let trt = gaussian(2.0 * width, sin_l + sin_v - 4.0 * tilt) * exp(17.0 * cos_phi - 16.78)
+        * (1.0 - f_trt) * (1.0 - f_trt) * f_trt * pow(albedo, vec3(0.8 / cos_d));
+
+    return hair.primary_color.rgb * r + tt + trt;
+}
+
+// What one strand returns toward the viewer of light arriving from `to_light`, per unit
+// of the light's radiance: diffuse as Kajiya-Kay, and the highlights of the chosen model
+// (Scheuermann's two shifted Kajiya-Kay lobes, or Marschner's three).
+fn strand_response(tangent: vec3<f32>, normal: vec3<f32>, to_view: vec3<f32>, to_light: vec3<f32>,
+    albedo: vec3<f32>) -> vec3<f32> {
+    if (hair.flags & HAIR_FLAGS_MARSCHNER) != 0u {
+        return hair.diffuse * albedo * kajiya_diffuse(tangent, to_light) / PI + marschner(tangent, to_view, to_light, albedo);
+    }
+    let half_vector = normalize(to_light + to_view);
+    let diffuse = hair.diffuse * albedo * kajiya_diffuse(tangent, to_light) / PI;
+    let primary = hair.primary_color.rgb
+        * kajiya_specular(shifted_tangent(tangent, normal, hair.primary_shift), half_vector, hair.primary_exponent);
+    let secondary = hair.secondary_color.rgb * albedo
+        * kajiya_specular(shifted_tangent(tangent, normal, hair.secondary_shift), half_vector, hair.secondary_exponent);
+    return diffuse + primary + secondary;
+}
+
+// Whether this material takes shadows, and the light casts them.
+fn receives_shadow(light_flags: u32, light_bit: u32) -> bool {
+    return (hair.flags & HAIR_FLAGS_RECEIVE_SHADOWS) != 0u && (light_flags & light_bit) != 0u;
+}
+
+// Point and spot lights: the clustered lights of this fragment's cluster, attenuated by
+// distance (and cone) as `StandardMaterial` attenuates them.
+fn clustered_light(in: VertexOutput, tangent: vec3<f32>, normal: vec3<f32>, to_view: vec3<f32>,
+    albedo: vec3<f32>, view_z: f32) -> vec3<f32> {
+    let is_orthographic = view.clip_from_view[3].w == 1.0;
+    let cluster = clustering::view_fragment_cluster_index(in.clip_position.xy, view_z, is_orthographic);
+    let ranges = clustering::unpack_clusterable_object_index_ranges(cluster);
+    var light = vec3(0.0);
+    for (var i = ranges.first_point_light_index_offset; i < ranges.first_reflection_probe_index_offset; i++) {
+        let id = clustering::get_clusterable_object_id(i);
+        let source = &clustered_lights.data[id];
+        let to_source = (*source).position_radius.xyz - in.world_position.xyz;
+        let to_light = normalize(to_source);
+        var radiance = (*source).color_inverse_square_range.rgb
+            * getDistanceAttenuation(dot(to_source, to_source), (*source).color_inverse_square_range.w);
+        let spot = i >= ranges.first_spot_light_index_offset;
+        var shadow = 1.0;
+        if spot {
+            // The cone, as `bevy_pbr::lighting::spot_light` takes it.
+            var direction = vec3((*source).light_custom_data.x, 0.0, (*source).light_custom_data.y);
+            direction.y = sqrt(max(0.0, 1.0 - direction.x * direction.x - direction.z * direction.z));
+            if ((*source).flags & POINT_LIGHT_FLAGS_SPOT_LIGHT_Y_NEGATIVE) != 0u {
+                direction.y = -direction.y;
+            }
+            let along = saturate(dot(-direction, to_light) * (*source).light_custom_data.z + (*source).light_custom_data.w);
+            radiance *= along * along;
+            if receives_shadow((*source).flags, POINT_LIGHT_FLAGS_SHADOWS_ENABLED_BIT) {
+                shadow = fetch_spot_shadow(id, in.world_position, normal, (*source).shadow_map_near_z, in.clip_position.xy);
+            }
+        } else if receives_shadow((*source).flags, POINT_LIGHT_FLAGS_SHADOWS_ENABLED_BIT) {
+            shadow = fetch_point_shadow(id, in.world_position, normal, in.clip_position.xy);
+        }
+        light += strand_response(tangent, normal, to_view, to_light, albedo) * radiance * shadow;
+    }
+    return light;
+}
+
+// The environment map, seen by a strand: its irradiance and its radiance looked up
+// across the strand, along the normal of its cross-section that faces the viewer (a
+// cylinder's diffuse response is the irradiance around it, and a Kajiya-Kay highlight
+// lies where the view reflects off that normal), the radiance blurred to the primary
+// lobe's width.
+fn environment_light(in: VertexOutput, tangent: vec3<f32>, to_view: vec3<f32>, albedo: vec3<f32>) -> vec3<f32> {
+#ifdef ENVIRONMENT_MAP
+    let across = unit_or(to_view - tangent * dot(tangent, to_view), normalize(in.normal));
+    var layer: LayerLightingInput;
+    layer.N = across;
+    layer.R = reflect(-to_view, across);
+    layer.NdotV = max(dot(across, to_view), 1e-4);
+    // The Blinn-Phong exponent n as a GGX roughness: α = sqrt(2 / (n + 2)).
+    layer.roughness = sqrt(2.0 / (hair.primary_exponent + 2.0));
+    layer.perceptual_roughness = sqrt(layer.roughness);
+    let is_orthographic = view.clip_from_view[3].w == 1.0;
+    let view_z = dot(vec4(view.view_from_world[0].z, view.view_from_world[1].z, view.view_from_world[2].z,
+        view.view_from_world[3].z), in.world_position);
+    let cluster = clustering::view_fragment_cluster_index(in.clip_position.xy, view_z, is_orthographic);
+    var ranges = clustering::unpack_clusterable_object_index_ranges(cluster);
+    let radiances = environment_map::compute_radiances(layer, &ranges, in.world_position.xyz, false);
+    let specular = hair.primary_color.rgb + hair.secondary_color.rgb * albedo;
+    return hair.diffuse * albedo * radiances.irradiance + specular * radiances.radiance;
+#else
+    return vec3(0.0);
+#endif
+}
+
 @fragment
 fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
     let tangent = normalize(in.tangent);
@@ -357,19 +506,15 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
     var light = albedo * lights.ambient_color.rgb;
     for (var i = 0u; i < lights.n_directional_lights; i++) {
         let directional = &lights.directional_lights[i];
-        let to_light = (*directional).direction_to_light;
         var shadow = 1.0;
-        if (hair.flags & HAIR_FLAGS_RECEIVE_SHADOWS) != 0u && ((*directional).flags & DIRECTIONAL_LIGHT_FLAGS_SHADOWS_ENABLED_BIT) != 0u {
+        if receives_shadow((*directional).flags, DIRECTIONAL_LIGHT_FLAGS_SHADOWS_ENABLED_BIT) {
             shadow = fetch_directional_shadow(i, in.world_position, normal, view_z, in.clip_position.xy);
         }
-        let half_vector = normalize(to_light + to_view);
-        let diffuse = hair.diffuse * albedo * kajiya_diffuse(tangent, to_light) / PI;
-        let primary = hair.primary_color.rgb
-            * kajiya_specular(shifted_tangent(tangent, normal, hair.primary_shift), half_vector, hair.primary_exponent);
-        let secondary = hair.secondary_color.rgb * albedo
-            * kajiya_specular(shifted_tangent(tangent, normal, hair.secondary_shift), half_vector, hair.secondary_exponent);
-        light += (diffuse + primary + secondary) * (*directional).color.rgb * shadow;
+        light += strand_response(tangent, normal, to_view, (*directional).direction_to_light, albedo)
+            * (*directional).color.rgb * shadow;
     }
+    light += clustered_light(in, tangent, normal, to_view, albedo, view_z);
+    light += environment_light(in, tangent, to_view, albedo);
 
     var color = vec4(light * view.exposure, 1.0);
 #ifdef TONEMAP_IN_SHADER

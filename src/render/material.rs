@@ -66,7 +66,7 @@ pub struct HairUniform {
     pub tint_variation: f32,
     /// Diffuse strength.
     pub diffuse: f32,
-    /// [`Self::RECEIVE_SHADOWS`] and future switches.
+    /// [`Self::RECEIVE_SHADOWS`], [`Self::MARSCHNER`].
     pub flags: u32,
     /// Guides drawn.
     pub guides: u32,
@@ -76,11 +76,18 @@ pub struct HairUniform {
     pub strands_per_guide: u32,
     /// Curve points per guide segment.
     pub subdivisions: u32,
+    /// Marschner's longitudinal roughness (with [`Self::MARSCHNER`]).
+    pub roughness: f32,
+    /// Marschner's cuticle tilt, radians (with [`Self::MARSCHNER`]).
+    pub cuticle_tilt: f32,
 }
 
 impl HairUniform {
-    /// Flag: the strands are darkened by the directional lights' shadow maps.
+    /// Flag: the strands are darkened by the shadow maps of the lights that cast them
+    /// (directional, point and spot).
     pub const RECEIVE_SHADOWS: u32 = 1;
+    /// Flag: shade with Marschner's three lobes instead of Kajiya-Kay highlights.
+    pub const MARSCHNER: u32 = 2;
 
     /// The same uniform drawing `layout` (its guide, particle, strand and subdivision counts).
     pub fn with_layout(self, layout: &StrandLayout) -> Self {

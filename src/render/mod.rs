@@ -1,4 +1,4 @@
-//! Drawing grooms: GPU-tessellated strands with a Kajiya-Kay material (feature `render`).
+//! Drawing grooms: GPU-tessellated strands with a Kajiya-Kay or Marschner material (feature `render`).
 //!
 //! Each groom gets a drawing entity of its own, a child of its head ([`ChildOf`], so it
 //! inherits the head's visibility and goes when the head is despawned; its own
@@ -62,6 +62,32 @@ pub struct SpecularLobe {
     pub shift: f32,
 }
 
+/// Which scattering model shades the strands' highlights (the diffuse term is Kajiya-Kay's
+/// in both).
+#[derive(Reflect, Clone, Copy, Debug, PartialEq, Default)]
+pub enum HairShading {
+    /// Scheuermann's two shifted Kajiya-Kay highlights ([`HairLook::primary`] and
+    /// [`HairLook::secondary`]): the reference's model.
+    #[default]
+    KajiyaKay,
+    /// Marschner et al.'s three lobes in Karis' real-time form: R, the white reflection off
+    /// the cuticle (coloured by [`HairLook::primary`]); TT, light through the fibre, the
+    /// glow of back-lit hair; TRT, the hair-coloured second highlight.
+    Marschner {
+        /// Longitudinal roughness: 0.2 sleek to 0.6 frizzy; the lobes are Gaussians of
+        /// width `roughness²` (TT half, TRT twice that).
+        roughness: f32,
+        /// Tilt of the cuticle scales, radians (about 0.035): shifts R toward the root by
+        /// twice this, TT toward the tip by it and TRT by four times it.
+        cuticle_tilt: f32,
+    },
+}
+
+impl HairShading {
+    /// Marschner with typical values: roughness 0.35, cuticle tilt 0.035 rad.
+    pub const MARSCHNER: HairShading = HairShading::Marschner { roughness: 0.35, cuticle_tilt: 0.035 };
+}
+
 /// How a groom looks. On the head entity next to [`HairGroom`] (inserted with defaults
 /// when missing); edit it at any time.
 #[derive(Component, Reflect, Clone, Debug, PartialEq)]
@@ -85,13 +111,17 @@ pub struct HairLook {
     pub secondary: SpecularLobe,
     /// Curve samples per segment (Bézier tessellation), at least 1.
     pub subdivisions: u32,
-    /// Sample directional-light shadows (from the head, other casters and the hair itself).
+    /// Sample the shadows of directional, point and spot lights (from the head, other
+    /// casters and the hair itself).
     pub receive_shadows: bool,
-    /// Cast directional-light shadows on the head and on the hair itself. Drawing the
-    /// strands into each shadow map costs about as much as drawing them once more.
+    /// Cast shadows (of directional, point and spot lights) on the head and on the hair
+    /// itself. Drawing the strands into each shadow map costs about as much as drawing
+    /// them once more.
     pub cast_shadows: bool,
     /// Draw the simulated guides only, without children.
     pub guides_only: bool,
+    /// The highlights' scattering model.
+    pub shading: HairShading,
 }
 
 impl Default for HairLook {
@@ -109,6 +139,7 @@ impl Default for HairLook {
             receive_shadows: true,
             cast_shadows: true,
             guides_only: false,
+            shading: HairShading::KajiyaKay,
         }
     }
 }
@@ -367,6 +398,12 @@ fn uniform(layout: &StrandLayout, groom: &HairGroom, look: &HairLook) -> HairUni
     let non_negative = |x: f32, fallback: f32| finite(x, fallback).max(0.0);
     let linear = |c: Color| Vec4::from_array(c.to_linear().to_f32_array());
     let defaults = HairLook::default();
+    let marschner = match look.shading {
+        HairShading::KajiyaKay => None,
+        HairShading::Marschner { roughness, cuticle_tilt } => {
+            Some((finite(roughness, 0.35).clamp(0.05, 1.0), finite(cuticle_tilt, 0.035).clamp(-0.3, 0.3)))
+        }
+    };
     HairUniform {
         root_color: linear(look.root_color),
         tip_color: linear(look.tip_color),
@@ -386,7 +423,10 @@ fn uniform(layout: &StrandLayout, groom: &HairGroom, look: &HairLook) -> HairUni
         tip_width: non_negative(look.tip_width, defaults.tip_width),
         tint_variation: non_negative(look.tint_variation, 0.0).min(1.0),
         diffuse: non_negative(look.diffuse, defaults.diffuse),
-        flags: if look.receive_shadows { HairUniform::RECEIVE_SHADOWS } else { 0 },
+        flags: if look.receive_shadows { HairUniform::RECEIVE_SHADOWS } else { 0 }
+            | if marschner.is_some() { HairUniform::MARSCHNER } else { 0 },
+        roughness: marschner.map_or(0.0, |(roughness, _)| roughness),
+        cuticle_tilt: marschner.map_or(0.0, |(_, tilt)| tilt),
         ..default()
     }
     .with_layout(layout)
