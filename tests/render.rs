@@ -376,12 +376,11 @@ fn linear_luminance([r, g, b]: [f32; 3]) -> f32 {
     luminance([linear.red, linear.green, linear.blue])
 }
 
-/// A settled groom on the procedural head, seen from the front.
+/// The groom on the procedural head (it grows settled), seen from the front.
 fn settled_scene() -> Scene {
     let mut scene = Scene::new();
     let head = scene.spawn_head(short_groom());
     scene.wait_until_ready(head);
-    scene.frames(30);
     scene
 }
 
@@ -492,7 +491,6 @@ fn marschner_transmission_lights_the_silhouette_against_the_light() {
     let mut scene = Scene::new();
     let head = scene.spawn_head(short_groom());
     scene.wait_until_ready(head);
-    scene.frames(30);
     // The silhouette: hair pixels within two pixels of the background, found under the
     // scene's own light.
     let mask = scene.capture("backlit-mask");
