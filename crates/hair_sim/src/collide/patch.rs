@@ -8,7 +8,6 @@ use super::Contact;
 use crate::math::Vec3;
 use parry3d::query::PointQueryWithLocation;
 use parry3d::shape::{Triangle, TrianglePointLocation};
-use std::collections::HashMap;
 
 /// Side of a bin of the patch's lookup grid, metres.
 const CELL: f32 = 0.01;
@@ -41,17 +40,10 @@ impl SurfacePatch {
     /// A patch of `triangles` over `positions`, answering queries up to `reach` metres from
     /// its surface (a collision thickness larger than that skips the patch).
     pub fn new(triangles: Vec<[u32; 3]>, positions: Vec<Vec3>, reach: f32) -> Self {
-        let mut edges: HashMap<(u32, u32), Vec<(u32, usize)>> = HashMap::new();
-        for (t, tri) in triangles.iter().enumerate() {
-            for (e, (a, b)) in [(tri[0], tri[1]), (tri[1], tri[2]), (tri[0], tri[2])].into_iter().enumerate() {
-                edges.entry((a.min(b), a.max(b))).or_default().push((t as u32, e));
-            }
-        }
         let mut across = vec![[None; 3]; triangles.len()];
-        for sharing in edges.values().filter(|s| s.len() == 2) {
-            let [(t0, e0), (t1, e1)] = [sharing[0], sharing[1]];
-            across[t0 as usize][e0] = Some(t1);
-            across[t1 as usize][e1] = Some(t0);
+        for [(t0, e0), (t1, e1)] in crate::mesh::edge_pairs(&triangles) {
+            across[t0 as usize][e0 as usize] = Some(t1);
+            across[t1 as usize][e1 as usize] = Some(t0);
         }
         let mut patch = SurfacePatch { triangles, across, reach: reach.max(0.0), ..SurfacePatch::default() };
         patch.update(&positions);

@@ -60,14 +60,7 @@ impl SagGrid {
             dims,
             cells: vec![(0.0, 0.0); dims[0] * dims[1] * dims[2]],
         };
-        // Area-weighted vertex normals (the cross product's length is twice the area).
-        let mut normals = vec![Vec3::ZERO; positions.len()];
-        for t in triangles {
-            let [a, b, c] = t.map(|i| positions[i as usize]);
-            let weighted = (b - a).cross(c - a);
-            t.iter().for_each(|&i| normals[i as usize] += weighted);
-        }
-        normals.iter_mut().for_each(|n| *n = n.normalize_or_zero());
+        let normals = crate::mesh::area_weighted_normals(positions, triangles);
         // Each edge (twice, once from each side: the same value) into the cells it touches.
         for t in triangles {
             for k in 0..3 {

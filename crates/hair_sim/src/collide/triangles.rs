@@ -338,25 +338,8 @@ fn buckets<T: Copy + Default>(count: usize, keys: &[usize], value: impl Fn(usize
 /// Pairs the triangles across each edge and bakes the edge clearances. An edge with one
 /// triangle (an open mesh) or more than two gets none.
 fn bake_edges(mesh: &TriMesh, triangles: &[FlatTriangle], vertices: &VertexBins) -> Vec<[Edge; 3]> {
-    // Every triangle side as (its corners in order, triangle, side), sorted so that the
-    // sides of one edge lie together.
-    let mut sides: Vec<([u32; 2], u32, u32)> = mesh
-        .indices()
-        .iter()
-        .enumerate()
-        .flat_map(|(t, corners)| {
-            (0..3).map(move |i| {
-                let (a, b) = (corners[i], corners[(i + 1) % 3]);
-                ([a.min(b), a.max(b)], t as u32, i as u32)
-            })
-        })
-        .collect();
-    sides.sort_unstable();
     // Edges shared by exactly two triangles: (triangle, its edge), twice.
-    let pairs: Vec<[(u32, u32); 2]> = sides
-        .chunk_by(|x, y| x.0 == y.0)
-        .filter_map(|edge| if let &[(_, t, i), (_, u, j)] = edge { Some([(t, i), (u, j)]) } else { None })
-        .collect();
+    let pairs = crate::mesh::edge_pairs(mesh.indices());
     let clearances = crate::parallel::map(pairs.len(), |k| {
         let [(t, i), (u, _)] = pairs[k];
         let (ft, fu) = (&triangles[t as usize], &triangles[u as usize]);

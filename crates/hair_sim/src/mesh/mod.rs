@@ -209,15 +209,7 @@ impl HeadMesh {
 
     /// Replaces the normals with area-weighted averages of the adjacent face normals.
     pub fn recompute_normals(&mut self) {
-        let mut normals = vec![Vec3::ZERO; self.positions.len()];
-        for tri in &self.triangles {
-            let [a, b, c] = self.corners(tri);
-            let face = (b - a).cross(c - a); // length = 2 × area: the area weighting
-            for &i in tri {
-                normals[i as usize] += face;
-            }
-        }
-        self.normals = normals.into_iter().map(|n| n.normalize_or(Vec3::Y)).collect();
+        self.normals = area_weighted_normals(&self.positions, &self.triangles);
     }
 
     /// The three corner positions of a triangle.
@@ -261,6 +253,43 @@ impl HeadMesh {
 }
 
 /// No area to speak of (see [`DEGENERATE_ASPECT`]), or not finite.
+/// Per vertex, the area-weighted average of the adjacent face normals (+Y for a vertex
+/// without any).
+pub(crate) fn area_weighted_normals(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Vec3> {
+    let mut normals = vec![Vec3::ZERO; positions.len()];
+    for tri in triangles {
+        let [a, b, c] = tri.map(|i| positions[i as usize]);
+        let face = (b - a).cross(c - a); // length = 2 × area: the area weighting
+        for &i in tri {
+            normals[i as usize] += face;
+        }
+    }
+    normals.into_iter().map(|n| n.normalize_or(Vec3::Y)).collect()
+}
+
+/// The triangles on either side of each edge that exactly two share, as (triangle, its
+/// side) pairs; side `k` runs from corner `k` to corner `k + 1` (mod 3). An edge of one
+/// triangle (an open mesh) or of more than two is left out.
+pub(crate) fn edge_pairs(triangles: &[[u32; 3]]) -> Vec<[(u32, u32); 2]> {
+    // Every side as (its corners in order, triangle, side), sorted so that the sides of
+    // one edge lie together.
+    let mut sides: Vec<([u32; 2], u32, u32)> = triangles
+        .iter()
+        .enumerate()
+        .flat_map(|(t, corners)| {
+            (0..3).map(move |k| {
+                let (a, b) = (corners[k], corners[(k + 1) % 3]);
+                ([a.min(b), a.max(b)], t as u32, k as u32)
+            })
+        })
+        .collect();
+    sides.sort_unstable();
+    sides
+        .chunk_by(|x, y| x.0 == y.0)
+        .filter_map(|edge| if let &[(_, t, i), (_, u, j)] = edge { Some([(t, i), (u, j)]) } else { None })
+        .collect()
+}
+
 pub(crate) fn is_degenerate([a, b, c]: [Vec3; 3]) -> bool {
     let twice_area = (b - a).cross(c - a).length();
     let longest = (b - a).length_squared().max((c - b).length_squared()).max((a - c).length_squared());
