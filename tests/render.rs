@@ -376,12 +376,12 @@ fn linear_luminance([r, g, b]: [f32; 3]) -> f32 {
     luminance([linear.red, linear.green, linear.blue])
 }
 
-/// The groom on the procedural head (it grows settled), seen from the front.
-fn settled_scene() -> Scene {
+/// The groom on the procedural head (it grows settled), seen from the front, and the head.
+fn settled_scene() -> (Scene, Entity) {
     let mut scene = Scene::new();
     let head = scene.spawn_head(short_groom());
     scene.wait_until_ready(head);
-    scene
+    (scene, head)
 }
 
 fn mean(values: impl Iterator<Item = f32>) -> f32 {
@@ -396,7 +396,7 @@ fn mean(values: impl Iterator<Item = f32>) -> f32 {
 fn a_point_light_lights_the_hair_near_it() {
     require_adapter!();
     let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
-    let mut scene = settled_scene();
+    let (mut scene, _) = settled_scene();
     let light = PointLight { intensity: 2_000.0, range: 3.0, shadow_maps_enabled: true, ..default() };
     let hair = lit_only_by(&mut scene, "point-light", (light, Transform::from_xyz(-0.3, 0.05, 0.12)));
     let half = |left: bool| mean(hair.iter().filter(|(i, _)| (i % SIZE < SIZE / 2) == left).map(|&(_, l)| l));
@@ -413,7 +413,7 @@ fn a_point_light_lights_the_hair_near_it() {
 fn a_spot_light_lights_only_hair_inside_its_cone() {
     require_adapter!();
     let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
-    let mut scene = settled_scene();
+    let (mut scene, _) = settled_scene();
     let (from, aim, angle) = (Vec3::new(0.0, 0.1, 0.5), Vec3::new(-0.05, 0.06, 0.05), 0.15);
     let light = SpotLight { intensity: 40_000.0, outer_angle: angle, inner_angle: angle * 0.8, ..default() };
     let hair =
@@ -456,7 +456,7 @@ fn a_spot_light_lights_only_hair_inside_its_cone() {
 fn environment_light_alone_lights_the_hair_in_its_colour() {
     require_adapter!();
     let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
-    let mut scene = settled_scene();
+    let (mut scene, _) = settled_scene();
     let world = scene.app.world_mut();
     world.entity_mut(scene.light).despawn();
     world.insert_resource(GlobalAmbientLight { brightness: 0.0, ..default() });
@@ -488,9 +488,7 @@ fn environment_light_alone_lights_the_hair_in_its_colour() {
 fn marschner_transmission_lights_the_silhouette_against_the_light() {
     require_adapter!();
     let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
-    let mut scene = Scene::new();
-    let head = scene.spawn_head(short_groom());
-    scene.wait_until_ready(head);
+    let (mut scene, head) = settled_scene();
     // The silhouette: hair pixels within two pixels of the background, found under the
     // scene's own light.
     let mask = scene.capture("backlit-mask");

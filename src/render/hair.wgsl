@@ -21,6 +21,7 @@
     view_transformations::position_world_to_clip,
 }
 #ifndef PREPASS_PIPELINE
+#import bevy_pbr::clustered_forward::ClusterableObjectIndexRanges
 #import bevy_pbr::{
     clustered_forward as clustering,
     lighting::getDistanceAttenuation,
@@ -427,13 +428,10 @@ fn receives_shadow(light_flags: u32, light_bit: u32) -> bool {
     return (hair.flags & HAIR_FLAGS_RECEIVE_SHADOWS) != 0u && (light_flags & light_bit) != 0u;
 }
 
-// Point and spot lights: the clustered lights of this fragment's cluster, attenuated by
-// distance (and cone) as `StandardMaterial` attenuates them.
-fn clustered_light(in: VertexOutput, tangent: vec3<f32>, normal: vec3<f32>, to_view: vec3<f32>,
-    albedo: vec3<f32>, view_z: f32) -> vec3<f32> {
-    let is_orthographic = view.clip_from_view[3].w == 1.0;
-    let cluster = clustering::view_fragment_cluster_index(in.clip_position.xy, view_z, is_orthographic);
-    let ranges = clustering::unpack_clusterable_object_index_ranges(cluster);
+// Point and spot lights: the clustered lights of this fragment's cluster (`ranges`),
+// attenuated by distance (and cone) as `StandardMaterial` attenuates them.
+fn clustered_light(in: VertexOutput, ranges: ClusterableObjectIndexRanges, tangent: vec3<f32>, normal: vec3<f32>,
+    to_view: vec3<f32>, albedo: vec3<f32>) -> vec3<f32> {
     var light = vec3(0.0);
     for (var i = ranges.first_point_light_index_offset; i < ranges.first_reflection_probe_index_offset; i++) {
         let id = clustering::get_clusterable_object_id(i);
@@ -469,7 +467,8 @@ fn clustered_light(in: VertexOutput, tangent: vec3<f32>, normal: vec3<f32>, to_v
 // cylinder's diffuse response is the irradiance around it, and a Kajiya-Kay highlight
 // lies where the view reflects off that normal), the radiance blurred to the primary
 // lobe's width.
-fn environment_light(in: VertexOutput, tangent: vec3<f32>, to_view: vec3<f32>, albedo: vec3<f32>) -> vec3<f32> {
+fn environment_light(in: VertexOutput, ranges: ptr<function, ClusterableObjectIndexRanges>, tangent: vec3<f32>,
+    to_view: vec3<f32>, albedo: vec3<f32>) -> vec3<f32> {
 #ifdef ENVIRONMENT_MAP
     let across = unit_or(to_view - tangent * dot(tangent, to_view), normalize(in.normal));
     var layer: LayerLightingInput;
@@ -479,12 +478,7 @@ fn environment_light(in: VertexOutput, tangent: vec3<f32>, to_view: vec3<f32>, a
     // The Blinn-Phong exponent n as a GGX roughness: α = sqrt(2 / (n + 2)).
     layer.roughness = sqrt(2.0 / (hair.primary_exponent + 2.0));
     layer.perceptual_roughness = sqrt(layer.roughness);
-    let is_orthographic = view.clip_from_view[3].w == 1.0;
-    let view_z = dot(vec4(view.view_from_world[0].z, view.view_from_world[1].z, view.view_from_world[2].z,
-        view.view_from_world[3].z), in.world_position);
-    let cluster = clustering::view_fragment_cluster_index(in.clip_position.xy, view_z, is_orthographic);
-    var ranges = clustering::unpack_clusterable_object_index_ranges(cluster);
-    let radiances = environment_map::compute_radiances(layer, &ranges, in.world_position.xyz, false);
+    let radiances = environment_map::compute_radiances(layer, ranges, in.world_position.xyz, false);
     let specular = hair.primary_color.rgb + hair.secondary_color.rgb * albedo;
     return hair.diffuse * albedo * radiances.irradiance + specular * radiances.radiance;
 #else
@@ -513,8 +507,12 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
         light += strand_response(tangent, normal, to_view, (*directional).direction_to_light, albedo)
             * (*directional).color.rgb * shadow;
     }
-    light += clustered_light(in, tangent, normal, to_view, albedo, view_z);
-    light += environment_light(in, tangent, to_view, albedo);
+    // The point and spot lights (and light probes) of this fragment's cluster.
+    let is_orthographic = view.clip_from_view[3].w == 1.0;
+    let cluster = clustering::view_fragment_cluster_index(in.clip_position.xy, view_z, is_orthographic);
+    var ranges = clustering::unpack_clusterable_object_index_ranges(cluster);
+    light += clustered_light(in, ranges, tangent, normal, to_view, albedo);
+    light += environment_light(in, &ranges, tangent, to_view, albedo);
 
     var color = vec4(light * view.exposure, 1.0);
 #ifdef TONEMAP_IN_SHADER
