@@ -3,7 +3,7 @@
 //!
 //! ```text
 //! cargo run --release -p hair_sim --example bench -- --guides 2048 --particles 16 --steps 600
-//! # also: --threads T, --no-collision, --segment-collision
+//! # also: --threads T, --no-collision, --no-segment-collision
 //! ```
 
 use hair_sim::prelude::*;
@@ -82,10 +82,10 @@ fn main() {
     let params = SimParams::default();
     let rest = settle(rest, Some(&collider), &params, 120, Vec3::ZERO).expect("settle");
     // `--no-collision` measures the solver alone (the groom still settles on the head).
-    // `--segment-collision` adds the exact segment test (`SimParams::segment_collision`).
+    // `--no-segment-collision` leaves out the whole-segment test (`SimParams::segment_collision`).
     let flag = |name: &str| std::env::args().any(|a| a == name);
     let params =
-        SimParams { collision: !flag("--no-collision"), segment_collision: flag("--segment-collision"), ..params };
+        SimParams { collision: !flag("--no-collision"), segment_collision: !flag("--no-segment-collision"), ..params };
     let mut strands = Strands::new(rest, head_pose(0.0));
 
     let chunk = strands.strand_count().div_ceil(threads * 4).next_multiple_of(STRANDS_PER_GROUP);

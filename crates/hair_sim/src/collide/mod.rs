@@ -24,6 +24,7 @@ use crate::mesh::{HeadMesh, MeshError};
 use candidates::{CandidateGrid, Closest, Near};
 use parry3d::query::{PointQueryWithLocation, Ray, RayCast};
 use parry3d::shape::{TriMesh, TriMeshFlags, TrianglePointLocation};
+pub use sag::SagCells;
 use sag::SagGrid;
 use std::sync::atomic::{AtomicU32, Ordering};
 use triangles::FlatTriangles;
@@ -114,9 +115,8 @@ enum Hint {
     #[default]
     None,
     /// The closest triangle at the last full search, which was at `at`; every triangle of
-    /// collider `collider` rising above its plane was at least `gap` from there. At the
-    /// last query, at `seen`, the surface was `distance` away (negative inside).
-    Touching { triangle: u32, at: Vec3, gap: f32, seen: Vec3, distance: f32, collider: u32 },
+    /// collider `collider` rising above its plane was at least `gap` from there.
+    Touching { triangle: u32, at: Vec3, gap: f32, collider: u32 },
     /// No surface of collider `collider` within `distance` of the head-local point `at`.
     Clear { at: Vec3, distance: f32, collider: u32 },
 }
@@ -231,26 +231,28 @@ impl HeadCollider {
         Some(Contact { position, normal: direction, depth: contact.depth })
     }
 
-    /// A distance `p` (head-local) is known to be from the surface, from what its hint
-    /// remembers (the distance at its last query, less how far it has moved since): 0 when
-    /// the hint knows nothing or belongs to another collider, or the particle was inside.
-    pub fn known_clearance(&self, p: Vec3, hint: &ContactHint) -> f32 {
-        let (at, distance) = match hint.0 {
-            Hint::Clear { at, distance, collider } if collider == self.id => (at, distance),
-            Hint::Touching { seen, distance, collider, .. } if collider == self.id => (seen, distance),
-            _ => return 0.0,
-        };
-        (distance - (p - self.centre - at).length()).max(0.0)
+    /// How far the surface can rise above a straight segment of `length` around `middle`
+    /// (head-local), from the curvature baked around it (`collide/sag.rs`): where both ends
+    /// are farther than this from the surface, the segment between them stays outside the
+    /// head and [`Self::segment_crossing`] need not be asked. A few tenths of a millimetre
+    /// for a segment of hair over the skull; infinite by an ear's rim, where only the exact
+    /// test can tell.
+    pub fn rise_under(&self, middle: Vec3, length: f32) -> f32 {
+        self.sag.bound_in(self.rise_cells().locate(middle), length)
     }
 
-    /// Whether what the hints of `a` and `b` (head-local) know shows that the segment
-    /// between them stays outside the head, so [`Self::segment_crossing`] need not be asked:
-    /// their clear balls cover it together, or both ends clear the most the surface can
-    /// rise under it (from the curvature baked around it, `collide/sag.rs`). On a smooth
-    /// scalp a segment of hair resting on a 3 mm shell passes; by an ear it does not.
-    pub fn segment_known_clear(&self, a: Vec3, hint_a: &ContactHint, b: Vec3, hint_b: &ContactHint) -> bool {
-        let (clear_a, clear_b) = (self.known_clearance(a, hint_a), self.known_clearance(b, hint_b));
-        clear_a + clear_b > (b - a).length() || clear_a.min(clear_b) > self.sag.bound(a - self.centre, b - self.centre)
+    /// Where the cells of [`Self::rise_under`]'s table lie (head-local), for callers that
+    /// locate many segments at once and look each up with [`Self::rise_in_cell`].
+    pub fn rise_cells(&self) -> SagCells {
+        let cells = self.sag.cells();
+        SagCells { origin: cells.origin + self.centre, ..cells }
+    }
+
+    /// [`Self::rise_under`] for a segment of `length` whose middle lies at `cell`
+    /// ([`SagCells::locate`] on [`Self::rise_cells`]).
+    #[inline]
+    pub fn rise_in_cell(&self, cell: Vec3, length: f32) -> f32 {
+        self.sag.bound_in(cell, length)
     }
 
     /// Where the segment `a`–`b` (head-local) runs through the head: the distances from `a`
@@ -275,10 +277,6 @@ impl HeadCollider {
                 // triangle's own and holds on whatever mesh asks.
                 let gap = || if collider == self.id { gap - (p - at).length() } else { 0.0 };
                 if let Some(certified) = self.triangles.certify(triangle, p, gap) {
-                    if let Hint::Touching { seen, distance, .. } = &mut hint.0 {
-                        // A certified distance may exceed the true one by the plane tolerance.
-                        (*seen, *distance) = (p, certified.distance - triangles::PLANE_TOLERANCE);
-                    }
                     return contact(certified.point, certified.normal, certified.distance, thickness);
                 }
             }
@@ -321,14 +319,7 @@ impl HeadCollider {
         let offset = p - closest.point;
         let distance = offset.length();
         let signed = if closest.inside { -distance } else { distance };
-        hint.0 = Hint::Touching {
-            triangle: closest.triangle,
-            at: p,
-            gap: closest.gap,
-            seen: p,
-            distance: signed,
-            collider: self.id,
-        };
+        hint.0 = Hint::Touching { triangle: closest.triangle, at: p, gap: closest.gap, collider: self.id };
         if signed >= thickness {
             return None;
         }

@@ -27,7 +27,7 @@ use glam::Vec3A;
 /// long are judged; longer ones always get the exact test.
 pub const REACH: f32 = 0.0125;
 /// Cell size, metres.
-const CELL: f32 = 0.004;
+const CELL: f32 = 0.008;
 /// The most cells the grid may have; a mesh too large for [`CELL`]-sized cells at this
 /// count gets larger cells.
 const MAX_CELLS: f32 = 2.0e6;
@@ -52,8 +52,10 @@ impl SagGrid {
         let (low, high) = if positions.is_empty() { (Vec3::ZERO, Vec3::ZERO) } else { bounds(positions) };
         let padded = (high - low).max(Vec3::splat(1e-6)) + Vec3::splat(2.0 * REACH);
         let cell = CELL.max(1.01 * (padded.x * padded.y * padded.z / MAX_CELLS).cbrt());
-        let origin = low - Vec3::splat(REACH);
-        let dims = (padded / cell).to_array().map(|n| n as usize + 1);
+        // Two cells more on each side than the filter below reaches: the outermost cells stay
+        // empty, and a point beyond the grid reads the nearest of them.
+        let origin = low - Vec3::splat(REACH + 2.0 * cell);
+        let dims = (padded / cell).to_array().map(|n| n as usize + 5);
         let mut grid = SagGrid {
             origin: origin.into(),
             inverse_cell: 1.0 / cell,
@@ -106,19 +108,26 @@ impl SagGrid {
     /// mesh's frame): where both ends are farther than this from the surface, the segment
     /// between them does not reach it. Infinite where the grid cannot tell (a segment
     /// longer than twice [`REACH`], or a surface turning too fast under it).
+    #[cfg(test)]
     pub fn bound(&self, a: Vec3, b: Vec3) -> f32 {
-        let length = (b - a).length();
-        // (NaN lengths included.)
+        self.bound_in(self.cells().locate(0.5 * (a + b)), (b - a).length())
+    }
+
+    /// Where the cells lie, to locate points in them: [`SagCells::locate`].
+    pub fn cells(&self) -> SagCells {
+        let last = self.dims.map(|n| (n - 1) as f32);
+        SagCells { origin: self.origin.into(), inverse_cell: self.inverse_cell, last: Vec3::from_array(last) }
+    }
+
+    /// [`Self::bound`] for a segment of `length` whose middle lies at `cell` (grid
+    /// coordinates within the grid, from [`SagCells::locate`]).
+    #[inline]
+    pub fn bound_in(&self, cell: Vec3, length: f32) -> f32 {
         if length.is_nan() || length > 2.0 * REACH {
             return f32::INFINITY;
         }
-        let g = (Vec3A::from(0.5 * (a + b)) - self.origin) * self.inverse_cell;
-        let upper = Vec3A::new(self.dims[0] as f32, self.dims[1] as f32, self.dims[2] as f32);
-        if !(g.cmpge(Vec3A::ZERO) & g.cmplt(upper)).all() {
-            // More than `REACH` beyond the mesh's bounds: no triangle comes near.
-            return 0.0;
-        }
-        let [x, y, z] = g.to_array().map(|v| v as usize);
+        // (Through i32: a float converts to it in one instruction, and `cell` is in range.)
+        let [x, y, z] = cell.to_array().map(|v| v as i32 as usize);
         let (convex, facet) = self.cells[x + self.dims[0] * (y + self.dims[1] * z)];
         if convex * length > MAX_TURN {
             return f32::INFINITY;
@@ -127,8 +136,29 @@ impl SagGrid {
     }
 
     fn cell_index(&self, p: Vec3) -> [usize; 3] {
-        let g = (Vec3A::from(p) - self.origin) * self.inverse_cell;
-        [0, 1, 2].map(|k| (g[k].max(0.0) as usize).min(self.dims[k] - 1))
+        self.cells().locate(p).to_array().map(|v| v as i32 as usize)
+    }
+}
+
+/// Where the cells of a [`SagGrid`] lie: `(p - origin) * inverse_cell`, clamped to the
+/// grid, gives a point's cell coordinates. Lane-wide code can do that arithmetic itself
+/// and hand each lane's coordinates to [`SagGrid::bound_in`].
+#[derive(Clone, Copy, Debug)]
+pub struct SagCells {
+    /// The grid's corner.
+    pub origin: Vec3,
+    /// Cells per metre.
+    pub inverse_cell: f32,
+    /// The last cell's coordinates along each axis.
+    pub last: Vec3,
+}
+
+impl SagCells {
+    /// The coordinates of the cell holding `p`; a point beyond the grid gets the nearest of
+    /// its outermost cells, which are empty.
+    #[inline]
+    pub fn locate(&self, p: Vec3) -> Vec3 {
+        ((p - self.origin) * self.inverse_cell).clamp(Vec3::ZERO, self.last)
     }
 }
 

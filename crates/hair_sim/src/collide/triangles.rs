@@ -586,14 +586,8 @@ mod tests {
             // Hints that belong to other particles must not change the answer either: a
             // random triangle, and the last particle's real hint (its gap included).
             let random = (rng.next_f32() * head.triangles.len() as f32) as u32;
-            let mut foreign = ContactHint(Hint::Touching {
-                triangle: random,
-                at: second,
-                gap: 0.0,
-                seen: second,
-                distance: 0.0,
-                collider: collider.id,
-            });
+            let mut foreign =
+                ContactHint(Hint::Touching { triangle: random, at: second, gap: 0.0, collider: collider.id });
             let with_foreign = collider.resolve_hinted(second, 0.003, &mut foreign);
             let with_previous = collider.resolve_hinted(second, 0.003, &mut previous);
             previous = hint;

@@ -103,20 +103,89 @@ impl InsideTest {
 
     /// Whether the segment `a`–`b` passes through a triangle.
     pub fn segment_crosses(&self, a: Vec3, b: Vec3) -> bool {
+        !self.segment_hits(a, b).is_empty()
+    }
+
+    /// How deep the segment `a`–`b`, whose ends are outside, runs through the mesh: the
+    /// depth of the middle of each stretch between where it enters and where it leaves,
+    /// the deepest of them (0 when it crosses no triangle). A segment grazing the surface
+    /// within rounding crosses it by micrometres.
+    pub fn segment_depth(&self, a: Vec3, b: Vec3) -> f32 {
+        let hits = self.segment_hits(a, b);
+        let direction = (b - a).normalize_or_zero();
+        hits.chunks_exact(2).map(|pair| self.distance(a + direction * (0.5 * (pair[0] + pair[1])))).fold(0.0, f32::max)
+    }
+
+    /// The distances from `a` at which the segment `a`–`b` meets a triangle, nearest first.
+    fn segment_hits(&self, a: Vec3, b: Vec3) -> Vec<f32> {
         let (y0, z0) = self.bin_of(a.min(b));
         let (y1, z1) = self.bin_of(a.max(b));
         let length = (b - a).length();
         if length == 0.0 {
-            return false;
+            return Vec::new();
         }
         let dir = (b - a) / length;
-        (y0..=y1).any(|y| {
-            (z0..=z1).any(|z| {
-                self.bins[y * BINS + z]
-                    .iter()
-                    .any(|&t| ray_hit(a, dir, &self.corners[t as usize]).is_some_and(|d| d > 0.0 && d < length))
-            })
-        })
+        let mut hits = Vec::new();
+        for y in y0..=y1 {
+            for z in z0..=z1 {
+                let near = self.bins[y * BINS + z].iter().filter_map(|&t| ray_hit(a, dir, &self.corners[t as usize]));
+                hits.extend(near.filter(|&d| d > 0.0 && d < length));
+            }
+        }
+        // A triangle spanning several bins is met once.
+        hits.sort_by(f32::total_cmp);
+        hits.dedup();
+        hits
+    }
+}
+
+/// What [`InsideTest::strands`] found.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct StrandsInside {
+    /// Particles deeper inside than the tolerance.
+    pub particles: usize,
+    /// The deepest particle, metres (0 when none is inside).
+    pub deepest: f32,
+    /// Segments passing through a triangle.
+    pub crossings: usize,
+    /// The particles deeper than the tolerance.
+    pub found: Vec<Vec3>,
+}
+
+impl StrandsInside {
+    /// Adds what another measurement found (of the same strands at another time).
+    pub fn add(&mut self, other: StrandsInside) {
+        self.particles += other.particles;
+        self.deepest = self.deepest.max(other.deepest);
+        self.crossings += other.crossings;
+        self.found.extend(other.found);
+    }
+}
+
+impl InsideTest {
+    /// Measures strands of `particles_per_strand` particles each, root first, in the mesh's
+    /// frame: the particles more than `tolerance` inside, the deepest, and the segments that
+    /// run more than `tolerance` deep through the mesh ([`Self::segment_depth`]). Roots sit on the surface by construction, so they and the
+    /// segments leaving them are not counted.
+    pub fn strands(&self, positions: &[Vec3], particles_per_strand: usize, tolerance: f32) -> StrandsInside {
+        let mut out = StrandsInside::default();
+        for (i, &p) in positions.iter().enumerate() {
+            let j = i % particles_per_strand.max(1);
+            if j == 0 {
+                continue;
+            }
+            if let Some(depth) = self.depth(p) {
+                out.deepest = out.deepest.max(depth);
+                if depth > tolerance {
+                    out.particles += 1;
+                    out.found.push(p);
+                }
+            }
+            if j > 1 && self.segment_depth(positions[i - 1], p) > tolerance {
+                out.crossings += 1;
+            }
+        }
+        out
     }
 }
 

@@ -10,7 +10,7 @@ mod inside;
 pub(crate) use inside::closest_barycentric;
 mod procedural;
 
-pub use inside::InsideTest;
+pub use inside::{InsideTest, StrandsInside};
 pub use procedural::test_head;
 
 use crate::math::Vec3;

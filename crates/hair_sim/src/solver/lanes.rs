@@ -216,6 +216,18 @@ impl V3 {
         self.z.set(l, v.z);
     }
 
+    /// Componentwise maximum.
+    #[inline]
+    pub fn max(self, o: V3) -> V3 {
+        V3 { x: self.x.max(o.x), y: self.y.max(o.y), z: self.z.max(o.z) }
+    }
+
+    /// Componentwise minimum.
+    #[inline]
+    pub fn min(self, o: V3) -> V3 {
+        V3 { x: self.x.min(o.x), y: self.y.min(o.y), z: self.z.min(o.z) }
+    }
+
     #[inline]
     pub fn dot(self, o: V3) -> Wide {
         self.x * o.x + self.y * o.y + self.z * o.z

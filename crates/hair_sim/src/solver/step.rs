@@ -52,11 +52,17 @@ impl PoseMatrix {
         (self.inverse * (Vec3A::from(p) - self.translation)).into()
     }
 
+    /// Head-local point → world.
+    #[inline]
+    fn world_point(&self, p: Vec3) -> Vec3 {
+        (self.rotation * Vec3A::from(p) + self.translation).into()
+    }
+
     /// A head-local contact → world.
     #[inline]
     fn world_contact(&self, contact: Contact) -> Contact {
         Contact {
-            position: (self.rotation * Vec3A::from(contact.position) + self.translation).into(),
+            position: self.world_point(contact.position),
             normal: (self.rotation * Vec3A::from(contact.normal)).into(),
             depth: contact.depth,
         }
@@ -168,6 +174,9 @@ struct GroupState {
     local: Vec<V3>,
     /// Positions right after collision, before the final length pass.
     collided: Vec<V3>,
+    /// Per particle, how far `collided` is at least from the head's surface: what the
+    /// collision pass knows without asking again (the thickness, less any slide after).
+    clearance: Vec<Wide>,
     moved: Vec<u32>,
     rest_positions: Vec<V3>,
     rest_directions: Vec<V3>,
@@ -202,6 +211,7 @@ impl GroupState {
             ftl_correction: vec![V3::ZERO; n],
             local: vec![V3::ZERO; n],
             collided: vec![V3::ZERO; n],
+            clearance: vec![Wide::ZERO; n],
             moved: vec![0; n],
             rest_positions: vec![V3::ZERO; n],
             rest_directions: vec![V3::ZERO; n],
@@ -334,6 +344,7 @@ fn step_group(g: &mut GroupState, state: &mut ChunkState, c: &Constants, input: 
             now: &c.lane_poses[s],
             now_one: &c.matrices[s],
             frame: c.poses[s].rotation,
+            last: s + 1 == c.poses.len(),
         };
         let time = input.time + c.h * s as f32;
         substep(g, state, c, time, &poses, input, report);
@@ -350,6 +361,8 @@ struct SubstepPoses<'a> {
     now_one: &'a PoseMatrix,
     /// The rotation of `now`, for the root frames of local shape.
     frame: Quat,
+    /// Whether this is the step's last substep.
+    last: bool,
 }
 
 fn substep(
@@ -414,7 +427,7 @@ fn substep(
         g.collided.copy_from_slice(&g.positions);
         length_pass(g, p);
         keep_outside(g, state, p, poses, input, report);
-        if p.segment_collision {
+        if p.segment_collision && poses.last {
             keep_segments_outside(g, state, p, poses, input, report);
         }
     }
@@ -603,22 +616,26 @@ fn collide(
             *local = poses.now.local_point(x);
         }
         g.moved.fill(0);
+        // A particle without a contact is at least the thickness away; one with a contact
+        // is put there, less what friction slides it back unchecked.
+        let thickness = p.collision_thickness;
+        g.clearance.fill(Wide::splat(thickness));
         // Strand by strand: neighbouring particles query neighbouring cells and triangles.
         for l in 0..g.lanes {
             let hints = &mut state.hints[g.strands[l] * n..][..n];
             for (j, hint) in hints.iter_mut().enumerate().skip(1) {
-                if let Some(contact) =
-                    head_contact(collider, g.local[j].lane(l), p.collision_thickness, c.ray_from, hint)
-                {
+                if let Some(contact) = head_contact(collider, g.local[j].lane(l), thickness, c.ray_from, hint) {
                     // Friction acts on sliding relative to the head, so compare in head space.
                     let local_start = poses.before.local_point(g.start[j].lane(l));
                     let mut held = with_friction(contact, local_start, p.friction);
                     // Friction slides back along the tangent plane, which in a hollow (by
                     // an ear) dips under the surface: out again from there, unless the
                     // slide is too short to reach the surface ([`FRICTION_SLACK`]).
-                    if (held - contact.position).length_squared() > (FRICTION_SLACK * p.collision_thickness).powi(2) {
-                        held = head_contact(collider, held, p.collision_thickness, c.ray_from, hint)
-                            .map_or(held, |c| c.position);
+                    let slide = (held - contact.position).length();
+                    if slide > FRICTION_SLACK * thickness {
+                        held = head_contact(collider, held, thickness, c.ray_from, hint).map_or(held, |c| c.position);
+                    } else {
+                        g.clearance[j].set(l, thickness - slide);
                     }
                     g.local[j].set_lane(l, held);
                     g.moved[j] |= 1 << l;
@@ -626,10 +643,13 @@ fn collide(
                 }
                 // The skin that moved against the head's frame, as it is now.
                 if let Some(patch) = input.surface_patch
-                    && let Some(contact) = patch.resolve(g.local[j].lane(l), p.collision_thickness)
+                    && let Some(contact) = patch.resolve(g.local[j].lane(l), thickness)
                 {
                     let local_start = poses.before.local_point(g.start[j].lane(l));
-                    g.local[j].set_lane(l, with_friction(contact, local_start, p.friction));
+                    let pushed = with_friction(contact, local_start, p.friction);
+                    let left = g.clearance[j].get(l) - (pushed - g.local[j].lane(l)).length();
+                    g.clearance[j].set(l, left);
+                    g.local[j].set_lane(l, pushed);
                     g.moved[j] |= 1 << l;
                     touch(&contact);
                 }
@@ -646,13 +666,18 @@ fn collide(
     }
     for j in 1..n {
         for l in 0..g.lanes {
-            let mut x = g.positions[j].lane(l);
+            let before = g.positions[j].lane(l);
+            let mut x = before;
             for extra in input.extra_colliders {
                 if let Some(contact) = extra.resolve(x, p.collision_thickness) {
                     x = with_friction(contact, g.start[j].lane(l), p.friction);
                     // Spheres and capsules are convex: the tangent plane stays outside.
                     touch(&contact);
                 }
+            }
+            if x != before {
+                let left = g.clearance[j].get(l) - (x - before).length();
+                g.clearance[j].set(l, left);
             }
             g.positions[j].set_lane(l, x);
         }
@@ -802,11 +827,15 @@ fn contact_at(
 }
 
 /// Segments whose two ends are outside can still cut through a thin part of the head
-/// between them (an ear's rim). Each segment that may reach the head (its ends' known clear
-/// balls do not cover it) is tested exactly, by a ray along it through the collider's BVH. Where it crosses, it
-/// turns about its parent until the middle of the crossed stretch is out on the collision
-/// shell (a few turns at most), the strand below moves along, and the final pass places
-/// the rest outside from there ([`place_outside`]).
+/// between them (an ear's rim). A segment may reach the head only where its ends' clear
+/// balls (what collision left them, [`GroupState::clearance`], less how far the final pass
+/// moved them) do not cover it, and the lower end clears less than the surface can rise
+/// under it ([`HeadCollider::rise_under`]); on a skull neither happens, so the test runs a
+/// lane-wide sum and one table lookup per segment. What remains is tested exactly, by a ray
+/// along the segment through the collider's BVH. Where it crosses, it turns about its
+/// parent until the middle of the crossed stretch is out on the collision shell (a few
+/// turns at most), the strand below moves along, and the final pass places the rest
+/// outside from there ([`place_outside`]).
 fn keep_segments_outside(
     g: &mut GroupState,
     state: &mut ChunkState,
@@ -817,31 +846,40 @@ fn keep_segments_outside(
 ) {
     let Some(collider) = input.collider else { return };
     let n = g.positions.len();
-    for l in 0..g.lanes {
-        for j in 2..n {
-            let (parent, child) = (g.positions[j - 1].lane(l), g.positions[j].lane(l));
-            let length = (child - parent).length();
-            // Every point of the segment is within `length` of an end together: where the
-            // ends' known clear balls add up to more, it cannot reach the surface.
-            let hints = &state.hints[g.strands[l] * n..][..n];
-            let local = |x: Vec3| poses.now_one.local_point(x);
-            if collider.segment_known_clear(local(parent), &hints[j - 1], local(child), &hints[j]) {
+    let real_lanes = if g.lanes == LANES { u32::MAX } else { (1u32 << g.lanes) - 1 };
+    // Lanes whose particles from here on were moved by a turn: their clearance is unknown.
+    let mut turned_lanes = 0u32;
+    // What collision knew, less how far the final pass moved each particle since.
+    for j in 1..n {
+        g.clearance[j] = (g.clearance[j] - (g.positions[j] - g.collided[j]).length()).max(Wide::ZERO);
+    }
+    let cells = collider.rise_cells();
+    let (origin, inverse_cell, last) =
+        (V3::splat(cells.origin), Wide::splat(cells.inverse_cell), V3::splat(cells.last));
+    for j in 2..n {
+        let length = (g.positions[j] - g.positions[j - 1]).length();
+        let turned = Mask::from_bits(turned_lanes);
+        let clear_parent = Wide::select(turned, Wide::ZERO, g.clearance[j - 1]);
+        let clear_child = Wide::select(turned, Wide::ZERO, g.clearance[j]);
+        // Every point of the segment is within `length` of an end together.
+        let uncovered = !(clear_parent + clear_child).cmpgt(length).bitmask() & real_lanes;
+        if uncovered == 0 {
+            continue;
+        }
+        let lowest = clear_parent.min(clear_child);
+        let middle = poses.now.local_point((g.positions[j - 1] + g.positions[j]) * Wide::splat(0.5));
+        let cell = ((middle - origin) * inverse_cell).max(V3::ZERO).min(last);
+        for l in (0..g.lanes).filter(|&l| uncovered & (1 << l) != 0) {
+            if lowest.get(l) > collider.rise_in_cell(cell.lane(l), length.get(l)) {
                 continue;
             }
-            let mut turned = child;
-            for _ in 0..MAX_TURNS {
-                let (a, b) = (poses.now_one.local_point(parent), poses.now_one.local_point(turned));
-                let Some((enters, leaves)) = collider.segment_crossing(a, b) else { break };
-                // The middle of the stretch inside, out onto the shell.
-                let inside = a + (b - a) * (0.5 * (enters + leaves) / length.max(1e-9));
-                let mut hint = ContactHint::NONE;
-                let Some(contact) = collider.resolve_hinted(inside, p.collision_thickness, &mut hint) else { break };
-                let target = poses.now_one.world_contact(contact).position;
-                turned = parent + (target - parent).normalize_or(Vec3::Y) * length;
-            }
-            if turned == child {
+            let (parent, child, length) = (g.positions[j - 1].lane(l), g.positions[j].lane(l), length.get(l));
+            let (local_parent, local_child) = (poses.now_one.local_point(parent), poses.now_one.local_point(child));
+            let local_turned = turn_out_of(collider, local_parent, local_child, length, p);
+            if local_turned == local_child {
                 continue;
             }
+            let turned = poses.now_one.world_point(local_turned);
             // The strand below follows the turned segment unchanged, then is placed outside.
             let shift = turned - child;
             for k in j + 1..n {
@@ -850,10 +888,79 @@ fn keep_segments_outside(
             }
             g.collided[j].set_lane(l, turned);
             report.segment_turns += 1;
+            turned_lanes |= 1 << l;
             place_outside(g, state, p, poses, input, report, l, j, true);
+            // Placing the particle on the shell turns the segment once more, which can take
+            // it back through (a fold of the surface): there, the turned segment stands (its
+            // end is outside the head, if within the shell) and the rest is placed from it.
+            let placed = poses.now_one.local_point(g.positions[j].lane(l));
+            if placed != local_turned && collider.segment_crossing(local_parent, placed).is_some() {
+                set_final(g, p, l, j, turned);
+                place_outside(g, state, p, poses, input, report, l, j + 1, true);
+            }
         }
     }
 }
+
+/// Where to put `child` (head-local, `length` from `parent`) so that the segment between
+/// them no longer runs through the head: turned about the parent until the middle of the
+/// crossed stretch is out on the collision shell, a few turns at most. Where that does not
+/// clear it (a fold of the surface, an ear's rim seen edge-on), the segment turns toward
+/// the surface's normal at the parent instead, as little as bisection finds enough.
+/// Returns `child` itself when the segment crosses nothing.
+fn turn_out_of(collider: &HeadCollider, parent: Vec3, child: Vec3, length: f32, p: &SimParams) -> Vec3 {
+    let mut turned = child;
+    for _ in 0..MAX_TURNS {
+        let Some((enters, leaves)) = collider.segment_crossing(parent, turned) else { return turned };
+        // The middle of the stretch inside, out onto the shell.
+        let inside = parent + (turned - parent) * (0.5 * (enters + leaves) / length.max(1e-9));
+        let mut hint = ContactHint::NONE;
+        let Some(contact) = collider.resolve_hinted(inside, p.collision_thickness, &mut hint) else { break };
+        turned = parent + (contact.position - parent).normalize_or(Vec3::Y) * length;
+    }
+    if collider.segment_crossing(parent, turned).is_none() {
+        return turned;
+    }
+    // The parent is outside, so within `length` of the surface a contact that reaches that
+    // far has the outward normal nearest it.
+    let mut hint = ContactHint::NONE;
+    let Some(out) = collider.resolve_hinted(parent, length, &mut hint).map(|c| c.normal) else { return turned };
+    let Some(clear) = clear_direction(collider, parent, out, (turned - parent) / length, length) else { return turned };
+    let (mut crossing, mut clear) = ((turned - parent) / length, clear);
+    for _ in 0..BISECTIONS {
+        let middle = (crossing + clear).normalize_or(clear);
+        if collider.segment_crossing(parent, parent + middle * length).is_some() {
+            crossing = middle;
+        } else {
+            clear = middle;
+        }
+    }
+    parent + clear * length
+}
+
+/// A direction from `parent` in which a segment of `length` crosses nothing: `out` itself,
+/// or else the one nearest `wanted` among directions tilted from `out` by 30°, 60° and 90°
+/// (eight around each), where a fold of the surface stands in the way of `out`.
+fn clear_direction(collider: &HeadCollider, parent: Vec3, out: Vec3, wanted: Vec3, length: f32) -> Option<Vec3> {
+    let clear = |d: Vec3| collider.segment_crossing(parent, parent + d * length).is_none();
+    if clear(out) {
+        return Some(out);
+    }
+    let (u, v) = out.any_orthonormal_pair();
+    let tilted = [30f32, 60.0, 90.0].into_iter().flat_map(|tilt| {
+        (0..8).map(move |k| {
+            let (sin_tilt, cos_tilt) = tilt.to_radians().sin_cos();
+            let (sin_around, cos_around) = (k as f32 * std::f32::consts::FRAC_PI_4).sin_cos();
+            out * cos_tilt + (u * cos_around + v * sin_around) * sin_tilt
+        })
+    });
+    let mut by_nearness: Vec<Vec3> = tilted.collect();
+    by_nearness.sort_by(|a, b| b.dot(wanted).total_cmp(&a.dot(wanted)));
+    by_nearness.into_iter().find(|&d| clear(d))
+}
+
+/// Halvings of the angle between a crossing direction and a clear one in [`turn_out_of`].
+const BISECTIONS: usize = 5;
 
 /// Where to put a particle that should sit `length` from `parent` (itself outside) but is
 /// within `thickness` of a collider at `placed`: the segment turns about the parent, toward
