@@ -70,6 +70,8 @@ struct HairUniform {
     // Marschner: longitudinal roughness and cuticle tilt (radians).
     roughness: f32,
     cuticle_tilt: f32,
+    // How much light one layer of fibres stops, per layer (0: no self-shadowing).
+    self_shadow: f32,
 }
 
 // Mirror `bevy_hair::render::HairUniform::RECEIVE_SHADOWS` and `MARSCHNER`.
@@ -114,6 +116,99 @@ fn root_scalp(guide: u32) -> vec4<f32> {
 // A point inside the head (`hair_sim::groom::ChildRoot::head_centre`).
 fn head_centre() -> vec3<f32> {
     return guides[2u * hair.guides * hair.particles + hair.guides].xyz;
+}
+
+// The deep opacity maps follow the head's centre: their count, then per map a header of
+// `MAP_HEADER` vec4s, each cell's nearest strand, and its coverage, four values per vec4
+// (`hair_sim::shadow`). Mirror `hair_sim::shadow::MAP_SIZE`, `MAP_LAYERS` and `GROWTH`.
+const MAP_SIZE: i32 = 32;
+const MAP_LAYERS: i32 = 16;
+const MAP_GROWTH: f32 = 1.25;
+const MAP_HEADER: u32 = 5u;
+const MAP_CELLS: u32 = 32u * 32u;
+const MAP_STRIDE: u32 = 5u + 32u * 32u / 4u + 32u * 32u * 16u / 4u;
+
+fn maps_start() -> u32 {
+    return 2u * hair.guides * hair.particles + hair.guides + 1u;
+}
+
+fn map_header(map: u32, k: u32) -> vec4<f32> {
+    return guides[maps_start() + 1u + map * MAP_STRIDE + k];
+}
+
+// Value `i` of map `map`'s tables (the nearest strands, then the coverage).
+fn map_value(map: u32, i: u32) -> f32 {
+    return guides[maps_start() + 1u + map * MAP_STRIDE + MAP_HEADER + i / 4u][i % 4u];
+}
+
+// Mirrors `hair_sim::shadow::OpacityMap::coverage_at`: the layers of fibres between `p`
+// and map `map`'s light, in each of the four cells around it a slice before `p`'s.
+fn coverage_at(map: u32, p: vec3<f32>) -> f32 {
+    let source = map_header(map, 0u);
+    let right = map_header(map, 1u);
+    let up = map_header(map, 2u);
+    let forward = map_header(map, 3u);
+    let first_layer = map_header(map, 4u).x;
+    var uvd: vec3<f32>;
+    if source.w == 0.0 {
+        uvd = vec3(dot(p, right.xyz), dot(p, up.xyz), dot(p, forward.xyz));
+    } else {
+        let d = p - source.xyz;
+        let along = dot(d, forward.xyz);
+        if along <= 1e-4 {
+            return 0.0;
+        }
+        uvd = vec3(dot(d, right.xyz) / along, dot(d, up.xyz) / along, length(d));
+    }
+    let g = vec2((uvd.x - right.w) * forward.w, (uvd.y - up.w) * forward.w);
+    let g0 = floor(g);
+    let f = g - g0;
+    var sum = 0.0;
+    for (var dy = 0; dy < 2; dy++) {
+        for (var dx = 0; dx < 2; dx++) {
+            let x = i32(g0.x) + dx;
+            let y = i32(g0.y) + dy;
+            if x < 0 || y < 0 || x >= MAP_SIZE || y >= MAP_SIZE {
+                continue;
+            }
+            let cell = u32(y * MAP_SIZE + x);
+            // `OpacityMap::slice_coordinate`, less the slice that keeps a strand off itself.
+            let behind = (uvd.z - map_value(map, cell)) / first_layer;
+            if !(behind >= 0.0) {
+                continue;
+            }
+            let z = log(1.0 + behind * (MAP_GROWTH - 1.0)) / log(MAP_GROWTH) - 1.0;
+            let z0 = floor(z);
+            let fz = z - z0;
+            let weight = select(1.0 - f.x, f.x, dx == 1) * select(1.0 - f.y, f.y, dy == 1);
+            for (var dz = 0; dz < 2; dz++) {
+                let layer = i32(z0) + dz;
+                if layer >= 0 {
+                    let coverage = map_value(map, MAP_CELLS + u32(min(layer, MAP_LAYERS - 1)) * MAP_CELLS + cell);
+                    sum += coverage * weight * select(1.0 - fz, fz, dz == 1);
+                }
+            }
+        }
+    }
+    return sum;
+}
+
+// The light left at `p` after the hair between it and a light: that light's map (found by
+// its direction, `kind` 0, or its position, `kind` 1), `exp(−self_shadow · coverage)`; 1
+// without self-shadowing or a map.
+fn self_shadow(kind: f32, source: vec3<f32>, p: vec3<f32>) -> f32 {
+    if hair.self_shadow <= 0.0 {
+        return 1.0;
+    }
+    let count = u32(guides[maps_start()].x);
+    for (var map = 0u; map < count; map++) {
+        let header = map_header(map, 0u);
+        let same = select(distance(header.xyz, source) < 1e-3, dot(header.xyz, source) > 0.99999, kind == 0.0);
+        if header.w == kind && same {
+            return exp(-hair.self_shadow * coverage_at(map, p));
+        }
+    }
+    return 1.0;
 }
 
 // Mirrors `hair_sim::groom::curve::unit_or`.
@@ -457,6 +552,7 @@ fn clustered_light(in: VertexOutput, ranges: ClusterableObjectIndexRanges, tange
         } else if receives_shadow((*source).flags, POINT_LIGHT_FLAGS_SHADOWS_ENABLED_BIT) {
             shadow = fetch_point_shadow(id, in.world_position, normal, in.clip_position.xy);
         }
+        shadow *= self_shadow(1.0, (*source).position_radius.xyz, in.world_position.xyz);
         light += strand_response(tangent, normal, to_view, to_light, albedo) * radiance * shadow;
     }
     return light;
@@ -504,6 +600,7 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
         if receives_shadow((*directional).flags, DIRECTIONAL_LIGHT_FLAGS_SHADOWS_ENABLED_BIT) {
             shadow = fetch_directional_shadow(i, in.world_position, normal, view_z, in.clip_position.xy);
         }
+        shadow *= self_shadow(0.0, (*directional).direction_to_light, in.world_position.xyz);
         light += strand_response(tangent, normal, to_view, (*directional).direction_to_light, albedo)
             * (*directional).color.rgb * shadow;
     }

@@ -80,6 +80,8 @@ pub struct HairUniform {
     pub roughness: f32,
     /// Marschner's cuticle tilt, radians (with [`Self::MARSCHNER`]).
     pub cuticle_tilt: f32,
+    /// Light stopped per layer of fibres toward a light with an opacity map (0: none).
+    pub self_shadow: f32,
 }
 
 impl HairUniform {

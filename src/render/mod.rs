@@ -26,6 +26,7 @@ use bevy::light::NotShadowCaster;
 use bevy::prelude::*;
 use bevy::render::storage::ShaderBuffer;
 use hair_sim::groom::{ChildParams, MAX_CURVATURE, transport_frames};
+use hair_sim::shadow::{LightSource, MAP_LAYERS, MAP_SIZE, OpacityMap};
 
 /// Draws every groom: added by [`HairPlugin`](crate::HairPlugin) when the `render`
 /// feature is on and the app renders.
@@ -122,6 +123,12 @@ pub struct HairLook {
     pub guides_only: bool,
     /// The highlights' scattering model.
     pub shading: HairShading,
+    /// Self-shadowing: how much of the light one layer of fibres stops on its way to the
+    /// fibres behind it, 0..1 (0 turns it off). Toward each shadow-casting light (up to
+    /// [`MAX_OPACITY_MAPS`]) the guides are counted into a deep opacity map every frame
+    /// (`hair_sim::shadow`), and a strand behind `n` layers of fibres gets
+    /// `exp(−self_shadow · n)` of that light, whatever Bevy's shadow cascades.
+    pub self_shadow: f32,
 }
 
 impl Default for HairLook {
@@ -140,6 +147,7 @@ impl Default for HairLook {
             cast_shadows: true,
             guides_only: false,
             shading: HairShading::KajiyaKay,
+            self_shadow: 0.5,
         }
     }
 }
@@ -170,6 +178,8 @@ pub struct HairDrawing {
     /// Each guide's root in head space (rotated by the head each frame): its frame `u`,
     /// and the scalp's normal and curvature there.
     roots: Vec<DrawnRoot>,
+    /// Deep opacity maps the buffer has room for.
+    opacity_maps: usize,
 }
 
 /// A guide's root as the children need it, head space.
@@ -232,8 +242,10 @@ fn sync_drawing(
             continue;
         };
         let layout = layout_of(&state, groom, look);
+        let opacity_maps = if look.self_shadow > 0.0 { MAX_OPACITY_MAPS } else { 0 };
         if let Some((_, (drawing, true, _))) = existing
             && drawing.layout == layout
+            && drawing.opacity_maps == opacity_maps
             && !state.is_added()
         {
             continue;
@@ -248,10 +260,10 @@ fn sync_drawing(
                 curvature: r.curvature(mesh),
             })
             .collect();
-        let bytes = guide_buffer_len(&layout) * size_of::<Vec4>();
+        let bytes = (guide_buffer_len(&layout) + opacity_maps_len(opacity_maps)) * size_of::<Vec4>();
         let guides = buffers.add(ShaderBuffer::with_size(bytes, default()));
         let material = materials.add(HairMaterial { guides: guides.clone(), uniform: uniform(&layout, groom, look) });
-        let drawing = HairDrawing { head, guides, material: material.clone(), layout, roots };
+        let drawing = HairDrawing { head, guides, material: material.clone(), layout, roots, opacity_maps };
         let bundle = (Mesh3d(meshes.add(layout.mesh())), MeshMaterial3d(material), drawing, Transform::IDENTITY);
         match existing {
             Some((entity, _)) => _ = commands.entity(entity).insert(bundle),
@@ -281,13 +293,99 @@ fn guide_buffer_len(layout: &StrandLayout) -> usize {
     (2 * layout.guides * layout.particles + layout.guides + 1) as usize
 }
 
+/// Deep opacity maps per groom at most: toward the first shadow-casting lights
+/// (directional, then point, then spot).
+pub const MAX_OPACITY_MAPS: usize = 4;
+
+/// `vec4`s of a map's header in the guide buffer (`hair.wgsl`'s `MAP_HEADER`).
+const MAP_HEADER: usize = 5;
+
+/// `vec4`s after the head's centre for `maps` opacity maps: their count, then per map its
+/// header, each cell's nearest strand and the coverage (four values per `vec4`).
+fn opacity_maps_len(maps: usize) -> usize {
+    if maps == 0 { 0 } else { 1 + maps * (MAP_HEADER + MAP_SIZE * MAP_SIZE * (1 + MAP_LAYERS) / 4) }
+}
+
+/// The lights whose shadows self-shadowing follows: those casting shadows, directional
+/// first, at most [`MAX_OPACITY_MAPS`].
+fn shadow_casting_lights(
+    directional: &Query<(&DirectionalLight, &GlobalTransform)>,
+    points: &Query<(&PointLight, &GlobalTransform)>,
+    spots: &Query<(&SpotLight, &GlobalTransform)>,
+) -> Vec<LightSource> {
+    let directional = directional
+        .iter()
+        .filter(|(light, _)| light.shadow_maps_enabled)
+        .map(|(_, at)| LightSource::Direction(to_sim(at.back().as_vec3())));
+    let points = points.iter().filter(|(light, _)| light.shadow_maps_enabled).map(|(_, at)| at.translation());
+    let spots = spots.iter().filter(|(light, _)| light.shadow_maps_enabled).map(|(_, at)| at.translation());
+    let positioned = points.chain(spots).map(|at| LightSource::Position(to_sim(at)));
+    directional.chain(positioned).take(MAX_OPACITY_MAPS).collect()
+}
+
+/// Appends the opacity maps of `positions` (world space, strand-major) toward `lights` to
+/// `data` in `slots` slots: each particle stands for the fibres of its guide's strands
+/// along the segment to its parent.
+fn write_opacity_maps(
+    data: &mut Vec<Vec4>,
+    slots: usize,
+    lights: &[LightSource],
+    positions: &[Vec3],
+    layout: &StrandLayout,
+    look: &HairLook,
+) {
+    if slots == 0 {
+        return;
+    }
+    let n = layout.particles as usize;
+    let points: Vec<_> = positions.iter().map(|&p| to_sim(p)).collect();
+    let areas: Vec<f32> = (0..points.len())
+        .map(|i| {
+            let j = i % n;
+            if j == 0 {
+                return 0.0;
+            }
+            let width = look.root_width + (look.tip_width - look.root_width) * j as f32 / (n - 1) as f32;
+            layout.strands_per_guide as f32 * width.max(0.0) * (points[i] - points[i - 1]).length()
+        })
+        .collect();
+    let maps: Vec<OpacityMap> =
+        lights.iter().take(slots).filter_map(|&light| OpacityMap::build(light, &points, &areas)).collect();
+    data.push(Vec4::new(maps.len() as f32, 0.0, 0.0, 0.0));
+    let v = |v: hair_sim::math::Vec3, w: f32| from_sim(v).extend(w);
+    for map in &maps {
+        let source = match map.source {
+            LightSource::Direction(d) => v(d, 0.0),
+            LightSource::Position(p) => v(p, 1.0),
+        };
+        data.extend([
+            source,
+            v(map.right, map.corner[0]),
+            v(map.up, map.corner[1]),
+            v(map.forward, map.cells_per_unit),
+            Vec4::new(map.first_layer, 0.0, 0.0, 0.0),
+        ]);
+        // Empty cells' nearest strand is infinitely far: WGSL has no infinity, so the
+        // largest float (nothing lies behind it).
+        let nearest = map.nearest.iter().map(|&d| d.min(f32::MAX));
+        let tables: Vec<f32> = nearest.chain(map.coverage.iter().copied()).collect();
+        data.extend(tables.chunks_exact(4).map(Vec4::from_slice));
+    }
+    // Unused slots keep the buffer its size.
+    data.resize(data.len() + (slots - maps.len()) * (opacity_maps_len(1) - 1), Vec4::ZERO);
+}
+
 /// Writes this frame's guide particles (interpolated between the last two hair steps, on
 /// the head as posed this frame) and their transport frames into each drawing's storage
 /// buffer, and fits its bounding box (in the drawing's own frame: it is a child of the
 /// head, and a skinned head's hair follows a joint instead).
+#[allow(clippy::too_many_arguments)] // the lights' queries
 fn upload_guides(
     clock: Res<Time<Hair>>,
     heads: Query<(&HairState, &HairGroom, &HairLook)>,
+    directional_lights: Query<(&DirectionalLight, &GlobalTransform)>,
+    point_lights: Query<(&PointLight, &GlobalTransform)>,
+    spot_lights: Query<(&SpotLight, &GlobalTransform)>,
     mut drawings: Query<(&HairDrawing, &GlobalTransform, &mut Aabb, &InheritedVisibility), With<Mesh3d>>,
     mut buffers: ResMut<Assets<ShaderBuffer>>,
     mut stats: ResMut<HairRenderStats>,
@@ -295,6 +393,7 @@ fn upload_guides(
 ) {
     let mut frame = HairRenderStats::default();
     let overstep = clock.overstep_fraction();
+    let lights = shadow_casting_lights(&directional_lights, &point_lights, &spot_lights);
     let mut write = |drawing: &HairDrawing, placed: &GlobalTransform, frame: &mut HairRenderStats| -> Option<Aabb> {
         let (state, groom, look) = heads.get(drawing.head).ok()?;
         if state.roots().len() != drawing.roots.len() {
@@ -325,6 +424,9 @@ fn upload_guides(
         data.extend(drawing.roots.iter().map(|root| (rotation * root.normal).extend(root.curvature)));
         let pose = state.drawn_head_pose();
         data.push(from_sim(pose.transform_point(state.collider().centre())).extend(1.0));
+        if look.self_shadow > 0.0 {
+            write_opacity_maps(&mut data, drawing.opacity_maps, &lights, &positions, &drawing.layout, look);
+        }
         frame.uploaded_bytes += (data.len() * size_of::<Vec4>()) as u64;
         frame.rendered_strands += drawing.layout.strands() as u64;
         frame.rendered_vertices += drawing.layout.vertices() as u64;
@@ -427,6 +529,7 @@ fn uniform(layout: &StrandLayout, groom: &HairGroom, look: &HairLook) -> HairUni
             | if marschner.is_some() { HairUniform::MARSCHNER } else { 0 },
         roughness: marschner.map_or(0.0, |(roughness, _)| roughness),
         cuticle_tilt: marschner.map_or(0.0, |(_, tilt)| tilt),
+        self_shadow: non_negative(look.self_shadow, 0.0).min(1.0),
         ..default()
     }
     .with_layout(layout)

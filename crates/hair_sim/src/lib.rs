@@ -33,7 +33,7 @@
 //! Layout: [`mesh`] (the head and its validation), [`groom`] (roots, guides, child
 //! strands and Bézier tessellation),
 //! [`solver`] (state, settings, the step), [`collide`] (BVH + distance grid, spheres,
-//! capsules). All public vectors are glam 0.33 ([`math`]), the version parry3d uses.
+//! capsules), [`shadow`] (how much hair lies between a point and a light). All public vectors are glam 0.33 ([`math`]), the version parry3d uses.
 
 #![warn(missing_docs)]
 
@@ -42,6 +42,7 @@ pub mod groom;
 pub mod math;
 pub mod mesh;
 mod parallel;
+pub mod shadow;
 pub mod solver;
 
 /// The types most users need.
