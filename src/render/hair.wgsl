@@ -120,10 +120,9 @@ fn head_centre() -> vec3<f32> {
 
 // The deep opacity maps follow the head's centre: their count, then per map a header of
 // `MAP_HEADER` vec4s, each cell's nearest strand, and its coverage, four values per vec4
-// (`hair_sim::shadow`). Mirror `hair_sim::shadow::MAP_SIZE`, `MAP_LAYERS` and `GROWTH`.
+// (`hair_sim::shadow`). Mirror `hair_sim::shadow::MAP_SIZE` and `MAP_LAYERS`.
 const MAP_SIZE: i32 = 32;
 const MAP_LAYERS: i32 = 16;
-const MAP_GROWTH: f32 = 1.25;
 const MAP_HEADER: u32 = 5u;
 const MAP_CELLS: u32 = 32u * 32u;
 const MAP_STRIDE: u32 = 5u + 32u * 32u / 4u + 32u * 32u * 16u / 4u;
@@ -177,7 +176,7 @@ fn coverage_at(map: u32, p: vec3<f32>) -> f32 {
             if !(behind >= 0.0) {
                 continue;
             }
-            let z = log(1.0 + behind * (MAP_GROWTH - 1.0)) / log(MAP_GROWTH) - 1.0;
+            let z = 0.5 * (sqrt(1.0 + 8.0 * behind) - 1.0) - 1.0;
             let z0 = floor(z);
             let fz = z - z0;
             let weight = select(1.0 - f.x, f.x, dx == 1) * select(1.0 - f.y, f.y, dy == 1);

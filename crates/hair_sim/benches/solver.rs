@@ -122,6 +122,29 @@ fn groom(c: &mut Criterion) {
     });
 }
 
+/// One deep opacity map of a settled 2,048 × 16 groom (the plugin builds one per
+/// shadow-casting light and frame).
+fn opacity_map(c: &mut Criterion) {
+    use hair_sim::shadow::{LightSource, OpacityMap};
+    let head = head();
+    let collider = HeadCollider::new(&head, DEFAULT_GRID_RESOLUTION).unwrap();
+    let roots = sample_roots(&head, &scalp(&head), 2048, 1).unwrap();
+    let guide = GuideParams { segments: 15, length: 0.25, ..GuideParams::default() };
+    let rest = RestShape::new(grow_guides(&head, &roots, &guide, 1).unwrap(), 16).unwrap();
+    let rest = settle(rest, Some(&collider), &SimParams::default(), 60, Vec3::ZERO).unwrap();
+    // Each sample stands for 9 strands, 0.6 mm wide, along its 1.7 cm segment.
+    let areas = vec![9.0 * 0.0006 * 0.017; rest.positions.len()];
+    let mut group = c.benchmark_group("OpacityMap::build 2048x16");
+    group.throughput(Throughput::Elements(rest.positions.len() as u64));
+    for (name, light) in [
+        ("directional", LightSource::Direction(Vec3::new(0.3, 1.0, 0.2).normalize())),
+        ("point", LightSource::Position(Vec3::new(-0.4, 0.3, 0.5))),
+    ] {
+        group.bench_function(name, |b| b.iter(|| OpacityMap::build(light, black_box(&rest.positions), &areas)));
+    }
+    group.finish();
+}
+
 fn config() -> Criterion {
     Criterion::default()
         .sample_size(10)
@@ -133,6 +156,6 @@ fn config() -> Criterion {
 criterion_group! {
     name = benches;
     config = config();
-    targets = collider_build, collider_resolve, strand_step, groom
+    targets = collider_build, collider_resolve, strand_step, groom, opacity_map
 }
 criterion_main!(benches);

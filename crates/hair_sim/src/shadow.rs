@@ -7,8 +7,8 @@
 //! light's view (orthographic for a directional light, perspective for a point or spot
 //! light), each cut into `layers` slices along its rays from the first strand the light
 //! meets in that cell, thin there (where the eye sees the detail) and thicker each slice
-//! by [`GROWTH`], so the slices of every cell reach through the whole groom. Each strand
-//! sample deposits the area its fibres cover (length × width ×
+//! (the `k`-th is `k + 1` times the first), so the slices of every cell reach through the
+//! whole groom. Each strand sample deposits the area its fibres cover (length × width ×
 //! fibres), divided by the cell's area, into the cells and slices around it (bilinearly
 //! across, linearly along the rays, so a map changes smoothly as the hair or the light
 //! moves). Summed slice by slice from the light, a cell holds how many layers of fibres a
@@ -22,8 +22,6 @@ use crate::math::Vec3;
 pub const MAP_SIZE: usize = 32;
 /// Slices along the light's rays.
 pub const MAP_LAYERS: usize = 16;
-/// Each slice is this much thicker than the one before it.
-pub const GROWTH: f32 = 1.25;
 
 /// Where a light is.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -111,9 +109,9 @@ impl OpacityMap {
         let margin = 1.0 / map.cells_per_unit;
         let middle = [0.5 * (low[0] + high[0]), 0.5 * (low[1] + high[1])];
         map.corner = [middle[0] - 0.5 * span - margin, middle[1] - 0.5 * span - margin];
-        // Slices growing by `GROWTH` from `first_layer` span the groom's depth.
+        // Slices `first_layer`, twice, three times… that thick span the groom's depth.
         let depth = (high[2] - low[2]).max(1e-4);
-        map.first_layer = depth * (GROWTH - 1.0) / (GROWTH.powi(MAP_LAYERS as i32) - 1.0);
+        map.first_layer = depth / (MAP_LAYERS * (MAP_LAYERS + 1) / 2) as f32;
 
         // Where each cell's slices start: its first sample (bilinear footprints included).
         for &(uvd, _) in &projected {
@@ -130,7 +128,7 @@ impl OpacityMap {
             let layers = area / map.cell_area(uvd[2]);
             for (cell, weight) in Self::footprint(x, y) {
                 let z = map.slice_coordinate(uvd[2], cell);
-                let z0 = z.floor();
+                let z0 = floor(z);
                 let fz = z - z0;
                 for (dz, wz) in [(0, 1.0 - fz), (1, fz)] {
                     let layer = (z0 as usize + dz).min(MAP_LAYERS - 1);
@@ -162,7 +160,7 @@ impl OpacityMap {
             if z < -1.0 {
                 continue; // in front of the cell's first slice, or an empty cell
             }
-            let z0 = z.floor();
+            let z0 = floor(z);
             let fz = z - z0;
             for (dz, wz) in [(0, 1.0 - fz), (1, fz)] {
                 // Beyond the last slice every fibre of the column is in front.
@@ -179,7 +177,7 @@ impl OpacityMap {
     /// The cells a point at cell coordinates `(x, y)` touches and their bilinear weights
     /// (cell `i` is sampled at `i`; cells off the grid are left out).
     fn footprint(x: f32, y: f32) -> impl Iterator<Item = (usize, f32)> {
-        let (x0, y0) = (x.floor(), y.floor());
+        let (x0, y0) = (floor(x), floor(y));
         let (fx, fy) = (x - x0, y - y0);
         [(0, 0, (1.0 - fx) * (1.0 - fy)), (1, 0, fx * (1.0 - fy)), (0, 1, (1.0 - fx) * fy), (1, 1, fx * fy)]
             .into_iter()
@@ -191,13 +189,14 @@ impl OpacityMap {
     }
 
     /// Where distance `d` along the rays falls among cell `cell`'s slices: slice `k` spans
-    /// `k..k + 1`; -1 in front of the cell's first strand and in an empty cell.
+    /// `k..k + 1` (it starts `k (k + 1) / 2` first slices behind the cell's first strand);
+    /// -1 in front of that strand and in an empty cell.
     fn slice_coordinate(&self, d: f32, cell: usize) -> f32 {
         let behind = (d - self.nearest[cell]) / self.first_layer;
         if behind < 0.0 {
             return -1.0;
         }
-        (1.0 + behind * (GROWTH - 1.0)).ln() / GROWTH.ln()
+        0.5 * ((1.0 + 8.0 * behind).sqrt() - 1.0)
     }
 
     /// Light-space (right, up, distance along the rays) of `p`; `None` behind a point light.
@@ -225,6 +224,14 @@ impl OpacityMap {
             LightSource::Position(_) => (side * d) * (side * d),
         }
     }
+}
+
+/// `x.floor()` for the map's coordinates (far inside `i32`), without the library call that
+/// `f32::floor` compiles to on CPUs before SSE4.1.
+#[inline]
+fn floor(x: f32) -> f32 {
+    let truncated = x as i32 as f32;
+    if truncated > x { truncated - 1.0 } else { truncated }
 }
 
 #[cfg(test)]
