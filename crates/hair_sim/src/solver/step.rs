@@ -783,9 +783,13 @@ fn place_outside(
         };
         let mut placed = parent + towards.normalize_or(down) * length;
         if verify || (placed - collided).length() > margin {
-            let (outside, kept_length) = outside_at_length(placed, parent, length, p.collision_thickness, |x| {
-                contact_at(x, p, poses, input, hint)
-            });
+            let clear = |x: Vec3| {
+                let local = |x: Vec3| poses.now_one.local_point(x);
+                input.collider.is_none_or(|c| c.segment_crossing(local(parent), local(x)).is_none())
+            };
+            let contact = |x| contact_at(x, p, poses, input, hint);
+            let (outside, kept_length) =
+                outside_at_length(placed, parent, length, p.collision_thickness, contact, clear);
             placed = outside;
             report.contact_stretches += u32::from(!kept_length);
         }
@@ -939,24 +943,28 @@ fn turn_out_of(collider: &HeadCollider, parent: Vec3, child: Vec3, length: f32, 
 }
 
 /// A direction from `parent` in which a segment of `length` crosses nothing: `out` itself,
-/// or else the one nearest `wanted` among directions tilted from `out` by 30°, 60° and 90°
-/// (eight around each), where a fold of the surface stands in the way of `out`.
+/// or else the nearest to `wanted` of [`around`] it, where a fold of the surface stands in
+/// the way of `out`.
 fn clear_direction(collider: &HeadCollider, parent: Vec3, out: Vec3, wanted: Vec3, length: f32) -> Option<Vec3> {
-    let clear = |d: Vec3| collider.segment_crossing(parent, parent + d * length).is_none();
-    if clear(out) {
-        return Some(out);
-    }
+    around(out, wanted).find(|&d| collider.segment_crossing(parent, parent + d * length).is_none())
+}
+
+/// `out` and the directions tilted from it by 30°, 60° and 90° (eight around each), the
+/// tilted ones nearest `wanted` first.
+fn around(out: Vec3, wanted: Vec3) -> impl Iterator<Item = Vec3> {
     let (u, v) = out.any_orthonormal_pair();
-    let tilted = [30f32, 60.0, 90.0].into_iter().flat_map(|tilt| {
-        (0..8).map(move |k| {
+    let mut tilted: Vec<Vec3> = [30f32, 60.0, 90.0]
+        .into_iter()
+        .flat_map(|tilt| {
             let (sin_tilt, cos_tilt) = tilt.to_radians().sin_cos();
-            let (sin_around, cos_around) = (k as f32 * std::f32::consts::FRAC_PI_4).sin_cos();
-            out * cos_tilt + (u * cos_around + v * sin_around) * sin_tilt
+            (0..8).map(move |k| {
+                let (sin_around, cos_around) = (k as f32 * std::f32::consts::FRAC_PI_4).sin_cos();
+                out * cos_tilt + (u * cos_around + v * sin_around) * sin_tilt
+            })
         })
-    });
-    let mut by_nearness: Vec<Vec3> = tilted.collect();
-    by_nearness.sort_by(|a, b| b.dot(wanted).total_cmp(&a.dot(wanted)));
-    by_nearness.into_iter().find(|&d| clear(d))
+        .collect();
+    tilted.sort_by(|a, b| b.dot(wanted).total_cmp(&a.dot(wanted)));
+    std::iter::once(out).chain(tilted)
 }
 
 /// Halvings of the angle between a crossing direction and a clear one in [`turn_out_of`].
@@ -973,13 +981,16 @@ const BISECTIONS: usize = 5;
 /// Where no turn clears the shell within [`MAX_TURNS`] (a crease tighter than the segment,
 /// or a shell thicker than it), the length wins over the shell but not over the surface:
 /// the particle stays where the last turn put it if that is outside the collider itself,
-/// and otherwise goes onto its surface, stretching the segment.
+/// else goes to the nearest direction [`around`] the contact's normal that is outside it
+/// and that the segment `reaches` without passing through the head, and only where none is
+/// goes onto the surface, stretching the segment.
 fn outside_at_length(
     mut placed: Vec3,
     parent: Vec3,
     length: f32,
     thickness: f32,
     mut contact_at: impl FnMut(Vec3) -> Option<Contact>,
+    reaches: impl Fn(Vec3) -> bool,
 ) -> (Vec3, bool) {
     for _ in 0..MAX_TURNS {
         let Some(contact) = contact_at(placed) else { return (placed, true) };
@@ -998,12 +1009,20 @@ fn outside_at_length(
         let across = (direction - normal * along).try_normalize().unwrap_or_else(|| normal.any_orthonormal_vector());
         placed = parent + (normal * lowest + across * (1.0 - lowest * lowest).sqrt()) * length;
     }
-    match contact_at(placed) {
-        None => (placed, true),
-        // Inside the shell, outside the collider: keep the length.
-        Some(contact) if contact.depth <= thickness => (placed, true),
-        // Inside the collider: onto its surface (1 µm out).
-        Some(contact) => (contact.position - contact.normal * (thickness - 1e-6), false),
+    // Inside the shell, outside the collider: keep the length.
+    let outside = |contact: &Option<Contact>| contact.is_none_or(|c| c.depth <= thickness);
+    let contact = contact_at(placed);
+    let Some(deep) = contact.filter(|_| !outside(&contact)) else { return (placed, true) };
+    // Inside the collider, in a crease tighter than the segment: another direction at full
+    // length that is out of it (and reached without passing through it), nearest the one
+    // the turns arrived at; failing that, onto its surface (1 µm out), stretching the
+    // segment.
+    let wanted = (placed - parent) / length;
+    let kept =
+        around(deep.normal, wanted).map(|d| parent + d * length).find(|&x| outside(&contact_at(x)) && reaches(x));
+    match kept {
+        Some(x) => (x, true),
+        None => (deep.position - deep.normal * (thickness - 1e-6), false),
     }
 }
 
