@@ -247,6 +247,8 @@ fn look_section(ui: &mut egui::Ui, look: &mut HairLook) {
     slider(ui, &mut look.subdivisions, 1..=8, "curve samples per segment");
     ui.checkbox(&mut look.receive_shadows, "shadows on hair");
     ui.checkbox(&mut look.cast_shadows, "hair casts shadows");
+    slider(ui, &mut look.self_shadow, 0.0..=1.0, "self-shadowing (per fibre layer)");
+    ui.checkbox(&mut look.antialias, "anti-aliased thin strands (MSAA)");
     ui.checkbox(&mut look.guides_only, "show guides only");
 }
 

@@ -74,9 +74,10 @@ struct HairUniform {
     self_shadow: f32,
 }
 
-// Mirror `bevy_hair::render::HairUniform::RECEIVE_SHADOWS` and `MARSCHNER`.
+// Mirror `bevy_hair::render::HairUniform::RECEIVE_SHADOWS`, `MARSCHNER` and `ANTIALIAS`.
 const HAIR_FLAGS_RECEIVE_SHADOWS: u32 = 1u;
 const HAIR_FLAGS_MARSCHNER: u32 = 2u;
+const HAIR_FLAGS_ANTIALIAS: u32 = 4u;
 
 @group(#{MATERIAL_BIND_GROUP}) @binding(0) var<storage, read> guides: array<vec4<f32>>;
 @group(#{MATERIAL_BIND_GROUP}) @binding(1) var<uniform> hair: HairUniform;
@@ -97,6 +98,8 @@ struct VertexOutput {
     @location(3) @interpolate(flat) strand: u32,
     // ribbon normal (faces the camera)
     @location(4) normal: vec3<f32>,
+    // the share of the drawn ribbon the strand really covers (thinner than a pixel)
+    @location(5) coverage: f32,
 };
 
 fn particle(guide: u32, i: u32) -> vec3<f32> {
@@ -345,6 +348,10 @@ struct StrandPoint {
     across: vec3<f32>,
     // root → tip parameter
     t: f32,
+    // ribbon width, metres
+    width: f32,
+    // -1 or 1: which edge of the ribbon
+    side: f32,
 }
 
 fn strand_point(hair_vertex: vec2<u32>) -> StrandPoint {
@@ -378,6 +385,8 @@ fn strand_point(hair_vertex: vec2<u32>) -> StrandPoint {
     out.tangent = curve.tangent;
     out.across = across;
     out.t = t;
+    out.width = width;
+    out.side = side;
     return out;
 }
 
@@ -420,8 +429,23 @@ fn fragment(in: DepthOutput) {}
 
 @vertex
 fn vertex(in: Vertex) -> VertexOutput {
-    let point = strand_point(in.hair_vertex);
+    var point = strand_point(in.hair_vertex);
     var out: VertexOutput;
+    out.coverage = 1.0;
+#ifdef MULTISAMPLED
+    // A ribbon thinner than a pixel is drawn a pixel wide, and the fragment covers only
+    // that share of its samples: distant hair keeps its density and does not shimmer.
+    if (hair.flags & HAIR_FLAGS_ANTIALIAS) != 0u {
+        let centre = point.position - point.across * (point.side * 0.5 * point.width);
+        let a = position_world_to_clip(centre);
+        let b = position_world_to_clip(centre + point.across * point.width);
+        let pixels = length((b.xy / b.w - a.xy / a.w) * 0.5 * view.viewport.zw);
+        if pixels < 1.0 && pixels > 0.0 && a.w > 0.0 && b.w > 0.0 {
+            out.coverage = pixels;
+            point.position = centre + point.across * (point.side * 0.5 * point.width / pixels);
+        }
+    }
+#endif
     out.clip_position = position_world_to_clip(point.position);
     out.world_position = vec4(point.position, 1.0);
     out.tangent = point.tangent;
@@ -581,8 +605,32 @@ fn environment_light(in: VertexOutput, ranges: ptr<function, ClusterableObjectIn
 #endif
 }
 
+struct FragmentOutput {
+    @location(0) color: vec4<f32>,
+#ifdef MULTISAMPLED
+    @builtin(sample_mask) samples: u32,
+#endif
+}
+
+// The samples a strand of coverage `coverage` takes in each pixel: each with that
+// probability, chosen by the strand and the sample (the same in every pixel and frame, so
+// nothing flickers), so that many strands together cover their true share (stochastic
+// alpha-to-coverage).
+fn coverage_samples(strand: u32, coverage: f32) -> u32 {
+    if coverage >= 1.0 {
+        return 0xffffffffu;
+    }
+    var mask = 0u;
+    for (var sample = 0u; sample < 8u; sample++) {
+        if hash_unit(strand * 8u + sample + 0x9e3779b9u) < coverage {
+            mask |= 1u << sample;
+        }
+    }
+    return mask;
+}
+
 @fragment
-fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
+fn fragment(in: VertexOutput) -> FragmentOutput {
     let tangent = normalize(in.tangent);
     let to_view = normalize(view.world_position - in.world_position.xyz);
     let normal = normalize(in.normal);
@@ -614,7 +662,12 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
 #ifdef TONEMAP_IN_SHADER
     color = tone_mapping(color, view.color_grading);
 #endif
-    return color;
+    var out: FragmentOutput;
+    out.color = color;
+#ifdef MULTISAMPLED
+    out.samples = coverage_samples(in.strand, in.coverage);
+#endif
+    return out;
 }
 
 #endif // PREPASS_PIPELINE

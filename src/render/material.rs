@@ -66,7 +66,7 @@ pub struct HairUniform {
     pub tint_variation: f32,
     /// Diffuse strength.
     pub diffuse: f32,
-    /// [`Self::RECEIVE_SHADOWS`], [`Self::MARSCHNER`].
+    /// [`Self::RECEIVE_SHADOWS`], [`Self::MARSCHNER`], [`Self::ANTIALIAS`].
     pub flags: u32,
     /// Guides drawn.
     pub guides: u32,
@@ -90,6 +90,9 @@ impl HairUniform {
     pub const RECEIVE_SHADOWS: u32 = 1;
     /// Flag: shade with Marschner's three lobes instead of Kajiya-Kay highlights.
     pub const MARSCHNER: u32 = 2;
+    /// Flag: with MSAA, draw strands thinner than a pixel a pixel wide, covering their true
+    /// share of its samples.
+    pub const ANTIALIAS: u32 = 4;
 
     /// The same uniform drawing `layout` (its guide, particle, strand and subdivision counts).
     pub fn with_layout(self, layout: &StrandLayout) -> Self {

@@ -129,6 +129,10 @@ pub struct HairLook {
     /// (`hair_sim::shadow`), and a strand behind `n` layers of fibres gets
     /// `exp(−self_shadow · n)` of that light, whatever Bevy's shadow cascades.
     pub self_shadow: f32,
+    /// With MSAA on the camera (Bevy's default), draw strands thinner than a pixel a pixel
+    /// wide, each covering its true share of the pixel's samples (stochastic
+    /// alpha-to-coverage), so distant hair keeps its density and does not shimmer.
+    pub antialias: bool,
 }
 
 impl Default for HairLook {
@@ -148,6 +152,7 @@ impl Default for HairLook {
             guides_only: false,
             shading: HairShading::KajiyaKay,
             self_shadow: 0.5,
+            antialias: true,
         }
     }
 }
@@ -526,7 +531,8 @@ fn uniform(layout: &StrandLayout, groom: &HairGroom, look: &HairLook) -> HairUni
         tint_variation: non_negative(look.tint_variation, 0.0).min(1.0),
         diffuse: non_negative(look.diffuse, defaults.diffuse),
         flags: if look.receive_shadows { HairUniform::RECEIVE_SHADOWS } else { 0 }
-            | if marschner.is_some() { HairUniform::MARSCHNER } else { 0 },
+            | if marschner.is_some() { HairUniform::MARSCHNER } else { 0 }
+            | if look.antialias { HairUniform::ANTIALIAS } else { 0 },
         roughness: marschner.map_or(0.0, |(roughness, _)| roughness),
         cuticle_tilt: marschner.map_or(0.0, |(_, tilt)| tilt),
         self_shadow: non_negative(look.self_shadow, 0.0).min(1.0),
@@ -582,6 +588,10 @@ mod tests {
         assert_eq!((u.secondary_exponent, u.secondary_shift), (1.0, 0.0), "exponent at least 1, NaN shift → 0");
         assert_eq!((u.clumping, u.tip_spread), (ChildParams::default().clumping, 0.0));
         assert_eq!((u.guides, u.particles, u.strands_per_guide, u.subdivisions), (2, 11, 5, 4));
-        assert_eq!(u.flags, HairUniform::RECEIVE_SHADOWS, "the default look receives shadows");
+        assert_eq!(
+            u.flags,
+            HairUniform::RECEIVE_SHADOWS | HairUniform::ANTIALIAS,
+            "the default look receives shadows and is anti-aliased"
+        );
     }
 }
