@@ -343,9 +343,10 @@ fn turning_the_light_moves_the_highlight_and_children_cover_more() {
         let stats = *scene.app.world().resource::<HairRenderStats>();
         println!("{per_guide} children per guide: {hair} hair pixels, {stats:?}");
         coverage.push(hair);
-        // Only guide particles, their frame vectors, the scalp at each root and the head's
-        // centre travel, whatever the children: (600 × 11 × 2 + 600 + 1) × 16 bytes.
-        assert_eq!(stats.uploaded_bytes, (600 * 11 * 2 + 600 + 1) * 16);
+        // Only guide particles, their frame vectors, the scalp at each root, the head's
+        // centre and the opacity map of the one shadow-casting light travel, whatever the
+        // children: (600 × 11 × 2 + 600 + 1 + 1 + 5 + 32 × 32 × 17 / 4) × 16 bytes.
+        assert_eq!(stats.uploaded_bytes, (600 * 11 * 2 + 600 + 1 + 1 + 5 + 32 * 32 * 17 / 4) * 16);
         assert_eq!(stats.rendered_strands, 600 * (per_guide as u64 + 1));
     }
     assert!(coverage[0] < coverage[1] && coverage[1] < coverage[2], "coverage {coverage:?} does not grow");

@@ -221,15 +221,21 @@ fn layout_of(state: &HairState, groom: &HairGroom, look: &HairLook) -> StrandLay
 /// mesh, buffer and material when the groom regrew or its layout changed, stops drawing
 /// while the groom regrows, and keeps its render layers those of the head. Its
 /// [`Visibility`] is left to the user.
-#[allow(clippy::type_complexity)] // a query's component list
+#[allow(clippy::type_complexity, clippy::too_many_arguments)] // queries
 fn sync_drawing(
     mut commands: Commands,
     heads: Query<(Entity, Option<Ref<HairState>>, &HairGroom, &HairLook, Option<&HairDrawnBy>, Option<&RenderLayers>)>,
     drawings: Query<(&HairDrawing, Has<Mesh3d>, Option<&RenderLayers>)>,
+    directional_lights: Query<(&DirectionalLight, &GlobalTransform)>,
+    point_lights: Query<(&PointLight, &GlobalTransform)>,
+    spot_lights: Query<(&SpotLight, &GlobalTransform)>,
     mut meshes: ResMut<Assets<Mesh>>,
     mut buffers: ResMut<Assets<ShaderBuffer>>,
     mut materials: ResMut<Assets<HairMaterial>>,
 ) {
+    // Room for an opacity map per shadow-casting light: the buffer is rebuilt when their
+    // number changes.
+    let casting = shadow_casting_lights(&directional_lights, &point_lights, &spot_lights).len();
     for (head, state, groom, look, drawn_by, layers) in &heads {
         let existing = drawn_by.and_then(|d| Some(d.0).zip(drawings.get(d.0).ok()));
         if let Some((entity, (_, _, drawing_layers))) = existing
@@ -247,7 +253,7 @@ fn sync_drawing(
             continue;
         };
         let layout = layout_of(&state, groom, look);
-        let opacity_maps = if look.self_shadow > 0.0 { MAX_OPACITY_MAPS } else { 0 };
+        let opacity_maps = if look.self_shadow > 0.0 { casting } else { 0 };
         if let Some((_, (drawing, true, _))) = existing
             && drawing.layout == layout
             && drawing.opacity_maps == opacity_maps
