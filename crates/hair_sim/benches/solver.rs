@@ -76,13 +76,20 @@ fn collider_resolve(c: &mut Criterion) {
     group.finish();
 }
 
-fn strand_step(c: &mut Criterion) {
+/// `guides` guides of 16 particles, 25 cm, on the scalp of [`head`], settled for
+/// `settle_steps` steps against its collider (returned with them).
+fn settled_groom(guides: usize, settle_steps: usize) -> (HeadCollider, RestShape) {
     let head = head();
     let collider = HeadCollider::new(&head, DEFAULT_GRID_RESOLUTION).unwrap();
-    let roots = sample_roots(&head, &scalp(&head), 512, 1).unwrap();
+    let roots = sample_roots(&head, &scalp(&head), guides, 1).unwrap();
     let guide = GuideParams { segments: 15, length: 0.25, ..GuideParams::default() };
     let rest = RestShape::new(grow_guides(&head, &roots, &guide, 1).unwrap(), 16).unwrap();
-    let rest = settle(rest, Some(&collider), &SimParams::default(), 120, Vec3::ZERO).unwrap();
+    let rest = settle(rest, Some(&collider), &SimParams::default(), settle_steps, Vec3::ZERO).unwrap();
+    (collider, rest)
+}
+
+fn strand_step(c: &mut Criterion) {
+    let (collider, rest) = settled_groom(512, 120);
     let mut group = c.benchmark_group("Strands::step 512x16");
     group.throughput(Throughput::Elements(512 * 16));
     for collision in [true, false] {
@@ -126,12 +133,7 @@ fn groom(c: &mut Criterion) {
 /// shadow-casting light and frame).
 fn opacity_map(c: &mut Criterion) {
     use hair_sim::shadow::{LightSource, OpacityMap};
-    let head = head();
-    let collider = HeadCollider::new(&head, DEFAULT_GRID_RESOLUTION).unwrap();
-    let roots = sample_roots(&head, &scalp(&head), 2048, 1).unwrap();
-    let guide = GuideParams { segments: 15, length: 0.25, ..GuideParams::default() };
-    let rest = RestShape::new(grow_guides(&head, &roots, &guide, 1).unwrap(), 16).unwrap();
-    let rest = settle(rest, Some(&collider), &SimParams::default(), 60, Vec3::ZERO).unwrap();
+    let (_, rest) = settled_groom(2048, 60);
     // Each sample stands for 9 strands, 0.6 mm wide, along its 1.7 cm segment.
     let areas = vec![9.0 * 0.0006 * 0.017; rest.positions.len()];
     let mut group = c.benchmark_group("OpacityMap::build 2048x16");

@@ -929,8 +929,8 @@ fn turn_out_of(collider: &HeadCollider, parent: Vec3, child: Vec3, length: f32, 
     // far has the outward normal nearest it.
     let mut hint = ContactHint::NONE;
     let Some(out) = collider.resolve_hinted(parent, length, &mut hint).map(|c| c.normal) else { return turned };
-    let Some(clear) = clear_direction(collider, parent, out, (turned - parent) / length, length) else { return turned };
-    let (mut crossing, mut clear) = ((turned - parent) / length, clear);
+    let mut crossing = (turned - parent) / length;
+    let Some(mut clear) = clear_direction(collider, parent, out, crossing, length) else { return turned };
     for _ in 0..BISECTIONS {
         let middle = (crossing + clear).normalize_or(clear);
         if collider.segment_crossing(parent, parent + middle * length).is_some() {
@@ -1011,8 +1011,7 @@ fn outside_at_length(
     }
     // Inside the shell, outside the collider: keep the length.
     let outside = |contact: &Option<Contact>| contact.is_none_or(|c| c.depth <= thickness);
-    let contact = contact_at(placed);
-    let Some(deep) = contact.filter(|_| !outside(&contact)) else { return (placed, true) };
+    let Some(deep) = contact_at(placed).filter(|c| c.depth > thickness) else { return (placed, true) };
     // Inside the collider, in a crease tighter than the segment: another direction at full
     // length that is out of it (and reached without passing through it), nearest the one
     // the turns arrived at; failing that, onto its surface (1 µm out), stretching the
