@@ -911,3 +911,127 @@ fn hair_follows_its_head_through_visibility_layers_and_despawn() {
     println!("after despawning the head: {drawings} drawings, {buffers} guide buffers, {materials} hair materials");
     assert_eq!((drawings, buffers, materials), (0, 0, 0), "the hair outlived its head");
 }
+
+/// Every variant of the hair shader Bevy can ask for (main pass with and without MSAA, an
+/// environment map and tonemapping in the shader; the shadow pass with and without its
+/// fragment stage and unclipped-depth emulation) composes with Bevy's own shader modules
+/// and passes naga's validation, with no GPU: a WGSL error fails `cargo test` on any
+/// machine, not only where the render tests find an adapter.
+#[test]
+fn every_shader_variant_composes_and_validates_without_a_gpu() {
+    use bevy::render::render_resource::{DownlevelFlags, WgpuFeatures};
+    use bevy::render::settings::WgpuSettings;
+    use bevy::shader::{ShaderCache, ShaderCacheError, ShaderCacheSource, ShaderDefVal, ValidateShader};
+
+    // The app loads Bevy's shader libraries and the hair shader, and renders nothing.
+    let mut app = App::new();
+    app.add_plugins(
+        DefaultPlugins
+            .build()
+            .disable::<WinitPlugin>()
+            .disable::<LogPlugin>()
+            .set(WindowPlugin { primary_window: None, exit_condition: ExitCondition::DontExit, ..default() })
+            .set(RenderPlugin { render_creation: WgpuSettings { backends: None, ..default() }.into(), ..default() }),
+    )
+    .add_plugins(HairPlugin::default());
+    app.finish();
+    app.cleanup();
+    let hair: Handle<Shader> = app.world().resource::<AssetServer>().load(bevy_hair::render::shader_path());
+    let mut loaded = 0;
+    for _ in 0..500 {
+        app.update();
+        let count = app.world().resource::<Assets<Shader>>().len();
+        if app.world().resource::<AssetServer>().is_loaded(&hair) && count == loaded {
+            break;
+        }
+        loaded = count;
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    assert!(app.world().resource::<AssetServer>().is_loaded(&hair), "the hair shader did not load");
+
+    // naga's full validation of each composed module (the composer validates too, but only
+    // in debug builds of `bevy_shader`).
+    fn validate(_: &(), source: ShaderCacheSource, _: &ValidateShader) -> Result<(), ShaderCacheError> {
+        let module = match source {
+            ShaderCacheSource::Naga(module) => module,
+            ShaderCacheSource::Wgsl(text) => naga::front::wgsl::parse_str(&text)
+                .map_err(|e| ShaderCacheError::CreateShaderModule(e.emit_to_string(&text)))?,
+            ShaderCacheSource::SpirV(_) => unreachable!("the hair shader is WGSL"),
+        };
+        naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::default())
+            .validate(&module)
+            .map(|_| ())
+            .map_err(|e| ShaderCacheError::CreateShaderModule(format!("{e:?}")))
+    }
+    let mut cache = ShaderCache::<(), ()>::new((), WgpuFeatures::empty(), DownlevelFlags::all(), validate);
+    // As Bevy's pipeline cache does (a storage-buffer limit is needed by the mesh bindings).
+    let global: ShaderDefVal = ShaderDefVal::UInt("AVAILABLE_STORAGE_BUFFER_BINDINGS".into(), 8);
+    for (id, shader) in app.world().resource::<Assets<Shader>>().iter() {
+        let mut shader = shader.clone();
+        shader.shader_defs.push(global.clone());
+        cache.set_shader(id, shader);
+    }
+
+    let common: Vec<ShaderDefVal> = vec![
+        ShaderDefVal::UInt("MATERIAL_BIND_GROUP".into(), 3),
+        "VERTEX_OUTPUT_INSTANCE_INDEX".into(),
+        "VIEW_PROJECTION_PERSPECTIVE".into(),
+    ];
+    let main: Vec<ShaderDefVal> = vec![
+        "MESH_PIPELINE".into(),
+        "PCSS_SAMPLERS_AVAILABLE".into(),
+        "SHADOW_FILTER_METHOD_GAUSSIAN".into(),
+        ShaderDefVal::Int("SCREEN_SPACE_SPECULAR_TRANSMISSION_BLUR_TAPS".into(), 8),
+    ];
+    let tonemapping: Vec<ShaderDefVal> = vec![
+        "TONEMAP_IN_SHADER".into(),
+        ShaderDefVal::UInt("TONEMAPPING_LUT_TEXTURE_BINDING_INDEX".into(), 18),
+        ShaderDefVal::UInt("TONEMAPPING_LUT_SAMPLER_BINDING_INDEX".into(), 19),
+        "TONEMAP_METHOD_TONY_MC_MAPFACE".into(),
+        "DEBAND_DITHER".into(),
+    ];
+    let mut variants: Vec<(String, Vec<ShaderDefVal>)> = Vec::new();
+    for bits in 0..8u32 {
+        let mut defs = [common.clone(), main.clone()].concat();
+        let mut name = String::from("main");
+        if bits & 1 != 0 {
+            defs.push("MULTISAMPLED".into());
+            name += " + MULTISAMPLED";
+        }
+        if bits & 2 != 0 {
+            defs.push("ENVIRONMENT_MAP".into());
+            name += " + ENVIRONMENT_MAP";
+        }
+        if bits & 4 != 0 {
+            defs.extend(tonemapping.iter().cloned());
+            name += " + TONEMAP_IN_SHADER";
+        }
+        variants.push((name, defs));
+    }
+    for bits in 0..4u32 {
+        let mut defs = [common.clone(), vec!["PREPASS_PIPELINE".into(), "DEPTH_PREPASS".into()]].concat();
+        let mut name = String::from("shadow");
+        if bits & 1 != 0 {
+            defs.push("PREPASS_FRAGMENT".into());
+            name += " + PREPASS_FRAGMENT";
+        }
+        if bits & 2 != 0 {
+            defs.push("UNCLIPPED_DEPTH_ORTHO_EMULATION".into());
+            name += " + UNCLIPPED_DEPTH_ORTHO_EMULATION";
+        }
+        variants.push((name, defs));
+    }
+    let failures: Vec<String> = variants
+        .iter()
+        .enumerate()
+        .filter_map(|(pipeline, (name, defs))| match cache.get(pipeline, hair.id(), defs) {
+            Ok(_) => None,
+            Err(ShaderCacheError::ProcessShaderError(e)) => {
+                Some(format!("{name}: {}", e.emit_to_string(&cache.composer)))
+            }
+            Err(e) => Some(format!("{name}: {e}")),
+        })
+        .collect();
+    println!("{} shader variants composed and validated, {} failed", variants.len(), failures.len());
+    assert!(failures.is_empty(), "{}", failures.join("\n\n"));
+}

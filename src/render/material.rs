@@ -2,6 +2,8 @@
 //! `hair.wgsl` for both stages.
 
 use super::layout::{ATTRIBUTE_HAIR_VERTEX, StrandLayout};
+use bevy::asset::io::AssetSourceId;
+use bevy::asset::{AssetPath, embedded_path};
 use bevy::mesh::MeshVertexBufferLayoutRef;
 use bevy::pbr::{MaterialPipeline, MaterialPipelineKey};
 use bevy::prelude::*;
@@ -9,8 +11,11 @@ use bevy::render::render_resource::{AsBindGroup, RenderPipelineDescriptor, Shade
 use bevy::render::storage::ShaderBuffer;
 use bevy::shader::ShaderRef;
 
-/// Where the embedded shader lives.
-pub(crate) const SHADER_PATH: &str = "embedded://bevy_hair/render/hair.wgsl";
+/// Where the hair shader lives: `hair.wgsl` beside this file, embedded in the binary by
+/// [`HairRenderPlugin`](super::HairRenderPlugin) (`embedded://bevy_hair/render/hair.wgsl`).
+pub fn shader_path() -> AssetPath<'static> {
+    AssetPath::from_path_buf(embedded_path!("hair.wgsl")).with_source(AssetSourceId::from("embedded"))
+}
 
 /// The material of a drawn groom. The plugin creates and updates it from the groom's
 /// [`HairLook`](super::HairLook) and layout; users edit the look, not this.
@@ -108,22 +113,22 @@ impl HairUniform {
 
 impl Material for HairMaterial {
     fn vertex_shader() -> ShaderRef {
-        SHADER_PATH.into()
+        shader_path().into()
     }
 
     fn fragment_shader() -> ShaderRef {
-        SHADER_PATH.into()
+        shader_path().into()
     }
 
     // The same shader has a depth-only variant for the shadow pass, so hair casts shadows
     // (on the head and on itself). It stays out of the camera's prepasses, which would
     // need normals and motion vectors it does not compute.
     fn prepass_vertex_shader() -> ShaderRef {
-        SHADER_PATH.into()
+        shader_path().into()
     }
 
     fn prepass_fragment_shader() -> ShaderRef {
-        SHADER_PATH.into()
+        shader_path().into()
     }
 
     fn enable_prepass() -> bool {

@@ -13,7 +13,7 @@ mod layout;
 mod material;
 
 pub use layout::{ATTRIBUTE_HAIR_VERTEX, StrandLayout};
-pub use material::{HairMaterial, HairUniform};
+pub use material::{HairMaterial, HairUniform, shader_path};
 
 use crate::convert::{from_sim, quat_from_sim, to_sim};
 use crate::diagnostics::HairDiagnostics;
