@@ -32,7 +32,7 @@ pub struct HairMaterial {
     pub uniform: HairUniform,
 }
 
-/// The uniform block of `hair.wgsl`, field for field.
+/// The uniform block of `strand.wgsl` (`bevy_hair::strand::HairUniform`), field for field.
 #[derive(ShaderType, Clone, Copy, Debug, Default, PartialEq)]
 pub struct HairUniform {
     /// Linear colour at the root.

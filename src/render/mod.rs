@@ -25,6 +25,7 @@ use bevy::diagnostic::Diagnostics;
 use bevy::light::NotShadowCaster;
 use bevy::prelude::*;
 use bevy::render::storage::ShaderBuffer;
+use bevy::shader::load_shader_library;
 use hair_sim::groom::{ChildParams, MAX_CURVATURE, transport_frames};
 use hair_sim::shadow::{LightSource, MAP_LAYERS, MAP_SIZE, OpacityMap};
 
@@ -35,6 +36,7 @@ pub struct HairRenderPlugin;
 impl Plugin for HairRenderPlugin {
     fn build(&self, app: &mut App) {
         embedded_asset!(app, "hair.wgsl");
+        load_shader_library!(app, "strand.wgsl");
         app.add_plugins(MaterialPlugin::<HairMaterial>::default())
             .register_type::<HairLook>()
             .register_required_components::<HairGroom, HairLook>()
@@ -308,7 +310,7 @@ fn guide_buffer_len(layout: &StrandLayout) -> usize {
 /// (directional, then point, then spot).
 pub const MAX_OPACITY_MAPS: usize = 4;
 
-/// `vec4`s of a map's header in the guide buffer (`hair.wgsl`'s `MAP_HEADER`).
+/// `vec4`s of a map's header in the guide buffer (`strand.wgsl`'s `MAP_HEADER`).
 const MAP_HEADER: usize = 5;
 
 /// `vec4`s after the head's centre for `maps` opacity maps: their count, then per map its
