@@ -185,7 +185,9 @@ pub struct HairGroom {
     /// Take the guides from this hair model (a `.hair` file, in the head mesh's space)
     /// instead of growing them: each strand is resampled to `segments` and moved whole onto
     /// the nearest scalp point. `guides`, `length`, `curl`, `comb` and the root
-    /// distribution are then unused; the settle pass still runs.
+    /// distribution are then unused; the settle pass still runs. Not saved in a
+    /// [`HairPreset`](crate::HairPreset).
+    #[reflect(skip_serializing)]
     pub guides_from: Option<Handle<HairAsset>>,
 }
 

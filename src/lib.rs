@@ -44,6 +44,7 @@ mod diagnostics;
 mod groom;
 mod hair_asset;
 mod head_mesh;
+mod preset;
 #[cfg(feature = "render")]
 pub mod render;
 mod settings;
@@ -62,6 +63,7 @@ pub use hair_sim;
 pub use hair_sim::groom::{ChildParams, Spiral};
 pub use hair_sim::solver::{CollisionResponse, LengthMode, SimParams, StepReport, Wind};
 pub use head_mesh::{ATTRIBUTE_SCALP, is_procedural_scalp, procedural_head_mesh};
+pub use preset::{HairPreset, PresetError};
 #[cfg(feature = "render")]
 pub use render::{HairLook, HairRenderStats, HairShading, SpecularLobe};
 pub use settings::{HairSettings, HairSettingsOverride};
@@ -78,8 +80,8 @@ use std::time::Duration;
 pub mod prelude {
     pub use crate::{
         ChildParams, CollisionResponse, GroomStatus, Hair, HairCollider, HairDiagnostics, HairError, HairErrorKind,
-        HairGroom, HairPlugin, HairSchedule, HairSettings, HairSettingsOverride, HairState, HairSystems, HairTime,
-        LengthMode, RootDistribution, ScalpPredicate, ScalpSource, SimParams, Spiral, Wind,
+        HairGroom, HairPlugin, HairPreset, HairSchedule, HairSettings, HairSettingsOverride, HairState, HairSystems,
+        HairTime, LengthMode, RootDistribution, ScalpPredicate, ScalpSource, SimParams, Spiral, Wind,
     };
     #[cfg(feature = "render")]
     pub use crate::{HairLook, HairRenderStats, HairShading, SpecularLobe};
@@ -141,6 +143,7 @@ impl Plugin for HairPlugin {
         app.insert_resource(clock);
         app.init_schedule(HairSchedule);
         app.register_type::<Hair>()
+            .register_type::<HairPreset>()
             .configure_sets(
                 PostUpdate,
                 (HairSystems::Grow, HairSystems::Step, HairSystems::Draw).chain().after(TransformSystems::Propagate),

@@ -7,6 +7,7 @@ mod common;
 use bevy::asset::RenderAssetUsages;
 use bevy::mesh::{Indices, PrimitiveTopology};
 use bevy::prelude::*;
+use bevy_hair::PresetError;
 use bevy_hair::hair_sim::groom::{labels_from_colors, triangle_weights};
 use bevy_hair::prelude::*;
 use common::*;
@@ -224,4 +225,41 @@ fn the_centre_ray_push_on_the_shipped_head_measured() {
     assert!(regions[0].1 > 500 && regions[0].3 < 2e-3, "scalp: {:?}", regions[0]);
     // Face and neck are not: long hair that falls there is thrown centimetres by the ray.
     assert!(regions[2].2 > 100 && regions[3].2 > 10, "{regions:?}");
+}
+
+/// A preset (groom, look, settings) saved as RON loads back equal, every field included;
+/// broken text and an app without the plugin give errors that say what is wrong.
+#[test]
+fn a_preset_saves_as_ron_and_loads_back_equal() {
+    let app = app();
+    let registry = app.world().resource::<AppTypeRegistry>().read();
+    let mut preset = HairPreset::default();
+    preset.groom.curl = 0.5;
+    preset.groom.comb = Vec3::new(0.0, -0.2, 0.1);
+    preset.groom.distribution = RootDistribution::Vertices { jitter: 0.25 };
+    preset.groom.children.spiral.b = 3.0;
+    #[cfg(feature = "render")]
+    {
+        preset.look.root_color = Color::srgb(0.2, 0.1, 0.05);
+        preset.look.shading = HairShading::MARSCHNER;
+        preset.look.self_shadow = 0.25;
+    }
+    preset.settings.length_mode = LengthMode::Springs;
+    preset.settings.wind = Wind { strength: 3.0, direction: [0.0, 0.0, 1.0], ..default() };
+    let text = preset.to_ron(&registry).expect("a preset saves");
+    println!("{text}");
+    assert!(text.contains("curl: 0.5") && text.contains("Springs"), "the text names the fields");
+    assert_eq!(HairPreset::from_ron(&text, &registry).expect("the saved preset loads"), preset);
+
+    let broken = text.replacen("curl: 0.5", "curl: \"half\"", 1);
+    let error = HairPreset::from_ron(&broken, &registry).expect_err("a string is not a curl");
+    println!("{error}");
+    assert!(matches!(error, PresetError::Read(_)), "{error:?}");
+    assert!(error.to_string().contains(&format!("{}:", 1 + text.lines().position(|l| l.contains("curl")).unwrap())));
+    let error = HairPreset::from_ron("(groom: (", &registry).expect_err("truncated");
+    assert!(matches!(error, PresetError::Read(_)), "{error:?}");
+
+    let empty = bevy::reflect::TypeRegistry::default();
+    assert!(matches!(HairPreset::from_ron(&text, &empty), Err(PresetError::NotRegistered)));
+    assert!(matches!(preset.to_ron(&empty), Err(PresetError::NotRegistered)));
 }

@@ -40,6 +40,9 @@ pub const GOLDEN_ANGLE: f32 = 2.399_963_3;
 /// the child index, so more children cover a wider disk rather than a denser one.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "reflect", derive(Reflect))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+// Fields a saved preset lacks take their defaults.
+#[cfg_attr(feature = "serde", serde(default))]
 pub struct Spiral {
     /// Radius at θ = 0, spiral units.
     pub a: f32,
@@ -74,6 +77,9 @@ impl Spiral {
 /// How child strands are placed around their guide.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "reflect", derive(Reflect))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+// Fields a saved preset lacks take their defaults.
+#[cfg_attr(feature = "serde", serde(default))]
 pub struct ChildParams {
     /// Children per guide, not counting the guide: a renderer draws the guide and
     /// `per_guide` children (0 = guides only).

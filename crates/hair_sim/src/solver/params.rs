@@ -8,6 +8,7 @@ use bevy_reflect::Reflect;
 /// How segment length is kept.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "reflect", derive(Reflect))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub enum LengthMode {
     /// Follow-The-Leader (Müller et al. 2012): every segment keeps its rest length exactly;
     /// the velocity correction `ftl_damping` removes the energy FTL would add.
@@ -25,6 +26,7 @@ pub enum LengthMode {
 /// How a particle that entered the head (or its thickness shell) is moved out.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[cfg_attr(feature = "reflect", derive(Reflect))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub enum CollisionResponse {
     /// Out along the surface normal at the closest point: the shortest way out, which
     /// also leads out of an ear from behind it.
@@ -45,6 +47,9 @@ pub enum CollisionResponse {
 /// Wind: a steady direction and strength with gusts.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "reflect", derive(Reflect))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+// Fields a saved preset lacks take their defaults.
+#[cfg_attr(feature = "serde", serde(default))]
 pub struct Wind {
     /// Direction the air moves towards, world space (need not be unit length; zero means
     /// no wind). Plain arrays here keep the settings reflectable from any glam version.
@@ -67,6 +72,9 @@ impl Default for Wind {
 /// they mean the same whatever the timestep, substep or iteration count.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "reflect", derive(Reflect))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+// Fields a saved preset lacks take their defaults.
+#[cfg_attr(feature = "serde", serde(default))]
 pub struct SimParams {
     /// Acceleration of gravity, world space, m/s².
     pub gravity: [f32; 3],
@@ -263,6 +271,27 @@ pub fn stiffness_per_application(stiffness: f32, applications_per_second: f32) -
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Settings survive a save and load unchanged, and a saved preset that names only some
+    /// fields takes the defaults for the rest.
+    #[cfg(feature = "serde")]
+    #[test]
+    fn settings_round_trip_through_serde() {
+        let params = SimParams {
+            gravity: [0.5, -3.0, 0.25],
+            substeps: 5,
+            length_mode: LengthMode::Springs,
+            wind: Wind { direction: [0.0, 0.0, 1.0], strength: 2.5, ..Wind::default() },
+            collision_response: CollisionResponse::CentreRay { offset: [0.0, 0.01, -0.02] },
+            friction: 0.125,
+            ..SimParams::default()
+        };
+        let text = serde_json::to_string(&params).unwrap();
+        assert_eq!(serde_json::from_str::<SimParams>(&text).unwrap(), params);
+        let partial: SimParams = serde_json::from_str(r#"{"substeps": 4, "wind": {"strength": 1.5}}"#).unwrap();
+        let wind = Wind { strength: 1.5, ..Wind::default() };
+        assert_eq!(partial, SimParams { substeps: 4, wind, ..SimParams::default() });
+    }
 
     #[test]
     fn bad_values_are_replaced_and_named() {
