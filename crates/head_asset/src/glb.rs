@@ -4,12 +4,14 @@
 //! What is written: one scene with the skeleton ([`rig::JOINTS`], `neck` → `head`) and the
 //! node `head` carrying mesh `head` (one indexed triangle primitive: POSITION, NORMAL,
 //! COLOR_0, JOINTS_0, WEIGHTS_0) skinned to it, and the animation [`rig::CLIP_NAME`]
-//! (linear rotation keyframes of both joints). The same head always gives the same bytes:
+//! (linear rotation keyframes of both joints), and the eyes (mesh `eye`, nodes `eye.L` and
+//! `eye.R` under the `head` joint). The same head always gives the same bytes:
 //! the JSON's fields come in `gltf-json`'s fixed order and floats in Rust's shortest
 //! round-trip form.
 
 use crate::HeadAsset;
 use crate::error::Error;
+use crate::eyes;
 use crate::rig::{self, Clip, JOINTS};
 use gltf::json;
 use json::validation::{Checked::Valid, USize64};
@@ -122,6 +124,7 @@ pub fn write(head: &HeadAsset, copyright: &str, extras: &[(&str, &str)]) -> Resu
         skin: Some(skin),
         ..Default::default()
     });
+    push_eyes(&mut root, &mut bin, &head.eyes, joint_nodes[rig::HEAD]);
     let scene_nodes = vec![joint_nodes[rig::NECK], head_node];
     let scene = root.push(json::Scene {
         extensions: None,
@@ -147,6 +150,66 @@ pub fn write(head: &HeadAsset, copyright: &str, extras: &[(&str, &str)]) -> Resu
         bin: Some(bin.bytes.into()),
     };
     glb.to_vec().map_err(|e| Error::Glb(format!("the container could not be written: {e}")))
+}
+
+/// Names of the eye nodes, left then right.
+pub const EYE_NODES: [&str; 2] = ["eye.L", "eye.R"];
+
+/// The eyes: one mesh `eye` (the unit [`eyes::eyeball`], POSITION, NORMAL, COLOR_0) with a
+/// glossy material, drawn by a node per eye under the `head` joint (so the clip turns
+/// them with the head), moved and scaled to its socket.
+fn push_eyes(root: &mut Root, bin: &mut Bin, eyes: &[eyes::Eye], head_joint: Index<scene::Node>) {
+    if eyes.is_empty() {
+        return;
+    }
+    let eyes::Eyeball { positions, colors, triangles } = eyes::eyeball();
+    let (lo, hi) = position_bounds(&positions);
+    let position = bin.accessor(root, &positions, accessor::Type::Vec3, Some(buffer::Target::ArrayBuffer));
+    root.accessors[position.value()].min = Some(lo.into());
+    root.accessors[position.value()].max = Some(hi.into());
+    // A unit sphere's normals are its positions.
+    let normal = bin.accessor(root, &positions, accessor::Type::Vec3, Some(buffer::Target::ArrayBuffer));
+    let color = bin.accessor(root, &colors, accessor::Type::Vec4, Some(buffer::Target::ArrayBuffer));
+    let indices: Vec<u16> = triangles.iter().flatten().map(|&i| i as u16).collect();
+    let indices = bin.accessor(root, &indices, accessor::Type::Scalar, Some(buffer::Target::ElementArrayBuffer));
+    let material = root.push(json::Material {
+        name: Some("eye".into()),
+        pbr_metallic_roughness: json::material::PbrMetallicRoughness {
+            metallic_factor: json::material::StrengthFactor(0.0),
+            roughness_factor: json::material::StrengthFactor(0.15),
+            ..Default::default()
+        },
+        ..Default::default()
+    });
+    let mesh = root.push(json::Mesh {
+        extensions: None,
+        extras: Default::default(),
+        name: Some("eye".into()),
+        primitives: vec![mesh::Primitive {
+            attributes: BTreeMap::from([
+                (Valid(mesh::Semantic::Positions), position),
+                (Valid(mesh::Semantic::Normals), normal),
+                (Valid(mesh::Semantic::Colors(0)), color),
+            ]),
+            extensions: None,
+            extras: Default::default(),
+            indices: Some(indices),
+            material: Some(material),
+            mode: Valid(mesh::Mode::Triangles),
+            targets: None,
+        }],
+        weights: None,
+    });
+    for (eye, name) in eyes.iter().zip(EYE_NODES) {
+        let node = root.push(scene::Node {
+            name: Some(name.into()),
+            mesh: Some(mesh),
+            translation: Some(eye.translation),
+            scale: Some([eye.radius; 3]),
+            ..Default::default()
+        });
+        root.nodes[head_joint.value()].children.get_or_insert_with(Vec::new).push(node);
+    }
 }
 
 /// The clip as one glTF animation: a shared input accessor (the keyframe times) and one
@@ -383,6 +446,16 @@ pub fn read(bytes: &[u8]) -> Result<HeadAsset, Error> {
         clip.rotations = (0..clip.times.len()).map(|i| [per_joint[0][i], per_joint[1][i]]).collect();
     }
 
+    // The eyes, by their nodes' names, in the order written.
+    let eyes = EYE_NODES
+        .iter()
+        .filter_map(|&name| gltf.nodes().find(|n| n.name() == Some(name)))
+        .map(|node| {
+            let (translation, _, scale) = node.transform().decomposed();
+            eyes::Eye { translation, radius: scale[0] }
+        })
+        .collect();
+
     Ok(HeadAsset {
         positions,
         normals,
@@ -390,6 +463,7 @@ pub fn read(bytes: &[u8]) -> Result<HeadAsset, Error> {
         triangles: indices.chunks(3).map(|c| [c[0], c[1], c[2]]).collect(),
         skin_weights,
         clip,
+        eyes,
     })
 }
 
@@ -410,7 +484,28 @@ mod tests {
                 times: vec![0.0, 0.5],
                 rotations: vec![[[0.0, 0.0, 0.0, 1.0]; 2], [[0.0, 0.6, 0.0, 0.8], [0.8, 0.0, 0.0, 0.6]]],
             },
+            eyes: Vec::new(),
         }
+    }
+
+    /// Eyes go out as two nodes of one mesh under the `head` joint and come back exactly.
+    #[test]
+    fn eyes_parse_back_under_the_head_joint() {
+        let eyes = vec![
+            eyes::Eye { translation: [0.03, 0.05, 0.086], radius: 0.015 },
+            eyes::Eye { translation: [-0.03, 0.05, 0.086], radius: 0.015 },
+        ];
+        let head = HeadAsset { eyes, ..tetrahedron() };
+        let bytes = write(&head, "CC0", &[]).unwrap();
+        assert_eq!(read(&bytes).unwrap(), head);
+        let gltf = gltf::Gltf::from_slice(&bytes).unwrap();
+        let head_joint = gltf.nodes().find(|n| n.name() == Some("head")).unwrap();
+        let children: Vec<&str> = head_joint.children().map(|c| c.name().unwrap()).collect();
+        assert_eq!(children, EYE_NODES);
+        assert!(
+            head_joint.children().all(|c| c.mesh().and_then(|m| m.name().map(str::to_owned)) == Some("eye".into()))
+        );
+        assert_eq!(gltf.meshes().count(), 2, "one eye mesh for both eyes");
     }
 
     /// Reads a little-endian u32 (test helper independent of the reader).
@@ -470,6 +565,7 @@ mod tests {
             skin_weights: vec![[0.0, 1.0]; n as usize],
             triangles: vec![[0, 1, n - 1]],
             clip: Clip::default(),
+            eyes: Vec::new(),
         };
         let bytes = write(&head, "", &[]).unwrap();
         assert_eq!(read(&bytes).unwrap().triangles, [[0, 1, n - 1]]);

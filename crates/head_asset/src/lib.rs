@@ -16,12 +16,14 @@
 //!    area-weighted normals, check the head with `hair_sim`'s collider.
 //! 5. [`paint`]: paint the scalp black in `COLOR_0` by a hairline rule.
 //! 6. [`rig`]: the skeleton (`neck` → `head`), the skin weights and the animation clip.
+//!    [`eyes`]: an eyeball in each socket, placed by the source's eyeball helpers.
 //! 7. [`glb`]: write a deterministic glTF 2.0 binary with the `gltf` crate (and read it back).
 
 #![warn(missing_docs)]
 
 pub mod cut;
 pub mod error;
+pub mod eyes;
 pub mod geom;
 pub mod glb;
 pub mod obj;
@@ -85,6 +87,9 @@ pub struct HeadAsset {
     pub skin_weights: Vec<[f32; 2]>,
     /// The animation clip ([`rig::clip`]).
     pub clip: Clip,
+    /// The eyes in the sockets, left then right ([`eyes`]); none where the source has no
+    /// eyeballs.
+    pub eyes: Vec<eyes::Eye>,
 }
 
 impl HeadAsset {
@@ -243,6 +248,7 @@ pub fn convert(obj: &Obj, options: &Options) -> Result<(HeadAsset, Report), Erro
     head.colors = mesh.positions.iter().map(|&p| paint::paint(p)).collect();
     head.skin_weights = mesh.positions.iter().map(|&p| rig::skin_weights(p)).collect();
     head.clip = rig::clip();
+    head.eyes = place_eyes(obj, origin, options.scale)?;
 
     let scalp_vertices = head.scalp_vertices().iter().filter(|&&s| s).count();
     let scalp_area = head.scalp_area();
@@ -264,6 +270,23 @@ pub fn convert(obj: &Obj, options: &Options) -> Result<(HeadAsset, Report), Erro
         outside_distance,
     };
     Ok((head, report))
+}
+
+/// The source's eyeballs ([`eyes::EYE_GROUPS`]) in the head's frame, relative to the `head`
+/// joint; none if the OBJ lacks them.
+fn place_eyes(obj: &Obj, origin: [f64; 3], scale: f64) -> Result<Vec<eyes::Eye>, Error> {
+    if !eyes::EYE_GROUPS.iter().all(|g| obj.groups.iter().any(|name| name == g)) {
+        return Ok(Vec::new());
+    }
+    let joint = rig::rest_positions()[rig::HEAD];
+    eyes::EYE_GROUPS
+        .iter()
+        .map(|group| {
+            let (centre, radius) = eyes::sphere_of_group(obj, group)?;
+            let translation = std::array::from_fn(|k| ((centre[k] - origin[k]) * scale - f64::from(joint[k])) as f32);
+            Ok(eyes::Eye { translation, radius: (radius * scale) as f32 })
+        })
+        .collect()
 }
 
 /// Builds `hair_sim`'s collider for the head and checks the inside test where it is

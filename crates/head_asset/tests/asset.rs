@@ -329,3 +329,36 @@ fn hair_on_the_shipped_head_never_ends_up_inside_it() {
         }
     }
 }
+
+/// The face has no holes: an eyeball sits in each socket, mirrored, the size of the
+/// source's (1.5 cm), under the `head` joint. Its front (the pupil) is outside the head, in
+/// front of the socket's skin, so it shows; its back reaches within 2 mm of the socket's
+/// wall (0.7 mm here: the source's eyeball fills its socket), so no hole shows around it.
+/// Measured with the ray parity test on the head's own triangles, not the
+/// collider.
+#[test]
+fn an_eye_shows_in_each_socket() {
+    let head = committed();
+    assert_eq!(head.eyes.len(), 2, "two eyes");
+    let [left, right] = [head.eyes[0], head.eyes[1]];
+    assert_eq!(left.translation, [-right.translation[0], right.translation[1], right.translation[2]], "mirrored");
+    assert!(left.translation[0] > 0.02, "the left eye is on the head's left (+x): {:?}", left.translation);
+    let inside = hair_sim::mesh::InsideTest::new(&head.head_mesh());
+    let joint = rig::rest_positions()[rig::HEAD];
+    for eye in &head.eyes {
+        assert!((0.014..0.016).contains(&eye.radius), "radius {}", eye.radius);
+        let centre: [f32; 3] = std::array::from_fn(|k| joint[k] + eye.translation[k]);
+        let point = |forward: f32| hair_sim::math::Vec3::new(centre[0], centre[1], centre[2] + forward);
+        let (front, back) = (point(eye.radius), point(-eye.radius));
+        println!(
+            "eye at {centre:?}, radius {:.4} m: front {:.4} m from the skin (inside: {}), back {:.4} m (inside: {})",
+            eye.radius,
+            inside.distance(front),
+            inside.contains(front),
+            inside.distance(back),
+            inside.contains(back)
+        );
+        assert!(!inside.contains(front), "the front of the eye at {centre:?} is behind the skin");
+        assert!(inside.contains(back) || inside.distance(back) < 0.002, "the eye at {centre:?} floats in its socket");
+    }
+}
