@@ -4,7 +4,8 @@
 //!
 //! ```text
 //! cargo run --release --example demo
-//! cargo run --example demo -- [--preset NAME] [--screenshot FILE [--frames N] [--no-panel]]
+//! cargo run --example demo -- [--preset NAME] [--lights KIND] [--shading MODEL] [--self-shadow X]
+//!     [--no-antialias] [--camera Y,P,D] [--screenshot FILE [--frames N] [--no-panel] [--size WxH]]
 //! ```
 //!
 //! Mouse: drag to orbit, wheel to zoom; in "drag the head" mode the left button moves the
@@ -31,11 +32,19 @@ use bevy_egui::EguiPlugin;
 use bevy_hair::prelude::*;
 use std::path::PathBuf;
 
-const USAGE: &str = "usage: demo [--preset NAME] [--screenshot FILE [--frames N] [--no-panel]]
+const USAGE: &str = "usage: demo [--preset NAME] [--lights KIND] [--shading MODEL] [--self-shadow X] [--no-antialias]
+            [--camera Y,P,D] [--screenshot FILE [--frames N] [--no-panel] [--size WxH]]
   --preset NAME      start with this hairstyle: Shoulder (default), Short, Long, Curly, Windy, Reference
+  --lights KIND      studio (default: key, fill and rim lights), lamps (a point and a spot light),
+                     above (one light from above), behind (one light from behind)
+  --shading MODEL    kajiya-kay or marschner (default: the preset's)
+  --self-shadow X    how much light a layer of hair stops, 0 to 1 (0: no self-shadowing)
+  --no-antialias     draw thin strands as plain ribbons
+  --camera Y,P,D     start the orbit camera at yaw Y and pitch P (radians), D metres away
   --screenshot FILE  render N frames once the hair is grown, save the last as FILE (PNG), check it, exit
   --frames N         frames of animation before the screenshot (default 60)
   --no-panel         hide the egui panel
+  --size WxH         the window's size (default 1280x720)
 environment: HAIR_DEMO_SCREENSHOT=FILE, HAIR_DEMO_FRAMES=N (the flags win)";
 
 /// What the command line asked for.
@@ -44,6 +53,8 @@ struct Options {
     frames: u32,
     panel: bool,
     preset: &'static str,
+    size: UVec2,
+    stage: scene::Stage,
 }
 
 /// Parses `std::env::args` by hand (no argument crate for one flag pair), falling back to
@@ -58,6 +69,8 @@ fn parse_args() -> Result<Options, String> {
         },
         panel: true,
         preset: presets::shoulder().name,
+        size: UVec2::new(1280, 720),
+        stage: scene::Stage::default(),
     };
     let mut args = std::env::args().skip(1);
     while let Some(arg) = args.next() {
@@ -65,6 +78,36 @@ fn parse_args() -> Result<Options, String> {
             "--screenshot" => options.screenshot = Some(args.next().ok_or("--screenshot needs a file name")?.into()),
             "--frames" => options.frames = parse_frames(&args.next().ok_or("--frames needs a number")?)?,
             "--no-panel" => options.panel = false,
+            "--no-antialias" => options.stage.antialias = Some(false),
+            "--lights" => {
+                let name = args.next().ok_or("--lights needs a kind")?;
+                options.stage.lights = scene::Lights::named(&name).ok_or(format!("no lights are called {name:?}"))?;
+            }
+            "--shading" => {
+                options.stage.shading = Some(match args.next().ok_or("--shading needs a model")?.as_str() {
+                    "kajiya-kay" => HairShading::KajiyaKay,
+                    "marschner" => HairShading::MARSCHNER,
+                    other => return Err(format!("--shading is kajiya-kay or marschner, not {other:?}")),
+                });
+            }
+            "--self-shadow" => {
+                let text = args.next().ok_or("--self-shadow needs a number")?;
+                let value = text.parse::<f32>().ok().filter(|v| (0.0..=1.0).contains(v));
+                options.stage.self_shadow = Some(value.ok_or(format!("--self-shadow wants 0 to 1, got {text:?}"))?);
+            }
+            "--camera" => {
+                let text = args.next().ok_or("--camera needs YAW,PITCH,DISTANCE")?;
+                let numbers: Vec<f32> = text.split(',').filter_map(|n| n.parse().ok()).collect();
+                let &[yaw, pitch, distance] = numbers.as_slice() else {
+                    return Err(format!("--camera wants YAW,PITCH,DISTANCE (radians, metres), got {text:?}"));
+                };
+                options.stage.camera = Some(scene::OrbitCamera { yaw, pitch, distance: distance.max(0.1) });
+            }
+            "--size" => {
+                let text = args.next().ok_or("--size needs WxH")?;
+                let size = text.split_once('x').and_then(|(w, h)| Some(UVec2::new(w.parse().ok()?, h.parse().ok()?)));
+                options.size = size.filter(|s| s.min_element() > 0).ok_or(format!("--size wants WxH, got {text:?}"))?;
+            }
             "--preset" => {
                 let name = args.next().ok_or("--preset needs a name")?;
                 let preset = presets::all().into_iter().find(|p| p.name.eq_ignore_ascii_case(&name));
@@ -92,7 +135,7 @@ fn main() -> AppExit {
     // Screenshots get a fixed size (and scale factor) so that runs compare.
     let window = Window {
         title: "bevy_hair demo".into(),
-        resolution: WindowResolution::new(1280, 720).with_scale_factor_override(1.0),
+        resolution: WindowResolution::new(options.size.x, options.size.y).with_scale_factor_override(1.0),
         resizable: !screenshot_mode,
         ..default()
     };
@@ -109,6 +152,7 @@ fn main() -> AppExit {
     )
     .add_plugins((HairPlugin::default(), FrameTimeDiagnosticsPlugin::default()))
     .insert_resource(scene::StartingPreset(options.preset))
+    .insert_resource(options.stage)
     .add_plugins((scene::plugin, motion::plugin));
     // egui only with its panel: an egui context nothing draws into fails its frame.
     if options.panel {

@@ -25,7 +25,7 @@ pub struct Head;
 const FOCUS: Vec3 = Vec3::new(0.0, 0.12, 0.02);
 
 /// An orbit around `FOCUS`, angles in radians.
-#[derive(Component)]
+#[derive(Component, Clone, Copy, Debug)]
 pub struct OrbitCamera {
     pub yaw: f32,
     pub pitch: f32,
@@ -37,6 +37,45 @@ impl OrbitCamera {
         let rotation = Quat::from_euler(EulerRot::YXZ, self.yaw, -self.pitch, 0.0);
         Transform::from_translation(FOCUS + rotation * Vec3::Z * self.distance).looking_at(FOCUS, Vec3::Y)
     }
+}
+
+/// The lights on the stage (`--lights`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Lights {
+    /// A warm key light with shadows, a cool fill and a rim light from behind.
+    #[default]
+    Studio,
+    /// A point light on the left and a spot light from the right, both casting shadows.
+    Lamps,
+    /// One light straight from above (self-shadowing shows best).
+    Above,
+    /// One light from behind the head (Marschner's transmission shows best).
+    Behind,
+}
+
+impl Lights {
+    /// The lights called `name` on the command line.
+    pub fn named(name: &str) -> Option<Lights> {
+        [("studio", Lights::Studio), ("lamps", Lights::Lamps), ("above", Lights::Above), ("behind", Lights::Behind)]
+            .into_iter()
+            .find_map(|(n, lights)| name.eq_ignore_ascii_case(n).then_some(lights))
+    }
+}
+
+/// How the stage is set up from the command line: the lights, and changes to the preset's
+/// look (`None`: the preset's own).
+#[derive(Resource, Clone, Copy, Debug, Default)]
+pub struct Stage {
+    /// `--lights`.
+    pub lights: Lights,
+    /// `--shading`.
+    pub shading: Option<HairShading>,
+    /// `--self-shadow`.
+    pub self_shadow: Option<f32>,
+    /// `--no-antialias` sets `Some(false)`.
+    pub antialias: Option<bool>,
+    /// `--camera`: where the orbit camera starts.
+    pub camera: Option<OrbitCamera>,
 }
 
 /// The preset the demo starts with, by name ([`presets::all`]).
@@ -51,6 +90,7 @@ impl Default for StartingPreset {
 
 pub fn plugin(app: &mut App) {
     app.init_resource::<StartingPreset>()
+        .init_resource::<Stage>()
         .insert_resource(ClearColor(Color::srgb(0.36, 0.38, 0.42)))
         .insert_resource(GlobalAmbientLight { color: Color::srgb(0.85, 0.9, 1.0), brightness: 250.0, ..default() })
         // The scene is small: a fine shadow map keeps the head's shadow on the hair crisp.
@@ -66,6 +106,7 @@ pub fn setup(
     mut materials: ResMut<Assets<StandardMaterial>>,
     mut settings: ResMut<HairSettings>,
     start: Res<StartingPreset>,
+    stage: Res<Stage>,
 ) {
     settings.0 = presets::named(start.0).params;
     // The glTF scene, as a game would spawn a character. When it is in the world, its
@@ -73,35 +114,7 @@ pub fn setup(
     let scene = asset_server.load(GltfAssetLabel::Scene(0).from_asset(HEAD_GLB));
     commands.spawn((Character, Name::new("character"), WorldAssetRoot(scene))).observe(dress_the_head);
 
-    // Key light: warm, from the front left and above, casting the head's shadow on the
-    // hair and the backdrop. One short cascade covers the whole set.
-    commands.spawn((
-        DirectionalLight {
-            illuminance: 9_000.0,
-            color: Color::srgb(1.0, 0.95, 0.88),
-            shadow_maps_enabled: true,
-            ..default()
-        },
-        Transform::from_xyz(-1.0, 1.6, 1.3).looking_at(Vec3::ZERO, Vec3::Y),
-        CascadeShadowConfigBuilder {
-            num_cascades: 1,
-            minimum_distance: 0.05,
-            maximum_distance: 4.0,
-            first_cascade_far_bound: 4.0,
-            overlap_proportion: 0.2,
-        }
-        .build(),
-    ));
-    // Fill from the right, cool and soft, so the shadow side stays readable.
-    commands.spawn((
-        DirectionalLight { illuminance: 2_500.0, color: Color::srgb(0.8, 0.87, 1.0), ..default() },
-        Transform::from_xyz(1.5, 0.4, 0.8).looking_at(Vec3::ZERO, Vec3::Y),
-    ));
-    // Rim light from behind and above: the highlight that separates hair from the backdrop.
-    commands.spawn((
-        DirectionalLight { illuminance: 4_000.0, ..default() },
-        Transform::from_xyz(0.3, 1.0, -1.5).looking_at(Vec3::ZERO, Vec3::Y),
-    ));
+    spawn_lights(&mut commands, stage.lights);
 
     // A studio backdrop: a floor below the longest hair and a wall behind, one matte grey-blue.
     let backdrop = materials.add(StandardMaterial {
@@ -123,8 +136,75 @@ pub fn setup(
         NotShadowCaster,
     ));
 
-    let orbit = OrbitCamera { yaw: 0.45, pitch: 0.12, distance: 0.62 };
+    let orbit = stage.camera.unwrap_or(OrbitCamera { yaw: 0.45, pitch: 0.12, distance: 0.62 });
     commands.spawn((Camera3d::default(), orbit.transform(), orbit));
+}
+
+/// One short shadow cascade over the whole set.
+fn one_cascade() -> bevy::light::CascadeShadowConfig {
+    CascadeShadowConfigBuilder {
+        num_cascades: 1,
+        minimum_distance: 0.05,
+        maximum_distance: 4.0,
+        first_cascade_far_bound: 4.0,
+        overlap_proportion: 0.2,
+    }
+    .build()
+}
+
+/// The stage's lights.
+fn spawn_lights(commands: &mut Commands, lights: Lights) {
+    match lights {
+        Lights::Studio => {
+            // Key light: warm, from the front left and above, casting the head's shadow on the
+            // hair and the backdrop. One short cascade covers the whole set.
+            commands.spawn((
+                DirectionalLight {
+                    illuminance: 9_000.0,
+                    color: Color::srgb(1.0, 0.95, 0.88),
+                    shadow_maps_enabled: true,
+                    ..default()
+                },
+                Transform::from_xyz(-1.0, 1.6, 1.3).looking_at(Vec3::ZERO, Vec3::Y),
+                one_cascade(),
+            ));
+            // Fill from the right, cool and soft, so the shadow side stays readable.
+            commands.spawn((
+                DirectionalLight { illuminance: 2_500.0, color: Color::srgb(0.8, 0.87, 1.0), ..default() },
+                Transform::from_xyz(1.5, 0.4, 0.8).looking_at(Vec3::ZERO, Vec3::Y),
+            ));
+            // Rim light from behind and above: the highlight that separates hair from the backdrop.
+            commands.spawn((
+                DirectionalLight { illuminance: 4_000.0, ..default() },
+                Transform::from_xyz(0.3, 1.0, -1.5).looking_at(Vec3::ZERO, Vec3::Y),
+            ));
+        }
+        Lights::Lamps => {
+            commands.spawn((
+                PointLight { intensity: 60_000.0, range: 4.0, shadow_maps_enabled: true, ..default() },
+                Transform::from_xyz(-0.45, 0.3, 0.35),
+            ));
+            commands.spawn((
+                SpotLight {
+                    intensity: 400_000.0,
+                    color: Color::srgb(1.0, 0.85, 0.7),
+                    outer_angle: 0.3,
+                    inner_angle: 0.2,
+                    shadow_maps_enabled: true,
+                    ..default()
+                },
+                Transform::from_xyz(0.6, 0.6, 0.6).looking_at(FOCUS, Vec3::Y),
+            ));
+        }
+        Lights::Above | Lights::Behind => {
+            let from = if lights == Lights::Above { Vec3::new(0.0, 1.0, 0.25) } else { Vec3::new(0.0, 0.35, -1.0) };
+            commands.spawn((
+                DirectionalLight { illuminance: 9_000.0, shadow_maps_enabled: true, ..default() },
+                Transform::from_translation(from).looking_at(Vec3::ZERO, Vec3::Y),
+                one_cascade(),
+            ));
+        }
+    }
 }
 
 /// The character's file: a skinned head with a painted scalp and its animation clip.
@@ -140,14 +220,19 @@ fn dress_the_head(
     meshes: Query<(), (With<Mesh3d>, With<SkinnedMesh>)>,
     mut materials: ResMut<Assets<StandardMaterial>>,
     start: Res<StartingPreset>,
+    stage: Res<Stage>,
 ) {
     let Some(mesh) = children.iter_descendants(ready.entity).find(|&e| meshes.contains(e)) else {
         error!("{HEAD_GLB} has no skinned mesh to grow hair on");
         return;
     };
     let start = presets::named(start.0);
+    let mut look = start.look;
+    look.shading = stage.shading.unwrap_or(look.shading);
+    look.self_shadow = stage.self_shadow.unwrap_or(look.self_shadow);
+    look.antialias = stage.antialias.unwrap_or(look.antialias);
     let skin = materials.add(StandardMaterial { base_color: Color::WHITE, perceptual_roughness: 0.55, ..default() });
-    commands.entity(mesh).insert((Head, MeshMaterial3d(skin), start.groom, start.look));
+    commands.entity(mesh).insert((Head, MeshMaterial3d(skin), start.groom, look));
 }
 
 /// Left drag (or right drag, which also works while the left button drags the head) orbits,

@@ -42,6 +42,8 @@ impl Plugin for ScreenshotPlugin {
                 captured: Arc::default(),
                 with_hair: None,
                 roots: Vec::new(),
+                frame_ms: Vec::new(),
+                frame_began: None,
             })
             .add_systems(Update, drive);
     }
@@ -69,6 +71,9 @@ struct Shot {
     with_hair: Option<Image>,
     /// Pixels of the scalp roots that face the camera, at the moment time stopped.
     roots: Vec<UVec2>,
+    /// Wall time between the frames played, milliseconds, and when the last one began.
+    frame_ms: Vec<f64>,
+    frame_began: Option<Instant>,
 }
 
 impl Shot {
@@ -123,6 +128,10 @@ fn drive(
         },
         Stage::Playing if shot.frames_left > 0 => {
             shot.frames_left -= 1;
+            let now = Instant::now();
+            if let Some(began) = shot.frame_began.replace(now) {
+                shot.frame_ms.push((now - began).as_secs_f64() * 1e3);
+            }
             if shot.frames_left.is_multiple_of(10) {
                 info!("screenshot: {} frames to go ({:.1?} since start)", shot.frames_left, shot.started.elapsed());
             }
@@ -150,7 +159,10 @@ fn drive(
         Stage::CapturingBare => {
             let Some(bare) = shot.take() else { return };
             let with_hair = shot.with_hair.take().expect("captured before");
-            match check_and_save(&with_hair, &bare, &shot.roots, &shot.path) {
+            let mut frame_ms = std::mem::take(&mut shot.frame_ms);
+            frame_ms.sort_by(f64::total_cmp);
+            let median_ms = frame_ms.get(frame_ms.len() / 2).copied().unwrap_or(f64::NAN);
+            match check_and_save(&with_hair, &bare, &shot.roots, &shot.path, median_ms) {
                 Ok(summary) => {
                     info!("screenshot: {summary}");
                     println!("{summary}");
@@ -182,8 +194,15 @@ fn facing_root_pixels(state: &HairState, camera: &Camera, camera_transform: &Glo
         .collect()
 }
 
-/// Compares the two frames at the root pixels, saves the one with hair, and says what it found.
-fn check_and_save(with_hair: &Image, bare: &Image, roots: &[UVec2], path: &PathBuf) -> Result<String, String> {
+/// Compares the two frames at the root pixels, saves the one with hair, and says what it found
+/// (with `frame_ms`, the median wall time of the frames played).
+fn check_and_save(
+    with_hair: &Image,
+    bare: &Image,
+    roots: &[UVec2],
+    path: &PathBuf,
+    frame_ms: f64,
+) -> Result<String, String> {
     let rgb = |image: &Image| image.clone().try_into_dynamic().map(|i| i.to_rgb8()).map_err(|e| e.to_string());
     let (hair, bare) = (rgb(with_hair)?, rgb(bare)?);
     if hair.dimensions() != bare.dimensions() {
@@ -203,7 +222,8 @@ fn check_and_save(with_hair: &Image, bare: &Image, roots: &[UVec2], path: &PathB
     let fraction = covered as f32 / inside.len() as f32;
     hair.save(path).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     let summary = format!(
-        "{{\"screenshot\":{:?},\"facing_roots\":{},\"covered_roots\":{},\"hair_pixels\":{},\"width\":{},\"height\":{}}}",
+        "{{\"screenshot\":{:?},\"facing_roots\":{},\"covered_roots\":{},\"hair_pixels\":{},\"width\":{},\"height\":{},\
+         \"frame_ms\":{frame_ms:.0}}}",
         path.display().to_string(),
         inside.len(),
         covered,
