@@ -41,9 +41,10 @@ impl Plugin for HairRenderPlugin {
             .register_type::<HairLook>()
             .register_required_components::<HairGroom, HairLook>()
             .init_resource::<HairRenderStats>()
+            .init_resource::<ShadowCastingLights>()
             .add_systems(
                 PostUpdate,
-                (sync_drawing, upload_guides, update_materials)
+                (find_shadow_casting_lights, sync_drawing, upload_guides, update_materials)
                     .chain()
                     .in_set(HairSystems::Draw)
                     .after(VisibilitySystems::VisibilityPropagate)
@@ -223,21 +224,19 @@ fn layout_of(state: &HairState, groom: &HairGroom, look: &HairLook) -> StrandLay
 /// mesh, buffer and material when the groom regrew or its layout changed, stops drawing
 /// while the groom regrows, and keeps its render layers those of the head. Its
 /// [`Visibility`] is left to the user.
-#[allow(clippy::type_complexity, clippy::too_many_arguments)] // queries
+#[allow(clippy::type_complexity)] // the heads query
 fn sync_drawing(
     mut commands: Commands,
     heads: Query<(Entity, Option<Ref<HairState>>, &HairGroom, &HairLook, Option<&HairDrawnBy>, Option<&RenderLayers>)>,
     drawings: Query<(&HairDrawing, Has<Mesh3d>, Option<&RenderLayers>)>,
-    directional_lights: Query<(&DirectionalLight, &GlobalTransform)>,
-    point_lights: Query<(&PointLight, &GlobalTransform)>,
-    spot_lights: Query<(&SpotLight, &GlobalTransform)>,
+    lights: Res<ShadowCastingLights>,
     mut meshes: ResMut<Assets<Mesh>>,
     mut buffers: ResMut<Assets<ShaderBuffer>>,
     mut materials: ResMut<Assets<HairMaterial>>,
 ) {
     // Room for an opacity map per shadow-casting light: the buffer is rebuilt when their
     // number changes.
-    let casting = shadow_casting_lights(&directional_lights, &point_lights, &spot_lights).len();
+    let casting = lights.0.len();
     for (head, state, groom, look, drawn_by, layers) in &heads {
         let existing = drawn_by.and_then(|d| Some(d.0).zip(drawings.get(d.0).ok()));
         if let Some((entity, (_, _, drawing_layers))) = existing
@@ -319,13 +318,18 @@ fn opacity_maps_len(maps: usize) -> usize {
     if maps == 0 { 0 } else { 1 + maps * (MAP_HEADER + MAP_SIZE * MAP_SIZE * (1 + MAP_LAYERS) / 4) }
 }
 
-/// The lights whose shadows self-shadowing follows: those casting shadows, directional
-/// first, at most [`MAX_OPACITY_MAPS`].
-fn shadow_casting_lights(
-    directional: &Query<(&DirectionalLight, &GlobalTransform)>,
-    points: &Query<(&PointLight, &GlobalTransform)>,
-    spots: &Query<(&SpotLight, &GlobalTransform)>,
-) -> Vec<LightSource> {
+/// This frame's lights whose shadows self-shadowing follows: those casting shadows,
+/// directional first, at most [`MAX_OPACITY_MAPS`]. Found once a frame for every groom.
+#[derive(Resource, Default)]
+struct ShadowCastingLights(Vec<LightSource>);
+
+/// Finds this frame's [`ShadowCastingLights`].
+fn find_shadow_casting_lights(
+    directional: Query<(&DirectionalLight, &GlobalTransform)>,
+    points: Query<(&PointLight, &GlobalTransform)>,
+    spots: Query<(&SpotLight, &GlobalTransform)>,
+    mut found: ResMut<ShadowCastingLights>,
+) {
     let directional = directional
         .iter()
         .filter(|(light, _)| light.shadow_maps_enabled)
@@ -333,7 +337,8 @@ fn shadow_casting_lights(
     let points = points.iter().filter(|(light, _)| light.shadow_maps_enabled).map(|(_, at)| at.translation());
     let spots = spots.iter().filter(|(light, _)| light.shadow_maps_enabled).map(|(_, at)| at.translation());
     let positioned = points.chain(spots).map(|at| LightSource::Position(to_sim(at)));
-    directional.chain(positioned).take(MAX_OPACITY_MAPS).collect()
+    found.0.clear();
+    found.0.extend(directional.chain(positioned).take(MAX_OPACITY_MAPS));
 }
 
 /// Appends the opacity maps of `positions` (world space, strand-major) toward `lights` to
@@ -392,13 +397,10 @@ fn write_opacity_maps(
 /// the head as posed this frame) and their transport frames into each drawing's storage
 /// buffer, and fits its bounding box (in the drawing's own frame: it is a child of the
 /// head, and a skinned head's hair follows a joint instead).
-#[allow(clippy::too_many_arguments)] // the lights' queries
 fn upload_guides(
     clock: Res<Time<Hair>>,
     heads: Query<(&HairState, &HairGroom, &HairLook)>,
-    directional_lights: Query<(&DirectionalLight, &GlobalTransform)>,
-    point_lights: Query<(&PointLight, &GlobalTransform)>,
-    spot_lights: Query<(&SpotLight, &GlobalTransform)>,
+    lights: Res<ShadowCastingLights>,
     mut drawings: Query<(&HairDrawing, &GlobalTransform, &mut Aabb, &InheritedVisibility), With<Mesh3d>>,
     mut buffers: ResMut<Assets<ShaderBuffer>>,
     mut stats: ResMut<HairRenderStats>,
@@ -406,7 +408,6 @@ fn upload_guides(
 ) {
     let mut frame = HairRenderStats::default();
     let overstep = clock.overstep_fraction();
-    let lights = shadow_casting_lights(&directional_lights, &point_lights, &spot_lights);
     let mut write = |drawing: &HairDrawing, placed: &GlobalTransform, frame: &mut HairRenderStats| -> Option<Aabb> {
         let (state, groom, look) = heads.get(drawing.head).ok()?;
         if state.roots().len() != drawing.roots.len() {
@@ -438,7 +439,7 @@ fn upload_guides(
         let pose = state.drawn_head_pose();
         data.push(from_sim(pose.transform_point(state.collider().centre())).extend(1.0));
         if look.self_shadow > 0.0 {
-            write_opacity_maps(&mut data, drawing.opacity_maps, &lights, &positions, &drawing.layout, look);
+            write_opacity_maps(&mut data, drawing.opacity_maps, &lights.0, &positions, &drawing.layout, look);
         }
         frame.uploaded_bytes += (data.len() * size_of::<Vec4>()) as u64;
         frame.rendered_strands += drawing.layout.strands() as u64;
