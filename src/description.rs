@@ -28,8 +28,10 @@ impl std::fmt::Display for HairError {
 
 impl std::error::Error for HairError {}
 
-/// What is wrong with a groom.
-#[derive(thiserror::Error, Clone, Debug, PartialEq)]
+/// What is wrong with a groom. Reflected as one opaque value (inspectors show its
+/// `Debug`; its parts come from `hair_sim`, which knows nothing of reflection).
+#[derive(thiserror::Error, Reflect, Clone, Debug, PartialEq)]
+#[reflect(opaque, Debug, PartialEq, Clone)]
 pub enum HairErrorKind {
     /// The entity has a `HairGroom` but no `Mesh3d`.
     #[error("the entity has a HairGroom but no Mesh3d to grow on")]
@@ -233,7 +235,8 @@ impl HairGroom {
 
 /// Where a groom stands. Check it (or read [`HairError`] messages) to learn why a head
 /// has no hair.
-#[derive(Component, Clone, Debug, Default, PartialEq)]
+#[derive(Component, Reflect, Clone, Debug, Default, PartialEq)]
+#[reflect(Component, Default, Debug, PartialEq)]
 pub enum GroomStatus {
     /// Waiting for the head's mesh asset to load.
     #[default]

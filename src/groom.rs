@@ -37,7 +37,7 @@ pub struct GroomPlugin;
 
 impl Plugin for GroomPlugin {
     fn build(&self, app: &mut App) {
-        app.register_type::<HairGroom>().add_message::<HairError>();
+        app.register_type::<HairGroom>().register_type::<GroomStatus>().add_message::<HairError>();
         if app.is_plugin_added::<AssetPlugin>() {
             app.init_asset::<HairAsset>().init_asset_loader::<HairAssetLoader>();
         }

@@ -263,3 +263,20 @@ fn a_preset_saves_as_ron_and_loads_back_equal() {
     assert!(matches!(HairPreset::from_ron(&text, &empty), Err(PresetError::NotRegistered)));
     assert!(matches!(preset.to_ron(&empty), Err(PresetError::NotRegistered)));
 }
+
+/// `GroomStatus` is reflected, so inspectors and scripts can read it: a grown groom's
+/// status says `Ready` with its guide count through reflection alone.
+#[test]
+fn the_groom_status_reads_through_reflection() {
+    use bevy::reflect::ReflectRef;
+    use bevy::reflect::enums::VariantType;
+    let (app, head) = grown(HairGroom { guides: 64, settle_steps: 0, ..groom() });
+    let registry = app.world().resource::<AppTypeRegistry>().read();
+    let registration = registry.get(std::any::TypeId::of::<GroomStatus>()).expect("GroomStatus is registered");
+    let component = registration.data::<ReflectComponent>().expect("reflected as a component");
+    let status = component.reflect(app.world().entity(head)).expect("the head has a status");
+    let ReflectRef::Enum(status) = status.reflect_ref() else { panic!("GroomStatus reflects as an enum") };
+    assert_eq!((status.variant_name(), status.variant_type()), ("Ready", VariantType::Struct));
+    let guides = status.field("guides").and_then(|g| g.try_downcast_ref::<usize>()).copied();
+    assert_eq!(guides, Some(64));
+}

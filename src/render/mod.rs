@@ -39,6 +39,7 @@ impl Plugin for HairRenderPlugin {
         load_shader_library!(app, "strand.wgsl");
         app.add_plugins(MaterialPlugin::<HairMaterial>::default())
             .register_type::<HairLook>()
+            .register_type::<HairRenderStats>()
             .register_required_components::<HairGroom, HairLook>()
             .init_resource::<HairRenderStats>()
             .init_resource::<ShadowCastingLights>()
@@ -162,7 +163,8 @@ impl Default for HairLook {
 
 /// What the hair drawing cost this frame, summed over grooms. Also published as Bevy
 /// diagnostics ([`HairDiagnostics`]).
-#[derive(Resource, Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Resource, Reflect, Clone, Copy, Debug, Default, PartialEq)]
+#[reflect(Resource, Default, Debug, PartialEq)]
 pub struct HairRenderStats {
     /// Strands drawn (guides and children).
     pub rendered_strands: u64,
