@@ -36,11 +36,7 @@ pub fn write(head: &HeadAsset, copyright: &str, extras: &[(&str, &str)]) -> Resu
     let mut bin = Bin::default();
     let n = head.positions.len();
 
-    let (lo, hi) = position_bounds(&head.positions);
-    let positions = bin.accessor(&mut root, &head.positions, accessor::Type::Vec3, Some(buffer::Target::ArrayBuffer));
-    let positions_accessor = &mut root.accessors[positions.value()];
-    positions_accessor.min = Some(lo.into());
-    positions_accessor.max = Some(hi.into());
+    let positions = bin.positions(&mut root, &head.positions);
     let normals = bin.accessor(&mut root, &head.normals, accessor::Type::Vec3, Some(buffer::Target::ArrayBuffer));
     let colors = bin.accessor(&mut root, &head.colors, accessor::Type::Vec4, Some(buffer::Target::ArrayBuffer));
     // Every vertex names both joints, in skin order; the weights say how much of each.
@@ -62,15 +58,6 @@ pub fn write(head: &HeadAsset, copyright: &str, extras: &[(&str, &str)]) -> Resu
         .collect();
     let inverse_binds = bin.accessor(&mut root, &inverse_binds, accessor::Type::Mat4, None);
 
-    let material = root.push(json::Material {
-        name: Some("head".into()),
-        pbr_metallic_roughness: json::material::PbrMetallicRoughness {
-            metallic_factor: json::material::StrengthFactor(0.0),
-            roughness_factor: json::material::StrengthFactor(0.8),
-            ..Default::default()
-        },
-        ..Default::default()
-    });
     let attributes = BTreeMap::from([
         (Valid(mesh::Semantic::Positions), positions),
         (Valid(mesh::Semantic::Normals), normals),
@@ -78,21 +65,7 @@ pub fn write(head: &HeadAsset, copyright: &str, extras: &[(&str, &str)]) -> Resu
         (Valid(mesh::Semantic::Joints(0)), joints),
         (Valid(mesh::Semantic::Weights(0)), weights),
     ]);
-    let head_mesh = root.push(json::Mesh {
-        extensions: None,
-        extras: Default::default(),
-        name: Some("head".into()),
-        primitives: vec![mesh::Primitive {
-            attributes,
-            extensions: None,
-            extras: Default::default(),
-            indices: Some(indices),
-            material: Some(material),
-            mode: Valid(mesh::Mode::Triangles),
-            targets: None,
-        }],
-        weights: None,
-    });
+    let head_mesh = push_mesh(&mut root, "head", 0.8, attributes, indices);
 
     // The skeleton: parents before children, so a joint's index is its place in JOINTS.
     let joint_nodes: Vec<Index<scene::Node>> = JOINTS
@@ -163,43 +136,18 @@ fn push_eyes(root: &mut Root, bin: &mut Bin, eyes: &[eyes::Eye], head_joint: Ind
         return;
     }
     let eyes::Eyeball { positions, colors, triangles } = eyes::eyeball();
-    let (lo, hi) = position_bounds(&positions);
-    let position = bin.accessor(root, &positions, accessor::Type::Vec3, Some(buffer::Target::ArrayBuffer));
-    root.accessors[position.value()].min = Some(lo.into());
-    root.accessors[position.value()].max = Some(hi.into());
+    let position = bin.positions(root, &positions);
     // A unit sphere's normals are its positions.
     let normal = bin.accessor(root, &positions, accessor::Type::Vec3, Some(buffer::Target::ArrayBuffer));
     let color = bin.accessor(root, &colors, accessor::Type::Vec4, Some(buffer::Target::ArrayBuffer));
     let indices: Vec<u16> = triangles.iter().flatten().map(|&i| i as u16).collect();
     let indices = bin.accessor(root, &indices, accessor::Type::Scalar, Some(buffer::Target::ElementArrayBuffer));
-    let material = root.push(json::Material {
-        name: Some("eye".into()),
-        pbr_metallic_roughness: json::material::PbrMetallicRoughness {
-            metallic_factor: json::material::StrengthFactor(0.0),
-            roughness_factor: json::material::StrengthFactor(0.15),
-            ..Default::default()
-        },
-        ..Default::default()
-    });
-    let mesh = root.push(json::Mesh {
-        extensions: None,
-        extras: Default::default(),
-        name: Some("eye".into()),
-        primitives: vec![mesh::Primitive {
-            attributes: BTreeMap::from([
-                (Valid(mesh::Semantic::Positions), position),
-                (Valid(mesh::Semantic::Normals), normal),
-                (Valid(mesh::Semantic::Colors(0)), color),
-            ]),
-            extensions: None,
-            extras: Default::default(),
-            indices: Some(indices),
-            material: Some(material),
-            mode: Valid(mesh::Mode::Triangles),
-            targets: None,
-        }],
-        weights: None,
-    });
+    let attributes = BTreeMap::from([
+        (Valid(mesh::Semantic::Positions), position),
+        (Valid(mesh::Semantic::Normals), normal),
+        (Valid(mesh::Semantic::Colors(0)), color),
+    ]);
+    let mesh = push_mesh(root, "eye", 0.15, attributes, indices);
     for (eye, name) in eyes.iter().zip(EYE_NODES) {
         let node = root.push(scene::Node {
             name: Some(name.into()),
@@ -210,6 +158,41 @@ fn push_eyes(root: &mut Root, bin: &mut Bin, eyes: &[eyes::Eye], head_joint: Ind
         });
         root.nodes[head_joint.value()].children.get_or_insert_with(Vec::new).push(node);
     }
+}
+
+/// A mesh of one indexed triangle primitive named `name`, with a non-metallic material of
+/// the same name and `roughness` (pushed first).
+fn push_mesh(
+    root: &mut Root,
+    name: &str,
+    roughness: f32,
+    attributes: BTreeMap<json::validation::Checked<mesh::Semantic>, Index<json::Accessor>>,
+    indices: Index<json::Accessor>,
+) -> Index<json::Mesh> {
+    let material = root.push(json::Material {
+        name: Some(name.into()),
+        pbr_metallic_roughness: json::material::PbrMetallicRoughness {
+            metallic_factor: json::material::StrengthFactor(0.0),
+            roughness_factor: json::material::StrengthFactor(roughness),
+            ..Default::default()
+        },
+        ..Default::default()
+    });
+    root.push(json::Mesh {
+        extensions: None,
+        extras: Default::default(),
+        name: Some(name.into()),
+        primitives: vec![mesh::Primitive {
+            attributes,
+            extensions: None,
+            extras: Default::default(),
+            indices: Some(indices),
+            material: Some(material),
+            mode: Valid(mesh::Mode::Triangles),
+            targets: None,
+        }],
+        weights: None,
+    })
 }
 
 /// The clip as one glTF animation: a shared input accessor (the keyframe times) and one
@@ -318,6 +301,16 @@ struct Bin {
 }
 
 impl Bin {
+    /// A POSITION accessor: `positions` as vertex data, with their exact bounds as its
+    /// `min` and `max` (which glTF requires).
+    fn positions(&mut self, root: &mut Root, positions: &[[f32; 3]]) -> Index<json::Accessor> {
+        let (lo, hi) = position_bounds(positions);
+        let accessor = self.accessor(root, positions, accessor::Type::Vec3, Some(buffer::Target::ArrayBuffer));
+        root.accessors[accessor.value()].min = Some(lo.into());
+        root.accessors[accessor.value()].max = Some(hi.into());
+        accessor
+    }
+
     /// Appends `data` as a new buffer view and returns the accessor reading all of it.
     fn accessor<E: Element>(
         &mut self,
