@@ -990,37 +990,35 @@ fn every_shader_variant_composes_and_validates_without_a_gpu() {
         "TONEMAP_METHOD_TONY_MC_MAPFACE".into(),
         "DEBAND_DITHER".into(),
     ];
-    let mut variants: Vec<(String, Vec<ShaderDefVal>)> = Vec::new();
-    for bits in 0..8u32 {
-        let mut defs = [common.clone(), main.clone()].concat();
-        let mut name = String::from("main");
-        if bits & 1 != 0 {
-            defs.push("MULTISAMPLED".into());
-            name += " + MULTISAMPLED";
-        }
-        if bits & 2 != 0 {
-            defs.push("ENVIRONMENT_MAP".into());
-            name += " + ENVIRONMENT_MAP";
-        }
-        if bits & 4 != 0 {
-            defs.extend(tonemapping.iter().cloned());
-            name += " + TONEMAP_IN_SHADER";
-        }
-        variants.push((name, defs));
-    }
-    for bits in 0..4u32 {
-        let mut defs = [common.clone(), vec!["PREPASS_PIPELINE".into(), "DEPTH_PREPASS".into()]].concat();
-        let mut name = String::from("shadow");
-        if bits & 1 != 0 {
-            defs.push("PREPASS_FRAGMENT".into());
-            name += " + PREPASS_FRAGMENT";
-        }
-        if bits & 2 != 0 {
-            defs.push("UNCLIPPED_DEPTH_ORTHO_EMULATION".into());
-            name += " + UNCLIPPED_DEPTH_ORTHO_EMULATION";
-        }
-        variants.push((name, defs));
-    }
+    // Every combination of a pass's optional defs, named by the options it takes.
+    let combinations = |pass: &str, base: Vec<ShaderDefVal>, options: &[(&str, Vec<ShaderDefVal>)]| {
+        (0..1u32 << options.len())
+            .map(|bits| {
+                let (mut name, mut defs) = (String::from(pass), [common.clone(), base.clone()].concat());
+                for (_, (option, extra)) in options.iter().enumerate().filter(|(k, _)| bits & 1 << k != 0) {
+                    name += &format!(" + {option}");
+                    defs.extend(extra.iter().cloned());
+                }
+                (name, defs)
+            })
+            .collect::<Vec<_>>()
+    };
+    let flag = |def: &str| vec![ShaderDefVal::from(def)];
+    let main_options = [
+        ("MULTISAMPLED", flag("MULTISAMPLED")),
+        ("ENVIRONMENT_MAP", flag("ENVIRONMENT_MAP")),
+        ("TONEMAP_IN_SHADER", tonemapping),
+    ];
+    let shadow_options = [
+        ("PREPASS_FRAGMENT", flag("PREPASS_FRAGMENT")),
+        ("UNCLIPPED_DEPTH_ORTHO_EMULATION", flag("UNCLIPPED_DEPTH_ORTHO_EMULATION")),
+    ];
+    let variants = [
+        combinations("main", main, &main_options),
+        combinations("shadow", vec!["PREPASS_PIPELINE".into(), "DEPTH_PREPASS".into()], &shadow_options),
+    ]
+    .concat();
+    assert_eq!(variants.len(), 12);
     let failures: Vec<String> = variants
         .iter()
         .enumerate()
