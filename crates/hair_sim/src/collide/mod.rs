@@ -86,6 +86,16 @@ pub struct Contact {
     pub depth: f32,
 }
 
+/// What [`HeadCollider::resolve_measuring`] found.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Resolution {
+    /// The point is closer than the thickness to the surface, or inside: where to move it.
+    Contact(Contact),
+    /// No contact: the surface is at least this far from the point (metres, never less
+    /// than the thickness asked for).
+    Clear(f32),
+}
+
 /// The head as a collision shape, in head-local space: a parry3d `TriMesh` (its BVH
 /// answers exact closest-point queries) and a signed distance grid baked from it.
 pub struct HeadCollider {
@@ -201,8 +211,24 @@ impl HeadCollider {
     /// and it is answered without any lookup.
     #[inline]
     pub fn resolve_hinted(&self, p: Vec3, thickness: f32, hint: &mut ContactHint) -> Option<Contact> {
-        let contact = self.resolve_centred(p - self.centre, thickness, hint)?;
-        Some(Contact { position: contact.position + self.centre, ..contact })
+        match self.resolve_measuring(p, thickness, hint) {
+            Resolution::Contact(contact) => Some(contact),
+            Resolution::Clear(_) => None,
+        }
+    }
+
+    /// [`Self::resolve_hinted`] that also says, when there is no contact, how far the
+    /// surface is at least: the distance it measured, or the empty ball it proved (never
+    /// less than `thickness`). Whole-segment collision uses it to clear most segments
+    /// without looking at the mesh again.
+    #[inline]
+    pub fn resolve_measuring(&self, p: Vec3, thickness: f32, hint: &mut ContactHint) -> Resolution {
+        match self.resolve_centred(p - self.centre, thickness, hint) {
+            Resolution::Contact(contact) => {
+                Resolution::Contact(Contact { position: contact.position + self.centre, ..contact })
+            }
+            clear => clear,
+        }
     }
 
     /// The reference's response: like [`Self::resolve_hinted`], but the particle leaves
@@ -216,19 +242,38 @@ impl HeadCollider {
     /// than the one the particle came through, and may leave the particle in a fold.
     pub fn resolve_along_ray(&self, p: Vec3, thickness: f32, hint: &mut ContactHint, from: Vec3) -> Option<Contact> {
         let contact = self.resolve_hinted(p, thickness, hint)?;
-        let Some(direction) = (p - from).try_normalize() else { return Some(contact) };
+        Some(self.along_ray(contact, p, thickness, from))
+    }
+
+    /// [`Self::resolve_measuring`] with [`Self::resolve_along_ray`]'s response.
+    pub fn resolve_measuring_along_ray(
+        &self,
+        p: Vec3,
+        thickness: f32,
+        hint: &mut ContactHint,
+        from: Vec3,
+    ) -> Resolution {
+        match self.resolve_measuring(p, thickness, hint) {
+            Resolution::Contact(contact) => Resolution::Contact(self.along_ray(contact, p, thickness, from)),
+            clear => clear,
+        }
+    }
+
+    /// Turns the normal response `contact` for `p` into the push along the ray from `from`.
+    fn along_ray(&self, contact: Contact, p: Vec3, thickness: f32, from: Vec3) -> Contact {
+        let Some(direction) = (p - from).try_normalize() else { return contact };
         let position = if contact.depth > thickness {
             // Inside: out along the ray to the surface (the first crossing from `p`).
             let ray = Ray::new(p - self.centre, direction);
             match self.mesh.cast_local_ray(&ray, f32::MAX, false) {
                 Some(t) => p + direction * (t + thickness),
                 // A ray grazing an edge can slip between triangles: push along the normal.
-                None => return Some(contact),
+                None => return contact,
             }
         } else {
             p + direction * contact.depth
         };
-        Some(Contact { position, normal: direction, depth: contact.depth })
+        Contact { position, normal: direction, depth: contact.depth }
     }
 
     /// How far the surface can rise above a straight segment of `length` around `middle`
@@ -268,9 +313,9 @@ impl HeadCollider {
         Some((enters, leaves.max(enters)))
     }
 
-    /// [`Self::resolve_hinted`] for a point relative to [`Self::centre`].
+    /// [`Self::resolve_measuring`] for a point relative to [`Self::centre`].
     #[inline]
-    fn resolve_centred(&self, p: Vec3, thickness: f32, hint: &mut ContactHint) -> Option<Contact> {
+    fn resolve_centred(&self, p: Vec3, thickness: f32, hint: &mut ContactHint) -> Resolution {
         match hint.0 {
             Hint::Touching { triangle, at, gap, collider, .. } => {
                 // The gap was measured on one collider's triangles; the clearance is the
@@ -284,8 +329,9 @@ impl HeadCollider {
             // (The ball belongs to the mesh it was measured on; a triangle hint needs no such
             // check, because the certificate proves itself on whatever mesh asks.)
             Hint::Clear { at, distance, collider } => {
-                if collider == self.id && (p - at).length() + thickness < distance {
-                    return None;
+                let left = distance - (p - at).length();
+                if collider == self.id && thickness < left {
+                    return Resolution::Clear(left);
                 }
             }
             Hint::None => {}
@@ -295,14 +341,15 @@ impl HeadCollider {
             // Outside the grid: at least as far from the mesh as from its bounding box.
             let bounds = self.mesh.local_aabb();
             let outside = (bounds.mins - p).max(p - bounds.maxs).max(Vec3::ZERO);
-            hint.0 = Hint::Clear { at: p, distance: outside.length(), collider: self.id };
-            return None;
+            let distance = outside.length().max(thickness);
+            hint.0 = Hint::Clear { at: p, distance, collider: self.id };
+            return Resolution::Clear(distance);
         };
         let approx = self.grid.sample_at(at);
         let error = self.grid.max_error();
         if approx > thickness + error {
             hint.0 = Hint::Clear { at: p, distance: approx - error, collider: self.id };
-            return None;
+            return Resolution::Clear(approx - error);
         }
         // Where the grid proves `p` outside, the closest triangle is within `approx + error`;
         // inside or unsure, the search has no bound. Either way it finds the closest
@@ -313,15 +360,18 @@ impl HeadCollider {
         // triangle that can be closest; without one, ask the BVH.
         let closest = match self.candidates.closest(&self.triangles, &self.mesh, p, at, reach) {
             Near::Closest(closest) => closest,
-            Near::Beyond => return None,
-            Near::Unlisted => self.closest_by_bvh(p, approx.abs() + error + thickness)?,
+            Near::Beyond => return Resolution::Clear(thickness),
+            Near::Unlisted => match self.closest_by_bvh(p, approx.abs() + error + thickness) {
+                Some(closest) => closest,
+                None => return Resolution::Clear(thickness),
+            },
         };
         let offset = p - closest.point;
         let distance = offset.length();
         let signed = if closest.inside { -distance } else { distance };
         hint.0 = Hint::Touching { triangle: closest.triangle, at: p, gap: closest.gap, collider: self.id };
         if signed >= thickness {
-            return None;
+            return Resolution::Clear(signed);
         }
         // Outward normal. Over a face it is the face's (the offset's direction is only
         // rounding when the point sits on the surface); off an edge or a corner it points
@@ -348,12 +398,12 @@ impl HeadCollider {
 /// The contact for a point `signed` distance from its closest surface point `on_surface`,
 /// along the outward `normal`, if that is nearer than `thickness`.
 #[inline]
-fn contact(on_surface: Vec3, normal: Vec3, signed: f32, thickness: f32) -> Option<Contact> {
-    (signed < thickness).then(|| Contact {
-        position: on_surface + normal * thickness,
-        normal,
-        depth: thickness - signed,
-    })
+fn contact(on_surface: Vec3, normal: Vec3, signed: f32, thickness: f32) -> Resolution {
+    if signed < thickness {
+        Resolution::Contact(Contact { position: on_surface + normal * thickness, normal, depth: thickness - signed })
+    } else {
+        Resolution::Clear(signed)
+    }
 }
 
 fn signed_distance_exact(mesh: &TriMesh, p: Vec3) -> f32 {

@@ -18,7 +18,7 @@ use super::lanes::{LANES, M3, Mask, PoseLanes, V3, Wide};
 use super::params::{CollisionResponse, LengthMode, SimParams, stiffness_per_application};
 use super::wind::wind_at;
 use super::{ChunkState, RestShape, StepInput, StepReport};
-use crate::collide::{Contact, ContactHint, HeadCollider};
+use crate::collide::{Contact, ContactHint, HeadCollider, Resolution};
 use crate::math::{Pose, Quat, Vec3};
 use glam::{Mat3A, Vec3A};
 
@@ -188,6 +188,12 @@ struct GroupState {
 }
 
 impl GroupState {
+    /// One bit per real lane, as [`Mask::bitmask`] numbers them: empty lanes and the bits
+    /// beyond [`LANES`] are clear, so a mask of lanes still to do can reach zero.
+    fn real_lanes(&self) -> u32 {
+        u32::MAX.checked_shr(32 - self.lanes as u32).unwrap_or(0)
+    }
+
     fn new(n: usize) -> Self {
         GroupState {
             strands: [0; LANES],
@@ -616,15 +622,23 @@ fn collide(
             *local = poses.now.local_point(x);
         }
         g.moved.fill(0);
-        // A particle without a contact is at least the thickness away; one with a contact
-        // is put there, less what friction slides it back unchecked.
+        // A particle without a contact is as far as the query proved (at least the
+        // thickness); one with a contact is put there, less what friction slides it back
+        // unchecked.
         let thickness = p.collision_thickness;
         g.clearance.fill(Wide::splat(thickness));
         // Strand by strand: neighbouring particles query neighbouring cells and triangles.
         for l in 0..g.lanes {
             let hints = &mut state.hints[g.strands[l] * n..][..n];
             for (j, hint) in hints.iter_mut().enumerate().skip(1) {
-                if let Some(contact) = head_contact(collider, g.local[j].lane(l), thickness, c.ray_from, hint) {
+                let contact = match head_contact(collider, g.local[j].lane(l), thickness, c.ray_from, hint) {
+                    Resolution::Contact(contact) => Some(contact),
+                    Resolution::Clear(distance) => {
+                        g.clearance[j].set(l, distance);
+                        None
+                    }
+                };
+                if let Some(contact) = contact {
                     // Friction acts on sliding relative to the head, so compare in head space.
                     let local_start = poses.before.local_point(g.start[j].lane(l));
                     let mut held = with_friction(contact, local_start, p.friction);
@@ -633,7 +647,9 @@ fn collide(
                     // slide is too short to reach the surface ([`FRICTION_SLACK`]).
                     let slide = (held - contact.position).length();
                     if slide > FRICTION_SLACK * thickness {
-                        held = head_contact(collider, held, thickness, c.ray_from, hint).map_or(held, |c| c.position);
+                        if let Resolution::Contact(again) = head_contact(collider, held, thickness, c.ray_from, hint) {
+                            held = again.position;
+                        }
                     } else {
                         g.clearance[j].set(l, thickness - slide);
                     }
@@ -693,10 +709,10 @@ fn head_contact(
     thickness: f32,
     ray_from: Option<Vec3>,
     hint: &mut ContactHint,
-) -> Option<Contact> {
+) -> Resolution {
     match ray_from {
-        Some(from) => collider.resolve_along_ray(x, thickness, hint, from),
-        None => collider.resolve_hinted(x, thickness, hint),
+        Some(from) => collider.resolve_measuring_along_ray(x, thickness, hint, from),
+        None => collider.resolve_measuring(x, thickness, hint),
     }
 }
 
@@ -729,10 +745,9 @@ fn keep_outside(
 ) {
     let n = g.positions.len();
     let margin = LENGTH_SLACK * p.collision_thickness;
-    let real_lanes = if g.lanes == LANES { u32::MAX } else { (1u32 << g.lanes) - 1 };
     // Per lane, the first particle moved too far (n: none).
     let mut first = [n; LANES];
-    let mut pending = real_lanes;
+    let mut pending = g.real_lanes();
     for j in 1..n {
         if pending == 0 {
             break;
@@ -850,7 +865,7 @@ fn keep_segments_outside(
 ) {
     let Some(collider) = input.collider else { return };
     let n = g.positions.len();
-    let real_lanes = if g.lanes == LANES { u32::MAX } else { (1u32 << g.lanes) - 1 };
+    let real_lanes = g.real_lanes();
     // Lanes whose particles from here on were moved by a turn: their clearance is unknown.
     let mut turned_lanes = 0u32;
     // What collision knew, less how far the final pass moved each particle since.
