@@ -221,7 +221,7 @@ impl HeadCollider {
     /// surface is at least: the distance it measured, or the empty ball it proved (never
     /// less than `thickness`). Whole-segment collision uses it to clear most segments
     /// without looking at the mesh again.
-    #[inline]
+    #[inline(always)]
     pub fn resolve_measuring(&self, p: Vec3, thickness: f32, hint: &mut ContactHint) -> Resolution {
         match self.resolve_centred(p - self.centre, thickness, hint) {
             Resolution::Contact(contact) => {
@@ -314,7 +314,7 @@ impl HeadCollider {
     }
 
     /// [`Self::resolve_measuring`] for a point relative to [`Self::centre`].
-    #[inline]
+    #[inline(always)]
     fn resolve_centred(&self, p: Vec3, thickness: f32, hint: &mut ContactHint) -> Resolution {
         match hint.0 {
             Hint::Touching { triangle, at, gap, collider, .. } => {
@@ -336,6 +336,14 @@ impl HeadCollider {
             }
             Hint::None => {}
         }
+        self.resolve_searching(p, thickness, hint)
+    }
+
+    /// [`Self::resolve_centred`] where the hint settles nothing: the grid, then the
+    /// candidate list or the BVH, and a new hint. Kept out of line, so that the hinted
+    /// answers most particles get stay small enough to inline into the solver's loop.
+    #[inline(never)]
+    fn resolve_searching(&self, p: Vec3, thickness: f32, hint: &mut ContactHint) -> Resolution {
         hint.0 = Hint::None;
         let Some(at) = self.grid.locate(p) else {
             // Outside the grid: at least as far from the mesh as from its bounding box.
