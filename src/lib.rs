@@ -67,11 +67,12 @@ pub use preset::{HairPreset, PresetError};
 #[cfg(feature = "render")]
 pub use render::{HairLook, HairRenderStats, HairShading, SpecularLobe};
 pub use settings::{HairSettings, HairSettingsOverride};
-pub use simulation::HairState;
 pub use simulation::SimulationPlugin;
+pub use simulation::{HairState, step_on_pool};
 pub use skinning::ScalpJoint;
 
 use bevy::diagnostic::{Diagnostic, RegisterDiagnostic};
+use bevy::ecs::schedule::SingleThreadedExecutor;
 use bevy::prelude::*;
 use bevy::transform::TransformSystems;
 use std::time::Duration;
@@ -142,6 +143,12 @@ impl Plugin for HairPlugin {
         clock.set_timestep(self.timestep);
         app.insert_resource(clock);
         app.init_schedule(HairSchedule);
+        // Its systems form one chain, and the solver spreads itself over the compute pool:
+        // a multi-threaded executor would only hand each system to another thread (and wake
+        // it) in turn.
+        app.edit_schedule(HairSchedule, |schedule| {
+            schedule.set_executor(SingleThreadedExecutor::new());
+        });
         app.register_type::<Hair>()
             .register_type::<HairPreset>()
             .configure_sets(

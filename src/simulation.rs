@@ -39,6 +39,8 @@ pub(crate) struct Grown {
 
 /// Fewest strands worth a task of their own.
 const MIN_STRANDS_PER_TASK: usize = 64;
+/// The fewest particles worth a task of their own when publishing positions.
+const MIN_PARTICLES_PER_TASK: usize = 4096;
 
 /// A grown, simulating groom: the strand state and what it collides with. The plugin
 /// inserts it on the head entity once growth finishes.
@@ -269,18 +271,32 @@ impl HairState {
     /// Puts every strand back at rest on the head, motionless.
     pub fn reset(&mut self) {
         self.strands.reset(relative_to(self.pose_to, self.origin));
-        self.publish();
+        self.publish(ComputeTaskPool::get_or_init(TaskPool::default));
         self.previous_local.clone_from(&self.current_local);
     }
 
     /// Copies the solver's positions out: world space, and head space for drawing.
-    fn publish(&mut self) {
+    fn publish(&mut self, pool: &TaskPool) {
         std::mem::swap(&mut self.previous_local, &mut self.current_local);
-        self.current.clear();
-        let origin = self.origin;
-        self.current.extend(self.strands.positions().iter().map(|&p| from_sim(p + origin)));
-        self.current_local.clear();
-        self.current_local.extend(to_head_space(self.strands.positions(), relative_to(self.pose_to, origin)));
+        let (origin, pose) = (self.origin, relative_to(self.pose_to, self.origin));
+        let to_head = pose.rotation.inverse();
+        let positions = self.strands.positions();
+        self.current.resize(positions.len(), Vec3::ZERO);
+        self.current_local.resize(positions.len(), Vec3::ZERO);
+        // One pass writes both, a share per thread of the pool.
+        let share = positions.len().div_ceil(pool.thread_num().max(1)).max(MIN_PARTICLES_PER_TASK);
+        let shares =
+            positions.chunks(share).zip(self.current.chunks_mut(share)).zip(self.current_local.chunks_mut(share));
+        pool.scope(|scope| {
+            for ((positions, world), local) in shares {
+                scope.spawn(async move {
+                    for ((&p, world), local) in positions.iter().zip(world).zip(local) {
+                        *world = from_sim(p + origin);
+                        *local = from_sim(to_head * (p - pose.translation));
+                    }
+                });
+            }
+        });
     }
 
     /// Moves the solver's origin to the head's centre (its mesh's, which may sit far from
@@ -449,17 +465,7 @@ pub(crate) fn simulate(
             surface_patch: state.skin_patch.as_ref().map(SkinPatch::patch),
             params: &params,
         };
-        let strands_per_task =
-            state.strands.strand_count().div_ceil(pool.thread_num().max(1) * 4).max(MIN_STRANDS_PER_TASK);
-        // Whole SIMD groups per task, so no task steps idle lanes.
-        let strands_per_task = strands_per_task.next_multiple_of(STRANDS_PER_GROUP);
-        let reports = pool.scope(|scope| {
-            for mut chunk in state.strands.chunks_mut(strands_per_task) {
-                scope.spawn(async move { chunk.step(&input) });
-            }
-        });
-        let mut report = StepReport::default();
-        reports.into_iter().for_each(|r| report.merge(r));
+        let report = step_on_pool(&mut state.strands, &input, pool);
         if report.nan_resets > 0 {
             warn!("hair on {entity}: {} strands produced non-finite values and were reset", report.nan_resets);
         }
@@ -475,10 +481,28 @@ pub(crate) fn simulate(
     diagnostics.add_measurement(&HairDiagnostics::PARTICLES, || particles as f64);
 }
 
+/// Steps `strands` once, split into chunks of whole SIMD groups on `pool`, as
+/// [`HairSystems::Simulate`](crate::HairSystems) steps every groom: for stepping a
+/// groom's [`Strands`] outside the plugin (a benchmark, a tool) exactly as the plugin does.
+pub fn step_on_pool(strands: &mut Strands, input: &StepInput, pool: &TaskPool) -> StepReport {
+    let strands_per_task = strands.strand_count().div_ceil(pool.thread_num().max(1) * 4).max(MIN_STRANDS_PER_TASK);
+    // Whole SIMD groups per task, so no task steps idle lanes.
+    let strands_per_task = strands_per_task.next_multiple_of(STRANDS_PER_GROUP);
+    let reports = pool.scope(|scope| {
+        for mut chunk in strands.chunks_mut(strands_per_task) {
+            scope.spawn(async move { chunk.step(input) });
+        }
+    });
+    let mut report = StepReport::default();
+    reports.into_iter().for_each(|r| report.merge(r));
+    report
+}
+
 /// [`HairSystems::Writeback`](crate::HairSystems): keeps the last two steps' positions
 /// (in head space) for interpolated drawing.
 pub(crate) fn writeback(mut grooms: Query<&mut HairState>) {
+    let pool = ComputeTaskPool::get_or_init(TaskPool::default);
     for mut state in &mut grooms {
-        state.publish();
+        state.publish(pool);
     }
 }
