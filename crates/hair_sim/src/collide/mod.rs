@@ -488,6 +488,48 @@ mod tests {
         assert_eq!(over_2(&skull) + over_2(&ears), 0, "star-shaped: the ray always leaves nearby");
     }
 
+    /// Whole-segment collision clears a segment from its ends' clearances, so a clearance
+    /// must never exceed the true distance. Particles wander around the procedural head
+    /// (ears included, from inside to 6 cm out) carrying their hints; every clearance the
+    /// queries report is checked against the independent inside test's exact distance.
+    #[test]
+    fn a_reported_clearance_never_exceeds_the_true_distance() {
+        use crate::groom::SplitMix64;
+        use crate::mesh::InsideTest;
+        let head = test_head(4);
+        let collider = HeadCollider::new(&head, 64).unwrap();
+        let inside = InsideTest::new(&head);
+        let thickness = 0.003;
+        let mut rng = SplitMix64::new(11);
+        let mut unit = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.0 - Vec3::ONE;
+        let (mut cleared, mut beyond_thickness, mut tightness) = (0, 0, Vec::new());
+        for walk in 0..300 {
+            let t = walk * 7919 % head.triangles.len();
+            let (on_surface, normal) = (head.point_at(t, [1.0 / 3.0; 3]), head.normal_at(t, [1.0 / 3.0; 3]));
+            let mut p = on_surface + normal * (0.066 * (walk % 11) as f32 / 10.0 - 0.006);
+            let mut hint = ContactHint::NONE;
+            for _ in 0..30 {
+                p += unit() * 0.003;
+                if let Resolution::Clear(clearance) = collider.resolve_measuring(p, thickness, &mut hint) {
+                    let exact = inside.distance(p);
+                    assert!(!inside.contains(p), "{p} is inside, yet reported {clearance} clear");
+                    assert!(clearance >= thickness, "a clearance below the thickness: {clearance}");
+                    assert!(clearance <= exact + 2e-6, "{p}: reported {clearance}, true distance {exact}");
+                    cleared += 1;
+                    beyond_thickness += usize::from(clearance > 2.0 * thickness);
+                    tightness.push(clearance / exact);
+                }
+            }
+        }
+        tightness.sort_by(f32::total_cmp);
+        let median = tightness[tightness.len() / 2];
+        println!(
+            "{cleared} clear answers, {beyond_thickness} beyond twice the thickness, median {median:.2} of the distance"
+        );
+        assert!(cleared > 4000 && beyond_thickness > 2000, "the walks test far and near answers");
+        assert!(median > 0.4, "the clearance is a useful bound, not just the thickness");
+    }
+
     #[test]
     fn ear_is_escaped_sideways_not_towards_the_centre() {
         // A point 4 mm under the steep flank of an ear, measured along the ray from the
