@@ -899,11 +899,11 @@ fn keep_segments_outside(
                 continue;
             }
             let turned = poses.now_one.world_point(local_turned);
-            // The strand below follows the turned particle as a leader (each particle drawn
-            // toward where it was), then is placed outside.
+            // The strand below follows the turned segment unchanged, then is placed outside.
+            let shift = turned - child;
             for k in j + 1..n {
-                let was = g.positions[k].lane(l);
-                g.collided[k].set_lane(l, was);
+                let moved = g.positions[k].lane(l) + shift;
+                g.collided[k].set_lane(l, moved);
             }
             g.collided[j].set_lane(l, turned);
             report.segment_turns += 1;
