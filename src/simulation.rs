@@ -279,7 +279,6 @@ impl HairState {
     fn publish(&mut self, pool: &TaskPool) {
         std::mem::swap(&mut self.previous_local, &mut self.current_local);
         let (origin, pose) = (self.origin, relative_to(self.pose_to, self.origin));
-        let to_head = pose.rotation.inverse();
         let positions = self.strands.positions();
         self.current.resize(positions.len(), Vec3::ZERO);
         self.current_local.resize(positions.len(), Vec3::ZERO);
@@ -292,7 +291,7 @@ impl HairState {
                 scope.spawn(async move {
                     for ((&p, world), local) in positions.iter().zip(world).zip(local) {
                         *world = from_sim(p + origin);
-                        *local = from_sim(to_head * (p - pose.translation));
+                        *local = from_sim(pose.inverse_transform_point(p));
                     }
                 });
             }

@@ -241,8 +241,10 @@ impl HeadCollider {
     /// (behind an ear, under the chin) the ray leaves through another part of the surface
     /// than the one the particle came through, and may leave the particle in a fold.
     pub fn resolve_along_ray(&self, p: Vec3, thickness: f32, hint: &mut ContactHint, from: Vec3) -> Option<Contact> {
-        let contact = self.resolve_hinted(p, thickness, hint)?;
-        Some(self.along_ray(contact, p, thickness, from))
+        match self.resolve_measuring_along_ray(p, thickness, hint, from) {
+            Resolution::Contact(contact) => Some(contact),
+            Resolution::Clear(_) => None,
+        }
     }
 
     /// [`Self::resolve_measuring`] with [`Self::resolve_along_ray`]'s response.
