@@ -362,3 +362,44 @@ fn an_eye_shows_in_each_socket() {
         assert!(inside.contains(back) || inside.distance(back) < 0.002, "the eye at {centre:?} floats in its socket");
     }
 }
+
+/// Hair combed back over the shipped head lies on it: the demo's shoulder-length groom
+/// (1,200 Poisson guides, 0.22 m, swept back, settled 180 steps), held still for 1.5 s at
+/// the default settings, reaches no farther to the side than the head's half width plus
+/// 3 cm (a few layers of hair over the ears). A strand that segment collision turns out of an ear's rim must drape from there,
+/// not stand out from the ear as a rigid cantilever (once 0.183 m against a half width of
+/// 0.088 m).
+#[test]
+fn combed_hair_drapes_over_the_ears() {
+    use hair_sim::prelude::*;
+
+    let head = committed();
+    let mesh = head.head_mesh();
+    let labels = hair_sim::groom::labels_from_colors(&head.colors, 0.5);
+    let weights = hair_sim::groom::triangle_weights(&mesh, &labels);
+    let roots = hair_sim::groom::sample_roots_poisson(&mesh, &weights, 1200, 1).unwrap();
+    let comb = Vec3::new(0.0, 0.0, -1.5);
+    let guide = GuideParams { segments: 10, length: 0.22, length_variation: 0.2, curl: 0.0, comb };
+    let collider = HeadCollider::new(&mesh, DEFAULT_GRID_RESOLUTION).unwrap();
+    let params = SimParams::default();
+    let grown = RestShape::new(grow_guides(&mesh, &roots, &guide, 1).unwrap(), 11).unwrap();
+    let rest = settle(grown, Some(&collider), &params, 180, comb).unwrap();
+    let pose = Pose::from_translation(Vec3::new(0.0, 1.6, 0.0));
+    let mut strands = Strands::new(rest, pose);
+    for k in 0..90 {
+        strands.step(&StepInput {
+            dt: 1.0 / 60.0,
+            time: k as f32 / 60.0,
+            head_from: pose,
+            head_to: pose,
+            collider: Some(&collider),
+            extra_colliders: &[],
+            surface_patch: None,
+            params: &params,
+        });
+    }
+    let half_width = mesh.positions.iter().map(|p| p.x.abs()).fold(0.0, f32::max);
+    let farthest = strands.positions().iter().map(|&p| pose.inverse_transform_point(p).x.abs()).fold(0.0, f32::max);
+    println!("head half width {half_width:.3} m, farthest particle to the side {farthest:.3} m");
+    assert!(farthest <= half_width + 0.03, "hair stands {farthest} m out to the side of a head {half_width} m wide");
+}

@@ -899,11 +899,11 @@ fn keep_segments_outside(
                 continue;
             }
             let turned = poses.now_one.world_point(local_turned);
-            // The strand below follows the turned segment unchanged, then is placed outside.
-            let shift = turned - child;
+            // The strand below follows the turned particle as a leader: each particle is
+            // drawn toward where it was, then placed outside.
             for k in j + 1..n {
-                let moved = g.positions[k].lane(l) + shift;
-                g.collided[k].set_lane(l, moved);
+                let was = g.positions[k].lane(l);
+                g.collided[k].set_lane(l, was);
             }
             g.collided[j].set_lane(l, turned);
             report.segment_turns += 1;
@@ -911,9 +911,15 @@ fn keep_segments_outside(
             place_outside(g, state, p, poses, input, report, l, j, true);
             // Placing the particle on the shell turns the segment once more, which can take
             // it back through (a fold of the surface): there, the turned segment stands (its
-            // end is outside the head, if within the shell) and the rest is placed from it.
+            // end is outside the head, if within the shell) and the rest is placed from it,
+            // unless the turned end is inside something the turn did not see (the skin
+            // that moved against the baked head): a particle inside weighs more than a
+            // segment through.
             let placed = poses.now_one.local_point(g.positions[j].lane(l));
-            if placed != local_turned && collider.segment_crossing(local_parent, placed).is_some() {
+            let outside = |x| {
+                contact_at(x, p, poses, input, &mut ContactHint::NONE).is_none_or(|c| c.depth <= p.collision_thickness)
+            };
+            if placed != local_turned && collider.segment_crossing(local_parent, placed).is_some() && outside(turned) {
                 set_final(g, p, l, j, turned);
                 place_outside(g, state, p, poses, input, report, l, j + 1, true);
             }
@@ -959,9 +965,28 @@ fn turn_out_of(collider: &HeadCollider, parent: Vec3, child: Vec3, length: f32, 
 
 /// A direction from `parent` in which a segment of `length` crosses nothing: `out` itself,
 /// or else the nearest to `wanted` of [`around`] it, where a fold of the surface stands in
-/// the way of `out`.
+/// the way of `out`, or else, in a pocket of the surface (an eye socket) where all of
+/// those cross, the nearest to `wanted` of [`SPHERE_DIRECTIONS`] spread over all of space.
 fn clear_direction(collider: &HeadCollider, parent: Vec3, out: Vec3, wanted: Vec3, length: f32) -> Option<Vec3> {
-    around(out, wanted).find(|&d| collider.segment_crossing(parent, parent + d * length).is_none())
+    let clear = |d: &Vec3| collider.segment_crossing(parent, parent + *d * length).is_none();
+    around(out, wanted).find(clear).or_else(|| {
+        let mut sphere: Vec<Vec3> = (0..SPHERE_DIRECTIONS).map(sphere_direction).collect();
+        sphere.sort_by(|a, b| b.dot(wanted).total_cmp(&a.dot(wanted)));
+        sphere.into_iter().find(clear)
+    })
+}
+
+/// How many directions [`clear_direction`] tries over the whole sphere as its last resort.
+const SPHERE_DIRECTIONS: usize = 96;
+
+/// The `k`-th of [`SPHERE_DIRECTIONS`] unit vectors spread evenly over the sphere (a
+/// Fibonacci lattice).
+fn sphere_direction(k: usize) -> Vec3 {
+    let golden_angle = std::f32::consts::PI * (3.0 - 5f32.sqrt());
+    let y = 1.0 - 2.0 * (k as f32 + 0.5) / SPHERE_DIRECTIONS as f32;
+    let radius = (1.0 - y * y).sqrt();
+    let (sin, cos) = (golden_angle * k as f32).sin_cos();
+    Vec3::new(radius * cos, y, radius * sin)
 }
 
 /// `out` and the directions tilted from it by 30°, 60° and 90° (eight around each), the
