@@ -5,9 +5,13 @@
 //! state into disjoint [`StrandChunk`]s that any thread pool can step in parallel; the
 //! result is bit-identical to [`Strands::step`], whatever the chunking.
 
+mod detail;
 mod lanes;
 mod params;
 mod step;
+
+use detail::{Detail, Role};
+pub use detail::{MAX_DETAIL_LEVEL, level_for_height, level_with_hysteresis, simulated_at_level};
 
 pub use step::MIN_STEP;
 mod wind;
@@ -203,6 +207,8 @@ pub struct Strands {
     /// Per strand, the substep length that memory was taken at; 0 when there is none
     /// (after a reset, or in the inextensible model, which keeps none).
     history_step: Vec<f32>,
+    /// Levels of detail, once asked for ([`Self::set_detail_level`]).
+    detail: Option<Detail>,
 }
 
 impl Strands {
@@ -219,6 +225,7 @@ impl Strands {
             positions,
             velocities,
             hints,
+            detail: None,
         }
     }
 
@@ -305,6 +312,7 @@ impl Strands {
         let n = self.rest.particles_per_strand;
         let strands = strands_per_chunk.max(1);
         let size = strands * n;
+        let roles = self.detail.as_ref().map(|d| d.roles.as_slice());
         self.positions
             .chunks_mut(size)
             .zip(self.velocities.chunks_mut(size))
@@ -317,6 +325,7 @@ impl Strands {
                     StrandChunk {
                         first_strand: c * strands,
                         rest: &self.rest,
+                        roles: roles.map(|r| &r[c * strands..((c + 1) * strands).min(r.len())]),
                         state: ChunkState {
                             positions,
                             velocities,
@@ -331,14 +340,91 @@ impl Strands {
             .collect()
     }
 
-    /// Advances every strand by one step on the calling thread.
+    /// Advances every strand by one step on the calling thread (chunks, then
+    /// [`Self::follow_leaders`]).
     pub fn step(&mut self, input: &StepInput) -> StepReport {
         let mut report = StepReport::default();
         let all = self.strand_count().max(1);
         for mut chunk in self.chunks_mut(all) {
             report.merge(chunk.step(input));
         }
+        self.follow_leaders(input);
         report
+    }
+
+    /// Chooses the level of detail: level `L` simulates [`simulated_at_level`] of the
+    /// strands (`⌈N / 2^L⌉`, spread evenly over the scalp; at most
+    /// [`MAX_DETAIL_LEVEL`]), and the others follow their simulated neighbours, placed by
+    /// [`Self::follow_leaders`] after each step. A strand that stops being simulated fades
+    /// into following over `fade_steps` steps (0: at once, which pops); one that starts again starts from where it
+    /// was drawn, moving as it was. The first call orders the strands (O(N²) in the
+    /// strand count; [`Self::prepare_detail`] does it ahead).
+    pub fn set_detail_level(&mut self, level: u32, fade_steps: u32) {
+        let level = level.min(MAX_DETAIL_LEVEL);
+        if self.detail.as_ref().map_or(level == 0, |d| d.level() == level) {
+            return;
+        }
+        self.prepare_detail();
+        let roots = self.roots();
+        let detail = self.detail.as_mut().expect("prepared");
+        let n = self.rest.particles_per_strand;
+        for s in detail.set_level(level, fade_steps, &roots, &self.positions) {
+            // Its solver memory is stale: start it from where it is drawn.
+            let particles = s * n..(s + 1) * n;
+            self.hints[particles.clone()].fill(ContactHint::NONE);
+            self.previous_positions[particles.clone()].copy_from_slice(&self.positions[particles.clone()]);
+            self.previous_velocities[particles.clone()].copy_from_slice(&self.velocities[particles]);
+            self.history_step[s] = 0.0;
+        }
+    }
+
+    /// Orders the strands for levels of detail now (O(N²) in the strand count), so that
+    /// the first [`Self::set_detail_level`] does not: for a groom built off the main thread.
+    pub fn prepare_detail(&mut self) {
+        if self.detail.is_none() {
+            self.detail = Some(Detail::new(&self.roots()));
+        }
+    }
+
+    /// The level of detail ([`Self::set_detail_level`]); 0 simulates every strand.
+    pub fn detail_level(&self) -> u32 {
+        self.detail.as_ref().map_or(0, Detail::level)
+    }
+
+    /// Strands the solver steps now: those of the level of detail, and those still fading
+    /// out of it.
+    pub fn simulated_strands(&self) -> usize {
+        self.detail.as_ref().map_or(self.strand_count(), |d| d.roles.iter().filter(|r| r.stepped()).count())
+    }
+
+    /// Whether the solver steps strand `strand` now (at its level of detail, or fading out
+    /// of it); false for a strand placed from its neighbours, or out of range.
+    pub fn is_simulated(&self, strand: usize) -> bool {
+        strand < self.strand_count() && self.detail.as_ref().is_none_or(|d| d.roles[strand].stepped())
+    }
+
+    /// After the chunks of a step: places the strands the level of detail does not
+    /// simulate from their simulated neighbours, and fades those leaving the simulation
+    /// toward that. [`Self::step`] calls it; a caller stepping [`Self::chunks_mut`] itself
+    /// calls it once all chunks are done. Does nothing at level 0 with no strand fading.
+    pub fn follow_leaders(&mut self, input: &StepInput) {
+        let Some(detail) = self.detail.as_mut() else { return };
+        let Some(dt) = step::step_length(input) else { return };
+        let n = self.rest.particles_per_strand;
+        detail.follow(
+            n,
+            &self.rest.positions,
+            &self.rest.lengths,
+            &input.head_to,
+            dt,
+            &mut self.positions,
+            &mut self.velocities,
+        );
+    }
+
+    /// Head-local rest roots, one per strand.
+    fn roots(&self) -> Vec<Vec3> {
+        self.rest.positions.iter().step_by(self.rest.particles_per_strand).copied().collect()
     }
 
     /// Largest segment length divided by its rest length, minus one (0 = no stretch).
@@ -355,6 +441,8 @@ impl Strands {
 pub struct StrandChunk<'a> {
     first_strand: usize,
     rest: &'a RestShape,
+    /// Per strand of the chunk, its role at the level of detail; `None`: all simulated.
+    roles: Option<&'a [Role]>,
     state: ChunkState<'a>,
 }
 
@@ -376,6 +464,6 @@ impl StrandChunk<'_> {
 
     /// Advances the strands of this chunk by one step.
     pub fn step(&mut self, input: &StepInput) -> StepReport {
-        step::step_chunk(self.first_strand, self.rest, &mut self.state, input)
+        step::step_chunk(self.first_strand, self.rest, self.roles, &mut self.state, input)
     }
 }

@@ -14,6 +14,7 @@
 //! by one. A strand whose root jumped more than `teleport_distance` is reset to the rest
 //! pose instead; a strand that somehow produced a non-finite value is reset too.
 
+use super::detail::Role;
 use super::lanes::{LANES, M3, Mask, PoseLanes, V3, Wide};
 use super::params::{CollisionResponse, LengthMode, SimParams, stiffness_per_application};
 use super::wind::wind_at;
@@ -89,13 +90,16 @@ struct Constants {
     ftl_velocity: f32,
 }
 
+/// The step `input` asks for, clamped to [`MAX_STEP`]; `None` when no step is taken (too
+/// short, not finite, or the head's pose is not valid).
+pub(super) fn step_length(input: &StepInput) -> Option<f32> {
+    (input.dt >= MIN_STEP && input.dt.is_finite() && input.head_to.is_valid()).then(|| input.dt.min(MAX_STEP))
+}
+
 impl Constants {
     fn new(input: &StepInput, n: usize) -> Option<Self> {
         let p = input.params;
-        if !(input.dt >= MIN_STEP && input.dt.is_finite() && input.head_to.is_valid()) {
-            return None;
-        }
-        let dt = input.dt.min(MAX_STEP);
+        let dt = step_length(input)?;
         let from = if input.head_from.is_valid() { input.head_from } else { input.head_to };
         let substeps = p.substeps.max(1);
         let h = dt / substeps as f32;
@@ -286,6 +290,7 @@ impl GroupState {
 pub(super) fn step_chunk(
     first_strand: usize,
     rest: &RestShape,
+    roles: Option<&[Role]>,
     state: &mut ChunkState,
     input: &StepInput,
 ) -> StepReport {
@@ -305,9 +310,12 @@ pub(super) fn step_chunk(
     let mut lanes = 0;
     let strands = state.positions.len() / n;
     for k in 0..strands {
+        let following = roles.is_some_and(|r| !r[k].stepped());
         let rest_x = &rest.positions[(first_strand + k) * n..][..n];
         let root_jump = (head_to.transform_point(rest_x[0]) - state.positions[k * n]).length();
-        if root_jump.is_nan() || root_jump > p.teleport_distance {
+        if following {
+            // Placed from its leaders after the step (`Strands::follow_leaders`).
+        } else if root_jump.is_nan() || root_jump > p.teleport_distance {
             reset_strand(state, k, n, rest_x, &head_to);
             report.teleport_resets += 1;
         } else {
@@ -917,7 +925,8 @@ fn keep_segments_outside(
             // segment through.
             let placed = poses.now_one.local_point(g.positions[j].lane(l));
             let outside = |x| {
-                contact_at(x, p, poses, input, &mut ContactHint::NONE).is_none_or(|c| c.depth <= p.collision_thickness)
+                let mut hint = ContactHint::NONE;
+                contact_at(x, p, poses, input, &mut hint).is_none_or(|c| c.depth <= p.collision_thickness)
             };
             if placed != local_turned && collider.segment_crossing(local_parent, placed).is_some() && outside(turned) {
                 set_final(g, p, l, j, turned);

@@ -1,0 +1,403 @@
+//! Levels of detail: a far groom simulates a nested fraction of its strands and carries the
+//! rest along with their simulated neighbours.
+//!
+//! Level `L` simulates the first `⌈N / 2^L⌉` strands of a fixed order over the roots
+//! (farthest-point: each next strand is the one farthest from those before it), so every
+//! level's simulated strands are spread evenly over the scalp and include the next
+//! level's. A strand that is not simulated *follows*: it keeps its own rest shape under the
+//! head's pose, displaced as its three nearest simulated neighbours (by rest root) are
+//! displaced from theirs, weighted by inverse distance: `x = pose(rest) + Σ wₖ (xₖ −
+//! pose(restₖ))`. That is how a drawn child follows its guide, so a follower, like a child,
+//! is not collided on its own.
+//!
+//! Switching never pops. A strand that stops being simulated keeps being simulated while it
+//! fades, for a number of steps, each step closing an equal share of what is left of the
+//! gap to where it would follow. A strand that starts being simulated starts from where it
+//! was drawn, with the velocity it was drawn with.
+
+use crate::math::{Pose, Vec3};
+
+/// How many simulated neighbours a follower takes its motion from.
+const LEADERS: usize = 3;
+
+/// Deepest level of detail: 1/64 of the strands (at least one).
+pub const MAX_DETAIL_LEVEL: u32 = 6;
+
+/// Strands simulated at `level` out of `strands`: `⌈strands / 2^level⌉`.
+pub fn simulated_at_level(strands: usize, level: u32) -> usize {
+    strands.div_ceil(1 << level.min(MAX_DETAIL_LEVEL)).min(strands)
+}
+
+/// The level of detail for a head drawn `height` pixels tall, when `full_detail_height`
+/// pixels and more get every strand: one level per halving of the height, at most
+/// [`MAX_DETAIL_LEVEL`]. A groom switching between levels should hold its level until the
+/// height moves past the boundary by some margin (see [`level_with_hysteresis`]).
+pub fn level_for_height(height: f32, full_detail_height: f32) -> u32 {
+    if height.is_nan() || height <= 0.0 {
+        return MAX_DETAIL_LEVEL;
+    }
+    if full_detail_height.is_nan() || full_detail_height <= 0.0 {
+        return 0;
+    }
+    let halvings = (full_detail_height / height).log2().floor();
+    halvings.clamp(0.0, MAX_DETAIL_LEVEL as f32) as u32
+}
+
+/// [`level_for_height`], but a groom at `current` keeps it while the height is within
+/// `margin` (a fraction, 0.1 = 10 %) of that level's band: a head hovering at a boundary
+/// does not switch back and forth.
+pub fn level_with_hysteresis(height: f32, full_detail_height: f32, current: u32, margin: f32) -> u32 {
+    let wanted = level_for_height(height, full_detail_height);
+    if wanted == current || margin.is_nan() || margin <= 0.0 {
+        return wanted;
+    }
+    // The band of `current`: heights in (full / 2^(current+1), full / 2^current].
+    let top = full_detail_height / (1u32 << current) as f32;
+    let bottom = top * 0.5;
+    let inside = (current == 0 || height <= top * (1.0 + margin))
+        && (current == MAX_DETAIL_LEVEL || height > bottom * (1.0 - margin));
+    if inside { current } else { wanted }
+}
+
+/// What a strand does at the current level.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Role {
+    /// Stepped by the solver.
+    Simulated,
+    /// Leaving the simulation: stepped by the solver once more (while `left == total`),
+    /// then placed as a follower offset by where the solver left it, the offset shrinking
+    /// by `1 / total` of itself each step; `left` steps of that remain.
+    Fading {
+        /// Steps of the fade left.
+        left: u32,
+        /// Steps the fade takes.
+        total: u32,
+    },
+    /// Placed from its leaders after each step.
+    Following,
+    /// Joining the simulation: stepped by the solver, then drawn back toward where it would
+    /// follow by `(left - 1) / total` of the way, a pull that lets go over `total` steps.
+    Rising {
+        /// Steps of the rise left.
+        left: u32,
+        /// Steps the rise takes.
+        total: u32,
+    },
+}
+
+impl Role {
+    /// Whether the solver steps the strand this step.
+    pub(crate) fn stepped(self) -> bool {
+        match self {
+            Role::Simulated | Role::Rising { .. } => true,
+            Role::Fading { left, total } => left == total,
+            Role::Following => false,
+        }
+    }
+}
+
+/// Per strand, whom it follows: up to [`LEADERS`] simulated strands and their weights.
+type Leaders = [(u32, f32); LEADERS];
+
+/// The levels of detail of one groom: the nested order, the current level, each strand's
+/// role and leaders.
+#[derive(Clone, Debug)]
+pub(crate) struct Detail {
+    /// Strands in farthest-point order: level `L` simulates `order[..simulated_at_level(L)]`.
+    order: Vec<u32>,
+    /// Per strand, its position in `order`.
+    rank: Vec<u32>,
+    level: u32,
+    pub(crate) roles: Vec<Role>,
+    /// Per strand, its leaders at the current level (unused for simulated strands).
+    leaders: Vec<Leaders>,
+    /// Per particle of a fading strand, head-local: how far from where it would follow the
+    /// solver left it (empty until a strand fades).
+    offsets: Vec<Vec3>,
+    /// Per particle of a rising strand: where it was at the start of the step.
+    starts: Vec<Vec3>,
+    /// Per particle, scratch: each leader's displacement from its rest under the pose.
+    displacement: Vec<Vec3>,
+}
+
+impl Detail {
+    /// The order over `roots` (head-local rest roots), every strand simulated.
+    pub(crate) fn new(roots: &[Vec3]) -> Self {
+        let order = farthest_point_order(roots);
+        let mut rank = vec![0; roots.len()];
+        for (r, &s) in order.iter().enumerate() {
+            rank[s as usize] = r as u32;
+        }
+        Detail {
+            order,
+            rank,
+            level: 0,
+            roles: vec![Role::Simulated; roots.len()],
+            leaders: Vec::new(),
+            offsets: Vec::new(),
+            starts: Vec::new(),
+            displacement: Vec::new(),
+        }
+    }
+
+    pub(crate) fn level(&self) -> u32 {
+        self.level
+    }
+
+    /// Goes to `level`: strands that stop being simulated fade out over `fade_steps`
+    /// steps, strands that start being simulated rise into it over as many (0: both at
+    /// once, which pops), and followers get the new level's leaders. `positions` (world,
+    /// strand-major) are where the strands are drawn now. Returns the strands that start
+    /// being simulated, for the caller to clear their solver memory.
+    pub(crate) fn set_level(&mut self, level: u32, fade_steps: u32, roots: &[Vec3], positions: &[Vec3]) -> Vec<usize> {
+        let level = level.min(MAX_DETAIL_LEVEL);
+        let simulated = simulated_at_level(self.order.len(), level) as u32;
+        let n = positions.len() / self.order.len().max(1);
+        let mut started = Vec::new();
+        for (s, role) in self.roles.iter_mut().enumerate() {
+            let keep = self.rank[s] < simulated;
+            let fade = Role::Fading { left: fade_steps, total: fade_steps };
+            *role = match (*role, keep) {
+                (Role::Simulated | Role::Rising { .. }, true) => *role,
+                (Role::Fading { left, total }, true) if left == total => Role::Simulated,
+                (_, true) => {
+                    started.push(s);
+                    if fade_steps == 0 {
+                        Role::Simulated
+                    } else {
+                        if self.starts.len() != positions.len() {
+                            self.starts.resize(positions.len(), Vec3::ZERO);
+                        }
+                        self.starts[s * n..(s + 1) * n].copy_from_slice(&positions[s * n..(s + 1) * n]);
+                        Role::Rising { left: fade_steps, total: fade_steps }
+                    }
+                }
+                (_, false) if fade_steps == 0 => Role::Following,
+                (Role::Simulated | Role::Rising { .. }, false) => fade,
+                (Role::Fading { .. } | Role::Following, false) => *role,
+            };
+        }
+        self.level = level;
+        let leaders = &self.order[..simulated as usize];
+        let before = std::mem::take(&mut self.leaders);
+        self.leaders = roots
+            .iter()
+            .enumerate()
+            .map(|(s, &root)| match self.roles[s] {
+                Role::Simulated => [(0, 0.0); LEADERS],
+                // A rising strand is pulled toward where it would have followed: its
+                // leaders stay (simulated at every finer level too).
+                Role::Rising { .. } => before.get(s).copied().unwrap_or_else(|| nearest(root, leaders, roots)),
+                _ => nearest(root, leaders, roots),
+            })
+            .collect();
+        started
+    }
+
+    /// After a step: places the strands the solver did not step, and pulls rising ones.
+    /// A follower goes where its leaders' displacement puts its rest shape, its segments
+    /// then brought to their rest lengths from the root down; a fading strand goes there
+    /// plus what is left of its offset; a rising strand, stepped, is drawn back toward
+    /// there by what is left of its pull. Each gets the velocity of where it went from the
+    /// step's start, so that it can be simulated (again) moving as it was drawn.
+    /// `positions` and `velocities` are world-space and strand-major, `rest` and `lengths`
+    /// the rest shape's, `pose` the head's at the end of the step.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn follow(
+        &mut self,
+        n: usize,
+        rest: &[Vec3],
+        lengths: &[f32],
+        pose: &Pose,
+        dt: f32,
+        positions: &mut [Vec3],
+        velocities: &mut [Vec3],
+    ) {
+        if self.roles.iter().all(|&r| r == Role::Simulated) {
+            return;
+        }
+        // Each leader's displacement from its rest under the pose, once.
+        let simulated = simulated_at_level(self.order.len(), self.level);
+        self.displacement.resize(positions.len(), Vec3::ZERO);
+        for &s in &self.order[..simulated] {
+            for i in s as usize * n..(s as usize + 1) * n {
+                self.displacement[i] = positions[i] - pose.transform_point(rest[i]);
+            }
+        }
+        let inverse_dt = if dt > 0.0 { dt.recip() } else { 0.0 };
+        // Per particle of the strand at hand: where it is wanted (before its segment gets
+        // its rest length), and where the step started from.
+        let (mut wanted, mut start) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
+        for s in 0..self.roles.len() {
+            let strand = s * n..(s + 1) * n;
+            let target = |j: usize| {
+                let moved: Vec3 = self.leaders[s].iter().map(|&(k, w)| self.displacement[k as usize * n + j] * w).sum();
+                pose.transform_point(rest[s * n + j]) + if j == 0 { Vec3::ZERO } else { moved }
+            };
+            let (x, offsets) = (&positions[strand.clone()], &self.offsets);
+            let next = match self.roles[s] {
+                Role::Simulated => continue,
+                Role::Fading { left, total } if left == total => {
+                    // Just stepped: from here on, the offset from the target shrinks.
+                    self.offsets.resize(positions.len(), Vec3::ZERO);
+                    for j in 0..n {
+                        self.offsets[s * n + j] = pose.rotation.inverse() * (positions[s * n + j] - target(j));
+                    }
+                    self.roles[s] = if total > 1 { Role::Fading { left: total - 1, total } } else { Role::Following };
+                    continue;
+                }
+                Role::Fading { left, total } => {
+                    let share = left as f32 / total as f32;
+                    for j in 0..n {
+                        wanted[j] = target(j) + pose.rotation * offsets[s * n + j] * share;
+                    }
+                    start.copy_from_slice(x);
+                    if left > 1 { Role::Fading { left: left - 1, total } } else { Role::Following }
+                }
+                Role::Following => {
+                    for (j, w) in wanted.iter_mut().enumerate() {
+                        *w = target(j);
+                    }
+                    start.copy_from_slice(x);
+                    Role::Following
+                }
+                Role::Rising { left, total } => {
+                    let pull = (left - 1) as f32 / total as f32;
+                    for j in 0..n {
+                        wanted[j] = x[j] + (target(j) - x[j]) * pull;
+                    }
+                    start.copy_from_slice(&self.starts[strand.clone()]);
+                    if left > 1 { Role::Rising { left: left - 1, total } } else { Role::Simulated }
+                }
+            };
+            self.roles[s] = next;
+            let mut parent = pose.transform_point(rest[s * n]);
+            for j in 0..n {
+                let i = s * n + j;
+                if j > 0 {
+                    parent += (wanted[j] - parent).normalize_or(Vec3::NEG_Y) * lengths[i];
+                }
+                velocities[i] = (parent - start[j]) * inverse_dt;
+                positions[i] = parent;
+            }
+            if matches!(next, Role::Rising { .. }) {
+                self.starts[strand.clone()].copy_from_slice(&positions[strand]);
+            }
+        }
+    }
+}
+
+/// The strands in farthest-point order over their roots: the first is the one nearest the
+/// roots' centroid, each next the one farthest from all before it (ties to the lower
+/// index). O(N²), once per groom.
+fn farthest_point_order(roots: &[Vec3]) -> Vec<u32> {
+    let count = roots.len();
+    if count == 0 {
+        return Vec::new();
+    }
+    let centroid = roots.iter().copied().sum::<Vec3>() / count as f32;
+    let first =
+        (0..count).min_by(|&a, &b| roots[a].distance_squared(centroid).total_cmp(&roots[b].distance_squared(centroid)));
+    let mut order = Vec::with_capacity(count);
+    let mut nearest_chosen = vec![f32::INFINITY; count];
+    let mut next = first.unwrap_or(0);
+    for _ in 0..count {
+        order.push(next as u32);
+        let chosen = roots[next];
+        nearest_chosen[next] = f32::NEG_INFINITY;
+        let mut farthest = (f32::NEG_INFINITY, 0);
+        for (s, d) in nearest_chosen.iter_mut().enumerate() {
+            if *d == f32::NEG_INFINITY {
+                continue;
+            }
+            *d = d.min(roots[s].distance_squared(chosen));
+            if *d > farthest.0 {
+                farthest = (*d, s);
+            }
+        }
+        next = farthest.1;
+    }
+    order
+}
+
+/// The [`LEADERS`] strands of `leaders` whose roots are nearest `root`, weighted by inverse
+/// distance (summing to 1); fewer leaders than that repeat the nearest with weight 0.
+fn nearest(root: Vec3, leaders: &[u32], roots: &[Vec3]) -> Leaders {
+    let mut best = [(u32::MAX, f32::INFINITY); LEADERS];
+    for &k in leaders {
+        let d = roots[k as usize].distance(root);
+        if d < best[LEADERS - 1].1 {
+            best[LEADERS - 1] = (k, d);
+            best.sort_by(|a, b| a.1.total_cmp(&b.1));
+        }
+    }
+    // Inverse distance, kept finite for a leader on the same root.
+    let weights = best.map(|(k, d)| if k == u32::MAX { 0.0 } else { 1.0 / (d + 1e-4) });
+    let total: f32 = weights.iter().sum();
+    let nearest = best[0].0;
+    std::array::from_fn(|i| {
+        let (k, _) = best[i];
+        if k == u32::MAX { (nearest, 0.0) } else { (k, weights[i] / total) }
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn levels_halve_the_simulated_strands_and_nest() {
+        assert_eq!(simulated_at_level(2048, 0), 2048);
+        assert_eq!(simulated_at_level(2048, 3), 256);
+        assert_eq!(simulated_at_level(5, 2), 2);
+        assert_eq!(simulated_at_level(5, 9), 1);
+        let roots: Vec<Vec3> = (0..200).map(|i| Vec3::new((i % 20) as f32, (i / 20) as f32, 0.0)).collect();
+        let order = farthest_point_order(&roots);
+        let mut sorted = order.clone();
+        sorted.sort();
+        assert_eq!(sorted, (0..200).collect::<Vec<u32>>(), "every strand once");
+        // The first 8 of a 20 × 10 grid are spread out: no two within 4 cells.
+        let first: Vec<Vec3> = order[..8].iter().map(|&s| roots[s as usize]).collect();
+        for (a, p) in first.iter().enumerate() {
+            for q in &first[a + 1..] {
+                assert!(p.distance(*q) >= 4.0, "{p} and {q} are both among the first 8");
+            }
+        }
+    }
+
+    #[test]
+    fn the_level_follows_the_height_with_hysteresis() {
+        assert_eq!(level_for_height(400.0, 300.0), 0);
+        assert_eq!(level_for_height(150.0, 300.0), 1);
+        assert_eq!(level_for_height(149.0, 300.0), 1);
+        assert_eq!(level_for_height(74.0, 300.0), 2);
+        assert_eq!(level_for_height(1.0, 300.0), MAX_DETAIL_LEVEL);
+        assert_eq!(level_for_height(0.0, 300.0), MAX_DETAIL_LEVEL);
+        assert_eq!(level_for_height(f32::NAN, 300.0), MAX_DETAIL_LEVEL);
+        // Level 1 is 75–150 px: with a 10 % margin a head at 160 px stays, at 170 px goes to
+        // 0; at 70 px stays, at 60 px goes to 2.
+        assert_eq!(level_with_hysteresis(160.0, 300.0, 1, 0.1), 1);
+        assert_eq!(level_with_hysteresis(170.0, 300.0, 1, 0.1), 0);
+        assert_eq!(level_with_hysteresis(70.0, 300.0, 1, 0.1), 1);
+        assert_eq!(level_with_hysteresis(60.0, 300.0, 1, 0.1), 2);
+        assert_eq!(level_with_hysteresis(60.0, 300.0, 1, 0.0), 2);
+    }
+
+    #[test]
+    fn a_follower_takes_its_neighbours_weighted_motion() {
+        let leaders = nearest(
+            Vec3::ZERO,
+            &[0, 1, 2, 3],
+            &[Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 2.0, 0.0), Vec3::new(0.0, 0.0, 4.0), Vec3::new(9.0, 0.0, 0.0)],
+        );
+        let ids: Vec<u32> = leaders.iter().map(|l| l.0).collect();
+        assert_eq!(ids, [0, 1, 2]);
+        let total: f32 = leaders.iter().map(|l| l.1).sum();
+        assert!((total - 1.0).abs() < 1e-6);
+        assert!(leaders[0].1 > leaders[1].1 && leaders[1].1 > leaders[2].1);
+        // One leader only: it carries all the weight.
+        let one = nearest(Vec3::ZERO, &[3], &[Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::X]);
+        assert_eq!(one[0], (3, 1.0));
+        assert_eq!(one[1].1 + one[2].1, 0.0);
+    }
+}
