@@ -4,9 +4,12 @@
 //! ```text
 //! cargo run --release -p hair_sim --example bench -- --guides 2048 --particles 16 --steps 600
 //! # also: --threads T, --no-collision, --no-segment-collision
+//! # levels of detail: 16 heads at 1–20 m against one near head, on one thread
+//! cargo run --release -p hair_sim --example bench -- --lod
 //! ```
 
 use hair_sim::prelude::*;
+use hair_sim::solver::FULL_DETAIL_HEIGHT;
 use hair_sim::solver::{STRANDS_PER_GROUP, StrandChunk};
 use std::sync::atomic::{AtomicU32, AtomicUsize, Ordering};
 use std::time::Instant;
@@ -86,6 +89,9 @@ fn main() {
     let flag = |name: &str| std::env::args().any(|a| a == name);
     let params =
         SimParams { collision: !flag("--no-collision"), segment_collision: !flag("--no-segment-collision"), ..params };
+    if flag("--lod") {
+        return detail_bench(&head, &collider, &rest, &params, guides, particles, steps);
+    }
     let mut strands = Strands::new(rest, head_pose(0.0));
 
     let chunk = strands.strand_count().div_ceil(threads * 4).next_multiple_of(STRANDS_PER_GROUP);
@@ -175,5 +181,93 @@ fn main() {
         max_penetration.max(0.0),
         teleport_resets.into_inner(),
         nan_resets.into_inner()
+    );
+}
+
+/// Vertical field of view of the camera the `--lod` heads are seen through: Bevy's default.
+const FIELD_OF_VIEW: f32 = std::f32::consts::FRAC_PI_4;
+/// Its viewport's height, pixels.
+const VIEWPORT_HEIGHT: f32 = 1080.0;
+
+/// `--lod`: 16 heads with the same groom at 1 to 20 m from the camera, each at the level of
+/// detail its height on screen gives, every head moving (its own phase of the keyframes),
+/// against one head at full detail; one thread, so the totals compare work. Prints one
+/// JSON line: both medians, their ratio, the levels and the deepest particle below the
+/// head's surface (followers are placed, not collided).
+fn detail_bench(
+    head: &HeadMesh,
+    collider: &HeadCollider,
+    rest: &RestShape,
+    params: &SimParams,
+    guides: usize,
+    particles: usize,
+    steps: usize,
+) {
+    let (low, high) =
+        head.positions.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(l, h), p| (l.min(p.y), h.max(p.y)));
+    let head_height = high - low;
+    let pixels_at = |distance: f32| head_height / (2.0 * distance * (FIELD_OF_VIEW * 0.5).tan()) * VIEWPORT_HEIGHT;
+    let distances: Vec<f32> = (0..16).map(|i| 1.0 + 19.0 * i as f32 / 15.0).collect();
+    let levels: Vec<u32> =
+        distances.iter().map(|&d| hair_sim::solver::level_for_height(pixels_at(d), FULL_DETAIL_HEIGHT)).collect();
+    let dt = 1.0 / 60.0;
+    let input = |k: usize, phase: f32| {
+        let time = k as f32 * dt + phase;
+        StepInput {
+            dt,
+            time,
+            head_from: head_pose(time),
+            head_to: head_pose(time + dt),
+            collider: Some(collider),
+            extra_colliders: &[],
+            surface_patch: None,
+            params,
+        }
+    };
+    let phase = |h: usize| h as f32 * 0.37;
+    let mut heads: Vec<Strands> = levels
+        .iter()
+        .enumerate()
+        .map(|(h, &level)| {
+            let mut strands = Strands::new(rest.clone(), head_pose(phase(h)));
+            strands.set_detail_level(level, 0);
+            strands
+        })
+        .collect();
+    let mut near = Strands::new(rest.clone(), head_pose(0.0));
+    // Alternate the two, step by step, so both see the same machine.
+    let (mut near_times, mut crowd_times) = (Vec::with_capacity(steps), Vec::with_capacity(steps));
+    for k in 0..steps {
+        let start = Instant::now();
+        near.step(&input(k, 0.0));
+        near_times.push(start.elapsed().as_secs_f64() * 1e3);
+        let start = Instant::now();
+        for (h, strands) in heads.iter_mut().enumerate() {
+            strands.step(&input(k, phase(h)));
+        }
+        crowd_times.push(start.elapsed().as_secs_f64() * 1e3);
+    }
+    let median = |mut t: Vec<f64>| {
+        t.sort_by(f64::total_cmp);
+        t[t.len() / 2]
+    };
+    let (near_ms, crowd_ms) = (median(near_times), median(crowd_times));
+    let deepest = heads
+        .iter()
+        .enumerate()
+        .flat_map(|(h, strands)| {
+            let pose = head_pose(steps as f32 * dt + phase(h));
+            strands.positions().iter().map(move |&p| -collider.signed_distance(pose.inverse_transform_point(p)))
+        })
+        .fold(0.0f32, f32::max);
+    let simulated: Vec<usize> = heads.iter().map(Strands::simulated_strands).collect();
+    println!(
+        "{{\"lod\":true,\"guides\":{guides},\"particles_per_strand\":{particles},\"steps\":{steps},\"threads\":1,\
+         \"near_head_ms\":{near_ms:.4},\"sixteen_heads_ms\":{crowd_ms:.4},\"ratio\":{:.3},\
+         \"distances_m\":{distances:?},\"heights_px\":{:?},\"levels\":{levels:?},\"simulated\":{simulated:?},\
+         \"max_penetration_m\":{:.6}}}",
+        crowd_ms / near_ms,
+        distances.iter().map(|&d| pixels_at(d).round()).collect::<Vec<_>>(),
+        deepest.max(0.0)
     );
 }

@@ -16,12 +16,18 @@
 //! was drawn, with the velocity it was drawn with.
 
 use crate::math::{Pose, Vec3};
+use glam::{Mat3A, Vec3A};
 
 /// How many simulated neighbours a follower takes its motion from.
 const LEADERS: usize = 3;
 
-/// Deepest level of detail: 1/64 of the strands (at least one).
-pub const MAX_DETAIL_LEVEL: u32 = 6;
+/// Deepest level of detail: 1/128 of the strands (at least one); 16 of 2,048, one SIMD
+/// group, for a head some 30 pixels tall.
+pub const MAX_DETAIL_LEVEL: u32 = 7;
+
+/// A head drawn this many pixels tall or taller gets every strand by default
+/// ([`level_for_height`]): about a head filling a third of a 1080-pixel-high view.
+pub const FULL_DETAIL_HEIGHT: f32 = 360.0;
 
 /// Strands simulated at `level` out of `strands`: `⌈strands / 2^level⌉`.
 pub fn simulated_at_level(strands: usize, level: u32) -> usize {
@@ -29,7 +35,8 @@ pub fn simulated_at_level(strands: usize, level: u32) -> usize {
 }
 
 /// The level of detail for a head drawn `height` pixels tall, when `full_detail_height`
-/// pixels and more get every strand: one level per halving of the height, at most
+/// pixels and more get every strand. The strands simulated follow the head's area on
+/// screen: one level (half the strands) per factor √2 the height falls, at most
 /// [`MAX_DETAIL_LEVEL`]. A groom switching between levels should hold its level until the
 /// height moves past the boundary by some margin (see [`level_with_hysteresis`]).
 pub fn level_for_height(height: f32, full_detail_height: f32) -> u32 {
@@ -39,8 +46,14 @@ pub fn level_for_height(height: f32, full_detail_height: f32) -> u32 {
     if full_detail_height.is_nan() || full_detail_height <= 0.0 {
         return 0;
     }
-    let halvings = (full_detail_height / height).log2().floor();
-    halvings.clamp(0.0, MAX_DETAIL_LEVEL as f32) as u32
+    let halvings_of_area = (2.0 * (full_detail_height / height).log2()).floor();
+    halvings_of_area.clamp(0.0, MAX_DETAIL_LEVEL as f32) as u32
+}
+
+/// The tallest a head may be drawn at `level` ([`level_for_height`]'s bands run from
+/// half as many pixels of area, exclusive, to this, inclusive).
+fn band_top(level: u32, full_detail_height: f32) -> f32 {
+    full_detail_height * 0.5f32.powf(level as f32 * 0.5)
 }
 
 /// [`level_for_height`], but a groom at `current` keeps it while the height is within
@@ -51,11 +64,9 @@ pub fn level_with_hysteresis(height: f32, full_detail_height: f32, current: u32,
     if wanted == current || margin.is_nan() || margin <= 0.0 {
         return wanted;
     }
-    // The band of `current`: heights in (full / 2^(current+1), full / 2^current].
-    let top = full_detail_height / (1u32 << current) as f32;
-    let bottom = top * 0.5;
+    let (top, bottom) = (band_top(current, full_detail_height), band_top(current + 1, full_detail_height));
     let inside = (current == 0 || height <= top * (1.0 + margin))
-        && (current == MAX_DETAIL_LEVEL || height > bottom * (1.0 - margin));
+        && (current >= MAX_DETAIL_LEVEL || height > bottom * (1.0 - margin));
     if inside { current } else { wanted }
 }
 
@@ -117,7 +128,7 @@ pub(crate) struct Detail {
     /// Per particle of a rising strand: where it was at the start of the step.
     starts: Vec<Vec3>,
     /// Per particle, scratch: each leader's displacement from its rest under the pose.
-    displacement: Vec<Vec3>,
+    displacement: Vec<Vec3A>,
 }
 
 impl Detail {
@@ -195,10 +206,10 @@ impl Detail {
     }
 
     /// After a step: places the strands the solver did not step, and pulls rising ones.
-    /// A follower goes where its leaders' displacement puts its rest shape, its segments
-    /// then brought to their rest lengths from the root down; a fading strand goes there
-    /// plus what is left of its offset; a rising strand, stepped, is drawn back toward
-    /// there by what is left of its pull. Each gets the velocity of where it went from the
+    /// A follower goes where its leaders' displacement puts its rest shape; a fading
+    /// strand goes there plus what is left of its offset, and a rising strand, stepped, is
+    /// drawn back toward there by what is left of its pull, both with their segments
+    /// brought to their rest lengths from the root down. Each gets the velocity of where it went from the
     /// step's start, so that it can be simulated (again) moving as it was drawn.
     /// `positions` and `velocities` are world-space and strand-major, `rest` and `lengths`
     /// the rest shape's, `pose` the head's at the end of the step.
@@ -218,21 +229,23 @@ impl Detail {
         }
         // Each leader's displacement from its rest under the pose, once.
         let simulated = simulated_at_level(self.order.len(), self.level);
-        self.displacement.resize(positions.len(), Vec3::ZERO);
+        self.displacement.resize(positions.len(), Vec3A::ZERO);
         for &s in &self.order[..simulated] {
             for i in s as usize * n..(s as usize + 1) * n {
-                self.displacement[i] = positions[i] - pose.transform_point(rest[i]);
+                self.displacement[i] = (positions[i] - pose.transform_point(rest[i])).into();
             }
         }
         let inverse_dt = if dt > 0.0 { dt.recip() } else { 0.0 };
+        let (rotation, translation) = (Mat3A::from_quat(pose.rotation), Vec3A::from(pose.translation));
         // Per particle of the strand at hand: where it is wanted (before its segment gets
         // its rest length), and where the step started from.
         let (mut wanted, mut start) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
         for s in 0..self.roles.len() {
             let strand = s * n..(s + 1) * n;
             let target = |j: usize| {
-                let moved: Vec3 = self.leaders[s].iter().map(|&(k, w)| self.displacement[k as usize * n + j] * w).sum();
-                pose.transform_point(rest[s * n + j]) + if j == 0 { Vec3::ZERO } else { moved }
+                let moved: Vec3A =
+                    self.leaders[s].iter().map(|&(k, w)| self.displacement[k as usize * n + j] * w).sum();
+                pose.transform_point(rest[s * n + j]) + if j == 0 { Vec3::ZERO } else { moved.into() }
             };
             let (x, offsets) = (&positions[strand.clone()], &self.offsets);
             let next = match self.roles[s] {
@@ -255,11 +268,19 @@ impl Detail {
                     if left > 1 { Role::Fading { left: left - 1, total } } else { Role::Following }
                 }
                 Role::Following => {
-                    for (j, w) in wanted.iter_mut().enumerate() {
-                        *w = target(j);
+                    // Where the leaders put it, lengths as they come: kept exactly, they
+                    // would chain each particle's square root onto its parent's, the bulk
+                    // of the cost of a far head (a rising strand gets them back).
+                    let moved = self.leaders[s].map(|(k, w)| (&self.displacement[k as usize * n..][..n], w));
+                    let particles = positions[strand.clone()].iter_mut().zip(&mut velocities[strand.clone()]);
+                    for (j, ((x, v), &r)) in particles.zip(&rest[strand]).enumerate() {
+                        let [(a, wa), (b, wb), (c, wc)] = moved;
+                        let displaced = if j == 0 { Vec3A::ZERO } else { a[j] * wa + b[j] * wb + c[j] * wc };
+                        let placed = rotation * Vec3A::from(r) + translation + displaced;
+                        *v = Vec3::from(placed - Vec3A::from(*x)) * inverse_dt;
+                        *x = placed.into();
                     }
-                    start.copy_from_slice(x);
-                    Role::Following
+                    continue;
                 }
                 Role::Rising { left, total } => {
                     let pull = (left - 1) as f32 / total as f32;
@@ -367,20 +388,24 @@ mod tests {
 
     #[test]
     fn the_level_follows_the_height_with_hysteresis() {
+        // Two levels per halving of the height: half the strands per halving of the area.
         assert_eq!(level_for_height(400.0, 300.0), 0);
-        assert_eq!(level_for_height(150.0, 300.0), 1);
-        assert_eq!(level_for_height(149.0, 300.0), 1);
-        assert_eq!(level_for_height(74.0, 300.0), 2);
+        assert_eq!(level_for_height(300.0, 300.0), 0);
+        assert_eq!(level_for_height(212.0, 300.0), 1);
+        assert_eq!(level_for_height(150.0, 300.0), 2);
+        assert_eq!(level_for_height(149.0, 300.0), 2);
+        assert_eq!(level_for_height(74.0, 300.0), 4);
         assert_eq!(level_for_height(1.0, 300.0), MAX_DETAIL_LEVEL);
         assert_eq!(level_for_height(0.0, 300.0), MAX_DETAIL_LEVEL);
         assert_eq!(level_for_height(f32::NAN, 300.0), MAX_DETAIL_LEVEL);
-        // Level 1 is 75–150 px: with a 10 % margin a head at 160 px stays, at 170 px goes to
-        // 0; at 70 px stays, at 60 px goes to 2.
-        assert_eq!(level_with_hysteresis(160.0, 300.0, 1, 0.1), 1);
-        assert_eq!(level_with_hysteresis(170.0, 300.0, 1, 0.1), 0);
-        assert_eq!(level_with_hysteresis(70.0, 300.0, 1, 0.1), 1);
-        assert_eq!(level_with_hysteresis(60.0, 300.0, 1, 0.1), 2);
-        assert_eq!(level_with_hysteresis(60.0, 300.0, 1, 0.0), 2);
+        assert_eq!(level_for_height(100.0, f32::NAN), 0);
+        // Level 2 is 106–150 px: with a 10 % margin a head at 160 px stays, at 170 px goes
+        // to 1; at 100 px stays, at 90 px goes to 3.
+        assert_eq!(level_with_hysteresis(160.0, 300.0, 2, 0.1), 2);
+        assert_eq!(level_with_hysteresis(170.0, 300.0, 2, 0.1), 1);
+        assert_eq!(level_with_hysteresis(100.0, 300.0, 2, 0.1), 2);
+        assert_eq!(level_with_hysteresis(90.0, 300.0, 2, 0.1), 3);
+        assert_eq!(level_with_hysteresis(100.0, 300.0, 2, 0.0), 3);
     }
 
     #[test]

@@ -11,7 +11,7 @@ mod params;
 mod step;
 
 use detail::{Detail, Role};
-pub use detail::{MAX_DETAIL_LEVEL, level_for_height, level_with_hysteresis, simulated_at_level};
+pub use detail::{FULL_DETAIL_HEIGHT, MAX_DETAIL_LEVEL, level_for_height, level_with_hysteresis, simulated_at_level};
 
 pub use step::MIN_STEP;
 mod wind;
