@@ -83,6 +83,10 @@ pub enum HairErrorKind {
     /// Settings that had to be replaced to simulate (the groom runs with the replacements).
     #[error("invalid hair settings: {}", settings_list(.0))]
     Settings(Vec<ParamIssue>),
+    /// Fields of the groom's `HairLod` that had to be replaced (the groom runs with the
+    /// replacements).
+    #[error("invalid level-of-detail settings: {0}")]
+    Detail(String),
 }
 
 fn no_scalp(source: &ScalpSource) -> String {

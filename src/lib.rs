@@ -40,6 +40,7 @@ mod clock;
 mod colliders;
 mod convert;
 mod description;
+mod detail;
 mod diagnostics;
 mod groom;
 mod hair_asset;
@@ -56,6 +57,7 @@ pub use colliders::HairCollider;
 pub use description::{
     GroomStatus, HairError, HairErrorKind, HairGroom, RootDistribution, ScalpPredicate, ScalpSource,
 };
+pub use detail::HairLod;
 pub use diagnostics::HairDiagnostics;
 pub use groom::GroomPlugin;
 pub use hair_asset::{HairAsset, HairAssetError, HairAssetLoader};
@@ -81,8 +83,8 @@ use std::time::Duration;
 pub mod prelude {
     pub use crate::{
         ChildParams, CollisionResponse, GroomStatus, Hair, HairCollider, HairDiagnostics, HairError, HairErrorKind,
-        HairGroom, HairPlugin, HairPreset, HairSchedule, HairSettings, HairSettingsOverride, HairState, HairSystems,
-        HairTime, LengthMode, RootDistribution, ScalpPredicate, ScalpSource, SimParams, Spiral, Wind,
+        HairGroom, HairLod, HairPlugin, HairPreset, HairSchedule, HairSettings, HairSettingsOverride, HairState,
+        HairSystems, HairTime, LengthMode, RootDistribution, ScalpPredicate, ScalpSource, SimParams, Spiral, Wind,
     };
     #[cfg(feature = "render")]
     pub use crate::{HairLook, HairRenderStats, HairShading, SpecularLobe};
@@ -123,8 +125,9 @@ impl HairPlugin {
 pub enum HairSystems {
     /// Starts and collects background growth of new or changed grooms.
     Grow,
-    /// Advances the hair clock, records each head's pose of the frame, and runs
-    /// [`HairSchedule`] once per whole hair step.
+    /// Chooses each groom's level of detail ([`HairLod`]), advances the hair clock,
+    /// records each head's pose of the frame, and runs [`HairSchedule`] once per whole
+    /// hair step.
     Step,
     /// Moves the roots to the head pose at the end of the step.
     SyncRoots,
@@ -151,11 +154,17 @@ impl Plugin for HairPlugin {
         });
         app.register_type::<Hair>()
             .register_type::<HairPreset>()
+            .register_type::<HairLod>()
             .configure_sets(
                 PostUpdate,
                 (HairSystems::Grow, HairSystems::Step, HairSystems::Draw).chain().after(TransformSystems::Propagate),
             )
-            .add_systems(PostUpdate, (clock::advance_clock, clock::run_hair_schedule).chain().in_set(HairSystems::Step))
+            .add_systems(
+                PostUpdate,
+                (detail::choose_detail_levels, clock::advance_clock, clock::run_hair_schedule)
+                    .chain()
+                    .in_set(HairSystems::Step),
+            )
             .add_plugins((GroomPlugin, SimulationPlugin));
         for path in HairDiagnostics::ALL {
             app.register_diagnostic(Diagnostic::new(path));

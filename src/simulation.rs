@@ -84,6 +84,10 @@ pub struct HairState {
     pub(crate) skin_patch: Option<SkinPatch>,
     /// Fields of the settings last reported as unusable (names, not values: NaN ≠ NaN).
     reported_issues: Vec<&'static str>,
+    /// What was last reported unusable in the groom's [`HairLod`](crate::HairLod).
+    pub(crate) detail_issue: Option<String>,
+    /// The head's size, metres: the height of its mesh's bounding box (scale baked in).
+    head_size: f32,
 }
 
 impl HairState {
@@ -98,6 +102,8 @@ impl HairState {
         let current: Vec<Vec3> = strands.positions().iter().map(|&p| from_sim(p + origin)).collect();
         let current_local: Vec<Vec3> = to_head_space(strands.positions(), relative_to(pose, origin)).collect();
         let frame = StampedPose { time: 0.0, pose };
+        let (low, high) =
+            head.positions.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(l, h), p| (l.min(p.y), h.max(p.y)));
         HairState {
             strands,
             collider,
@@ -120,6 +126,8 @@ impl HairState {
             root_skin,
             skin_patch,
             reported_issues: Vec::new(),
+            detail_issue: None,
+            head_size: (high - low).max(0.0),
         }
     }
 
@@ -249,6 +257,18 @@ impl HairState {
         } else {
             before.pose
         }
+    }
+
+    /// The head's size the level of detail sees ([`HairLod`](crate::HairLod)): the height
+    /// of its mesh's bounding box, metres, its scale included.
+    pub fn head_size(&self) -> f32 {
+        self.head_size
+    }
+
+    /// Goes to level of detail `level`, strands fading over `fade_steps` hair steps
+    /// ([`Strands::set_detail_level`]).
+    pub(crate) fn set_detail_level(&mut self, level: u32, fade_steps: u32) {
+        self.strands.set_detail_level(level, fade_steps);
     }
 
     /// What the last step did: contacts, resets.
@@ -492,6 +512,8 @@ pub fn step_on_pool(strands: &mut Strands, input: &StepInput, pool: &TaskPool) -
             scope.spawn(async move { chunk.step(input) });
         }
     });
+    // The strands a level of detail leaves out follow the simulated ones.
+    strands.follow_leaders(input);
     let mut report = StepReport::default();
     reports.into_iter().for_each(|r| report.merge(r));
     report

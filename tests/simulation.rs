@@ -356,3 +356,53 @@ fn a_head_far_from_the_world_origin_keeps_its_hair_in_shape() {
         assert!(deepest <= 1e-4, "a particle {} mm inside", deepest * 1e3);
     }
 }
+
+/// Levels of detail through the plugin: with [`HairLod`] on the head, a camera 1 m away
+/// sees the head about 330 pixels tall and every guide is simulated; 20 m away, 16 pixels,
+/// and 2 of the 200 (1/128) are; a fixed level holds whatever the camera sees; unusable
+/// values are replaced and reported, and the hair stays finite with its roots on the head.
+#[test]
+fn a_far_head_simulates_a_fraction_of_its_guides() {
+    let (mut app, head) = grown(groom());
+    app.world_mut().entity_mut(head).insert(HairLod::default());
+    let camera = app.world_mut().spawn((Camera3d::default(), Transform::from_xyz(0.0, 0.0, 1.0))).id();
+    run(&mut app, 3);
+    let size = state(&app, head).head_size();
+    println!("head {size:.3} m tall: {:.0} px at 1 m", size / (2.0 * (std::f32::consts::FRAC_PI_8).tan()) * 1080.0);
+    assert_eq!(state(&app, head).strands().detail_level(), 0);
+    assert_eq!(state(&app, head).strands().simulated_strands(), 200);
+
+    app.world_mut().get_mut::<Transform>(camera).unwrap().translation.z = 20.0;
+    run(&mut app, 40);
+    let strands = state(&app, head).strands();
+    assert_eq!(strands.detail_level(), 7);
+    assert_eq!(strands.simulated_strands(), 2, "1/128 of 200 guides, rounded up");
+    assert!(all_finite(&app, head));
+    let roots_before: Vec<Vec3> = roots_and_tips(&app, head).iter().map(|(root, _)| *root).collect();
+
+    // Held at level 2 while the camera stays far.
+    app.world_mut().entity_mut(head).insert(HairLod::fixed(2));
+    run(&mut app, 40);
+    assert_eq!(state(&app, head).strands().simulated_strands(), 50);
+    let roots_after: Vec<Vec3> = roots_and_tips(&app, head).iter().map(|(root, _)| *root).collect();
+    assert!(roots_before.iter().zip(&roots_after).all(|(a, b)| a.distance(*b) < 1e-5), "the head did not move");
+
+    // Unusable values: reported once, replaced, and the groom runs on.
+    app.world_mut().entity_mut(head).insert(HairLod {
+        full_detail_height: f32::NAN,
+        fade_seconds: -1.0,
+        fixed_level: Some(99),
+        ..default()
+    });
+    let mut all = Vec::new();
+    for _ in 0..5 {
+        app.update();
+        let messages = app.world().resource::<Messages<HairError>>();
+        all.extend(messages.iter_current_update_messages().map(|e| e.kind.to_string()));
+    }
+    let detail = all.iter().filter(|m| m.contains("level-of-detail")).count();
+    assert_eq!(detail, 1, "one report: {all:?}");
+    assert!(all.iter().any(|m| m.contains("full_detail_height is NaN") && m.contains("fade_seconds is -1")), "{all:?}");
+    assert_eq!(state(&app, head).strands().detail_level(), 7, "the deepest level, for 99");
+    assert!(all_finite(&app, head));
+}

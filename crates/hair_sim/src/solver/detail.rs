@@ -151,6 +151,19 @@ impl Detail {
         }
     }
 
+    /// The strands' space moved by `offset` ([`Strands::translate`](super::Strands::translate)).
+    pub(crate) fn translate(&mut self, offset: Vec3) {
+        self.starts.iter_mut().for_each(|p| *p += offset);
+    }
+
+    /// Every strand was put at `positions`, motionless: a rising strand starts its next
+    /// step from there.
+    pub(crate) fn placed(&mut self, positions: &[Vec3]) {
+        if self.starts.len() == positions.len() {
+            self.starts.copy_from_slice(positions);
+        }
+    }
+
     pub(crate) fn level(&self) -> u32 {
         self.level
     }

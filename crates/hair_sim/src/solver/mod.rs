@@ -271,6 +271,9 @@ impl Strands {
     pub fn translate(&mut self, offset: Vec3) {
         if offset != Vec3::ZERO && offset.is_finite() {
             self.positions.iter_mut().chain(&mut self.previous_positions).for_each(|p| *p += offset);
+            if let Some(detail) = &mut self.detail {
+                detail.translate(offset);
+            }
         }
     }
 
@@ -290,6 +293,9 @@ impl Strands {
         self.previous_positions.copy_from_slice(positions);
         self.previous_velocities.fill(Vec3::ZERO);
         self.history_step.fill(0.0);
+        if let Some(detail) = &mut self.detail {
+            detail.placed(positions);
+        }
         Ok(())
     }
 
@@ -303,6 +309,9 @@ impl Strands {
         self.previous_positions.copy_from_slice(&self.positions);
         self.previous_velocities.fill(Vec3::ZERO);
         self.history_step.fill(0.0);
+        if let Some(detail) = &mut self.detail {
+            detail.placed(&self.positions);
+        }
     }
 
     /// Splits the state into chunks of `strands_per_chunk` strands (the last may be
