@@ -24,16 +24,20 @@ fn panel(
     mut motion: ResMut<Motion>,
     diagnostics: Res<DiagnosticsStore>,
     stats: Res<HairRenderStats>,
-    mut head: Single<(&mut HairGroom, &mut HairLook, &GroomStatus, Option<&mut HairState>), With<Head>>,
+    mut head: Single<
+        (Entity, &mut HairGroom, &mut HairLook, &GroomStatus, Option<&mut HairState>, Option<&mut HairLod>),
+        With<Head>,
+    >,
+    mut commands: Commands,
     mut clock: ResMut<Time<Hair>>,
     // The groom being edited: applied to the head (which regrows) when an edit is finished.
     mut draft: Local<Option<HairGroom>>,
 ) -> Result {
-    let (groom, look, status, state) = &mut *head;
+    let (entity, groom, look, status, state, lod) = &mut *head;
     let ctx = contexts.ctx_mut()?;
     egui::Window::new("Hair").default_width(300.0).default_pos([12.0, 12.0]).show(ctx, |ui| {
         egui::ScrollArea::vertical().max_height(680.0).show(ui, |ui| {
-            stats_section(ui, &diagnostics, &stats, status);
+            stats_section(ui, &diagnostics, &stats, status, state.as_deref());
             ui.horizontal_wrapped(|ui| {
                 ui.label("Presets:");
                 for preset in presets::all() {
@@ -64,6 +68,19 @@ fn panel(
                 }
             });
             egui::CollapsingHeader::new("Look").default_open(false).show(ui, |ui| look_section(ui, look));
+            egui::CollapsingHeader::new("Level of detail").default_open(false).show(ui, |ui| {
+                let mut on = lod.is_some();
+                if ui.checkbox(&mut on, "fewer guides simulated when the head is small on screen").changed() {
+                    if on {
+                        commands.entity(*entity).insert(HairLod::default());
+                    } else {
+                        commands.entity(*entity).remove::<HairLod>();
+                    }
+                }
+                if let Some(lod) = lod {
+                    detail_section(ui, lod);
+                }
+            });
             egui::CollapsingHeader::new("Animation").default_open(true).show(ui, |ui| motion_section(ui, &mut motion));
         });
     });
@@ -89,7 +106,13 @@ fn apply_preset(preset: Preset, groom: &mut HairGroom, look: &mut HairLook, sett
     settings.0 = preset.params;
 }
 
-fn stats_section(ui: &mut egui::Ui, diagnostics: &DiagnosticsStore, stats: &HairRenderStats, status: &GroomStatus) {
+fn stats_section(
+    ui: &mut egui::Ui,
+    diagnostics: &DiagnosticsStore,
+    stats: &HairRenderStats,
+    status: &GroomStatus,
+    state: Option<&HairState>,
+) {
     let smoothed = |path: &DiagnosticPath| diagnostics.get(path).and_then(|d| d.smoothed()).unwrap_or(f64::NAN);
     let status = match status {
         GroomStatus::WaitingForMesh => "loading the head…".to_owned(),
@@ -109,6 +132,10 @@ fn stats_section(ui: &mut egui::Ui, diagnostics: &DiagnosticsStore, stats: &Hair
         row("fps", format!("{:.0}", smoothed(&FrameTimeDiagnosticsPlugin::FPS)));
         row("simulation", format!("{:.2} ms / step", smoothed(&HairDiagnostics::STEP_TIME)));
         row("particles", format!("{:.0}", smoothed(&HairDiagnostics::PARTICLES)));
+        if let Some(strands) = state.map(HairState::strands) {
+            let (simulated, all, level) = (strands.simulated_strands(), strands.strand_count(), strands.detail_level());
+            row("simulated guides", format!("{simulated} of {all} (level of detail {level})"));
+        }
         row("rendered strands", stats.rendered_strands.to_string());
         row("rendered vertices", stats.rendered_vertices.to_string());
         row("uploaded", format!("{:.1} KiB / frame", stats.uploaded_bytes as f64 / 1024.0));
@@ -250,6 +277,24 @@ fn look_section(ui: &mut egui::Ui, look: &mut HairLook) {
     slider(ui, &mut look.self_shadow, 0.0..=1.0, "self-shadowing (per fibre layer)");
     ui.checkbox(&mut look.antialias, "anti-aliased thin strands (MSAA)");
     ui.checkbox(&mut look.guides_only, "show guides only");
+}
+
+/// The level of detail: by the head's height on screen, or held at a level.
+fn detail_section(ui: &mut egui::Ui, lod: &mut HairLod) {
+    ui.add(
+        egui::Slider::new(&mut lod.full_detail_height, 50.0..=2000.0)
+            .logarithmic(true)
+            .text("every guide from this height (px)"),
+    );
+    let mut fixed = lod.fixed_level.is_some();
+    ui.checkbox(&mut fixed, "hold a level");
+    let mut level = lod.fixed_level.unwrap_or(0);
+    ui.add_enabled(
+        fixed,
+        egui::Slider::new(&mut level, 0..=bevy_hair::hair_sim::solver::MAX_DETAIL_LEVEL).text("level"),
+    );
+    lod.fixed_level = fixed.then_some(level);
+    slider(ui, &mut lod.fade_seconds, 0.0..=2.0, "fade (s)");
 }
 
 fn motion_section(ui: &mut egui::Ui, motion: &mut Motion) {
