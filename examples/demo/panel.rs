@@ -17,6 +17,16 @@ pub fn plugin(app: &mut App) {
     app.add_systems(EguiPrimaryContextPass, panel);
 }
 
+/// What the panel reads and edits on the head.
+type HeadQuery = (
+    Entity,
+    &'static mut HairGroom,
+    &'static mut HairLook,
+    &'static GroomStatus,
+    Option<&'static mut HairState>,
+    Option<&'static mut HairLod>,
+);
+
 #[allow(clippy::too_many_arguments)] // one system that draws the whole panel
 fn panel(
     mut contexts: EguiContexts,
@@ -24,10 +34,7 @@ fn panel(
     mut motion: ResMut<Motion>,
     diagnostics: Res<DiagnosticsStore>,
     stats: Res<HairRenderStats>,
-    mut head: Single<
-        (Entity, &mut HairGroom, &mut HairLook, &GroomStatus, Option<&mut HairState>, Option<&mut HairLod>),
-        With<Head>,
-    >,
+    mut head: Single<HeadQuery, With<Head>>,
     mut commands: Commands,
     mut clock: ResMut<Time<Hair>>,
     // The groom being edited: applied to the head (which regrows) when an edit is finished.
