@@ -138,6 +138,37 @@ impl SagGrid {
     fn cell_index(&self, p: Vec3) -> [usize; 3] {
         self.cells().locate(p).to_array().map(|v| v as i32 as usize)
     }
+
+    /// Cells along each axis.
+    pub fn dims(&self) -> [usize; 3] {
+        self.dims
+    }
+
+    /// A cell's side, metres.
+    pub fn cell_size(&self) -> f32 {
+        1.0 / self.inverse_cell
+    }
+
+    /// The cell holding `p` (the nearest one for a point beyond the grid).
+    pub fn cell_of(&self, p: Vec3) -> [usize; 3] {
+        self.cell_index(p)
+    }
+
+    /// The index of the cell holding `p`, cells in x-fastest order.
+    pub fn index_of(&self, p: Vec3) -> usize {
+        let [x, y, z] = self.cell_index(p);
+        x + self.dims[0] * (y + self.dims[1] * z)
+    }
+
+    /// The centre of cell `[x, y, z]`.
+    pub fn cell_centre(&self, [x, y, z]: [usize; 3]) -> Vec3 {
+        Vec3::from(self.origin) + (Vec3::new(x as f32, y as f32, z as f32) + Vec3::splat(0.5)) * self.cell_size()
+    }
+
+    /// The largest convex curvature near cell `index` (x-fastest order), 1/m.
+    pub fn convex_in(&self, index: usize) -> f32 {
+        self.cells[index].0
+    }
 }
 
 /// Where the cells of a [`SagGrid`] lie: `(p - origin) * inverse_cell`, clamped to the
