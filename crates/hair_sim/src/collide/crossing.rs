@@ -37,11 +37,15 @@ struct Block {
     corner: [Vec4; 3],
     first: [Vec4; 3],
     second: [Vec4; 3],
+    /// The distance from the cell's centre to the nearest of the four (a list's blocks
+    /// come nearest first).
+    nearest: f32,
 }
 
 impl Block {
     /// No triangle: zero edges never hit.
-    const EMPTY: Block = Block { corner: [Vec4::ZERO; 3], first: [Vec4::ZERO; 3], second: [Vec4::ZERO; 3] };
+    const EMPTY: Block =
+        Block { corner: [Vec4::ZERO; 3], first: [Vec4::ZERO; 3], second: [Vec4::ZERO; 3], nearest: 0.0 };
 }
 
 /// Per cell of the curvature grid, the triangles a segment centred in it may cross.
@@ -50,6 +54,8 @@ pub(super) struct CrossingLists {
     /// Per cell: the first block of its list and the number of blocks, or [`NONE`].
     cells: Vec<(u32, u32)>,
     blocks: Vec<Block>,
+    /// A cell's half diagonal plus the bake's slack, metres.
+    half_diagonal: f32,
 }
 
 impl CrossingLists {
@@ -61,7 +67,7 @@ impl CrossingLists {
         let count = dims[0] * dims[1] * dims[2];
         let sharp: Vec<bool> = (0..count).map(|i| sag.convex_in(i) > MIN_CURVATURE).collect();
         // Each triangle into the sharp cells whose centre it comes within reach of.
-        let mut found: Vec<Vec<u32>> = vec![Vec::new(); count];
+        let mut found: Vec<Vec<(f32, u32)>> = vec![Vec::new(); count];
         for (t, corners) in triangles.iter().enumerate() {
             let [a, b, c] = corners.map(|v| positions[v as usize]);
             let (low, high) = (a.min(b).min(c) - Vec3::splat(reach), a.max(b).max(c) + Vec3::splat(reach));
@@ -71,24 +77,27 @@ impl CrossingLists {
                     for x in lo[0]..=hi[0] {
                         let i = x + dims[0] * (y + dims[1] * z);
                         if sharp[i] && found[i].len() <= MAX_TRIANGLES {
-                            let centre = sag.cell_centre([x, y, z]);
-                            if distance_to_triangle(centre, a, b, c) <= reach {
-                                found[i].push(t as u32);
+                            let distance = distance_to_triangle(sag.cell_centre([x, y, z]), a, b, c);
+                            if distance <= reach {
+                                found[i].push((distance, t as u32));
                             }
                         }
                     }
                 }
             }
         }
-        let mut lists = CrossingLists { cells: vec![(NONE, 0); count], blocks: Vec::new() };
-        for (i, list) in found.iter().enumerate() {
+        let mut lists =
+            CrossingLists { cells: vec![(NONE, 0); count], blocks: Vec::new(), half_diagonal: reach - REACH };
+        for (i, list) in found.iter_mut().enumerate() {
             if !sharp[i] || list.len() > MAX_TRIANGLES {
                 continue;
             }
+            // Nearest the centre first, so a short segment stops early.
+            list.sort_by(|p, q| p.0.total_cmp(&q.0));
             let first = lists.blocks.len() as u32;
             for four in list.chunks(4) {
-                let mut block = Block::EMPTY;
-                for (lane, &t) in four.iter().enumerate() {
+                let mut block = Block { nearest: four[0].0, ..Block::EMPTY };
+                for (lane, &(_, t)) in four.iter().enumerate() {
                     let [a, b, c] = triangles[t as usize].map(|v| positions[v as usize]);
                     let (first_edge, second_edge) = (b - a, c - a);
                     for k in 0..3 {
@@ -110,13 +119,16 @@ impl CrossingLists {
     /// no list or the segment is too long for one: ask the BVH.
     pub fn crossing(&self, cell: usize, a: Vec3, b: Vec3) -> Result<Option<(f32, f32)>, ()> {
         let (first, blocks) = self.cells[cell];
-        if first == NONE || (b - a).length() > 2.0 * REACH {
+        let length = (b - a).length();
+        if first == NONE || length > 2.0 * REACH {
             return Err(());
         }
+        // No triangle farther than this from the cell's centre reaches the segment.
+        let reach = 0.5 * length + self.half_diagonal;
         let d = b - a;
         let (dx, dy, dz) = (Vec4::splat(d.x), Vec4::splat(d.y), Vec4::splat(d.z));
         let (mut enters, mut leaves) = (Vec4::splat(f32::INFINITY), Vec4::splat(f32::NEG_INFINITY));
-        for block in &self.blocks[first as usize..(first + blocks) as usize] {
+        for block in self.blocks[first as usize..(first + blocks) as usize].iter().take_while(|b| b.nearest <= reach) {
             let [e1x, e1y, e1z] = block.first;
             let [e2x, e2y, e2z] = block.second;
             // p = d × e2, det = e1 · p

@@ -857,10 +857,11 @@ fn contact_at(
 /// balls (what collision left them, [`GroupState::clearance`], less how far the final pass
 /// moved them) do not cover it, and the lower end clears less than the surface can rise
 /// under it ([`HeadCollider::rise_under`]); on a skull neither happens, so the test runs a
-/// lane-wide sum and one table lookup per segment. What remains is tested exactly, by a ray
-/// along the segment through the collider's BVH. Where it crosses, it turns about its
+/// lane-wide sum and one table lookup per segment. What remains is tested exactly
+/// ([`HeadCollider::segment_crossing`]: by a sharp feature, against the triangles listed
+/// in reach; elsewhere, a ray through the BVH). Where it crosses, it turns about its
 /// parent until the middle of the crossed stretch is out on the collision shell (a few
-/// turns at most), the strand below moves along, and the final pass places the rest
+/// turns at most), the strand below follows it as a leader, and the final pass places the rest
 /// outside from there ([`place_outside`]).
 fn keep_segments_outside(
     g: &mut GroupState,
