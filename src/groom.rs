@@ -4,6 +4,7 @@
 use crate::HairSystems;
 use crate::convert::{pose_and_scale, to_sim};
 use crate::description::{GroomStatus, HairError, HairErrorKind, HairGroom, RootDistribution, ScalpPredicate};
+use crate::detail::HairLod;
 use crate::hair_asset::{HairAsset, HairAssetLoader};
 use crate::head_mesh::{ScalpWeights, read_head_mesh, scalp_weights};
 use crate::settings::{HairSettings, HairSettingsOverride, effective};
@@ -104,10 +105,11 @@ pub(crate) fn start_growth(
         Option<&HairSettingsOverride>,
         Option<&ScalpPredicate>,
         Option<&SkinnedMesh>,
+        Has<HairLod>,
     )>,
     mut errors: MessageWriter<HairError>,
 ) {
-    for (entity, groom, mut status, mesh3d, transform, local, predicate, skin) in &mut grooms {
+    for (entity, groom, mut status, mesh3d, transform, local, predicate, skin, detail) in &mut grooms {
         if *status != GroomStatus::WaitingForMesh {
             continue;
         }
@@ -200,7 +202,7 @@ pub(crate) fn start_growth(
                 let (params, _) = effective(&settings, local).sanitized();
                 let groom = groom.clone();
                 let task = AsyncComputeTaskPool::get()
-                    .spawn(async move { grow(head, weights, model, groom, params, pose, scale) });
+                    .spawn(async move { grow(head, weights, model, groom, params, pose, scale, detail) });
                 commands.entity(entity).insert(GrowthTask { task, joint });
                 *status = GroomStatus::Growing;
             }
@@ -240,6 +242,7 @@ fn check_groom(groom: &HairGroom) -> Result<(), HairErrorKind> {
 
 /// The growth itself, off the main thread: roots and guides (grown, or taken from a hair
 /// `model` in the mesh's units), collider, settle.
+#[allow(clippy::too_many_arguments)] // what the growth task moves in, each once
 fn grow(
     head: HeadMesh,
     weights: ScalpWeights,
@@ -248,6 +251,7 @@ fn grow(
     params: SimParams,
     pose: Pose,
     scale: Vec3,
+    detail: bool,
 ) -> Result<Grown, HairErrorKind> {
     let comb = to_sim(groom.comb);
     let (roots, guides) = match model {
@@ -280,7 +284,11 @@ fn grow(
     let rest = RestShape::new(guides, groom.segments + 1)?;
     let collider = HeadCollider::new(&head, DEFAULT_GRID_RESOLUTION)?;
     let rest = settle(rest, Some(&collider), &params, groom.settle_steps as usize, comb)?;
-    let strands = Strands::new(rest, pose);
+    let mut strands = Strands::new(rest, pose);
+    if detail {
+        // A head with levels of detail: their search here, not when the level first changes.
+        strands.prepare_detail();
+    }
     Ok(Grown { strands, collider: Arc::new(collider), head: Arc::new(head), roots, scale, groom })
 }
 

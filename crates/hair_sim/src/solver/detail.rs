@@ -110,6 +110,9 @@ impl Role {
 /// Per strand, whom it follows: up to [`LEADERS`] simulated strands and their weights.
 type Leaders = [(u32, f32); LEADERS];
 
+/// No one to follow: a simulated strand's entry.
+const NO_LEADERS: Leaders = [(0, 0.0); LEADERS];
+
 /// The levels of detail of one groom: the nested order, the current level, each strand's
 /// role and leaders.
 #[derive(Clone, Debug)]
@@ -122,6 +125,9 @@ pub(crate) struct Detail {
     pub(crate) roles: Vec<Role>,
     /// Per strand, its leaders at the current level (unused for simulated strands).
     leaders: Vec<Leaders>,
+    /// Per level from 1, per strand, its leaders there (unused for the level's simulated
+    /// strands).
+    leaders_by_level: Vec<Vec<Leaders>>,
     /// Per particle of a fading strand, head-local: how far from where it would follow the
     /// solver left it (empty until a strand fades).
     offsets: Vec<Vec3>,
@@ -133,18 +139,30 @@ pub(crate) struct Detail {
 
 impl Detail {
     /// The order over `roots` (head-local rest roots), every strand simulated.
+    /// The order and every level's leaders are found here, once (O(N²) in the strand
+    /// count), so that switching levels costs no search.
     pub(crate) fn new(roots: &[Vec3]) -> Self {
         let order = farthest_point_order(roots);
         let mut rank = vec![0; roots.len()];
         for (r, &s) in order.iter().enumerate() {
             rank[s as usize] = r as u32;
         }
+        let leaders_by_level = (1..=MAX_DETAIL_LEVEL)
+            .map(|level| {
+                let simulated = simulated_at_level(roots.len(), level);
+                let leaders = &order[..simulated];
+                let follows = |s: usize| rank[s] as usize >= simulated;
+                let nearest = |s: usize| if follows(s) { nearest(roots[s], leaders, roots) } else { NO_LEADERS };
+                crate::parallel::map(roots.len(), nearest)
+            })
+            .collect();
         Detail {
             order,
             rank,
             level: 0,
             roles: vec![Role::Simulated; roots.len()],
             leaders: Vec::new(),
+            leaders_by_level,
             offsets: Vec::new(),
             starts: Vec::new(),
             displacement: Vec::new(),
@@ -173,7 +191,7 @@ impl Detail {
     /// once, which pops), and followers get the new level's leaders. `positions` (world,
     /// strand-major) are where the strands are drawn now. Returns the strands that start
     /// being simulated, for the caller to clear their solver memory.
-    pub(crate) fn set_level(&mut self, level: u32, fade_steps: u32, roots: &[Vec3], positions: &[Vec3]) -> Vec<usize> {
+    pub(crate) fn set_level(&mut self, level: u32, fade_steps: u32, positions: &[Vec3]) -> Vec<usize> {
         let level = level.min(MAX_DETAIL_LEVEL);
         let simulated = simulated_at_level(self.order.len(), level) as u32;
         let n = positions.len() / self.order.len().max(1);
@@ -202,17 +220,15 @@ impl Detail {
             };
         }
         self.level = level;
-        let leaders = &self.order[..simulated as usize];
         let before = std::mem::take(&mut self.leaders);
-        self.leaders = roots
-            .iter()
-            .enumerate()
-            .map(|(s, &root)| match self.roles[s] {
-                Role::Simulated => [(0, 0.0); LEADERS],
+        let now = if level == 0 { None } else { Some(&self.leaders_by_level[level as usize - 1]) };
+        self.leaders = (0..self.roles.len())
+            .map(|s| match self.roles[s] {
+                Role::Simulated => NO_LEADERS,
                 // A rising strand is pulled toward where it would have followed: its
                 // leaders stay (simulated at every finer level too).
-                Role::Rising { .. } => before.get(s).copied().unwrap_or_else(|| nearest(root, leaders, roots)),
-                _ => nearest(root, leaders, roots),
+                Role::Rising { .. } => before.get(s).copied().unwrap_or(NO_LEADERS),
+                _ => now.map_or(NO_LEADERS, |leaders| leaders[s]),
             })
             .collect();
         started

@@ -365,19 +365,19 @@ impl Strands {
     /// strands (`⌈N / 2^L⌉`, spread evenly over the scalp; at most
     /// [`MAX_DETAIL_LEVEL`]), and the others follow their simulated neighbours, placed by
     /// [`Self::follow_leaders`] after each step. A strand that stops being simulated fades
-    /// into following over `fade_steps` steps (0: at once, which pops); one that starts again starts from where it
-    /// was drawn, moving as it was. The first call orders the strands (O(N²) in the
-    /// strand count; [`Self::prepare_detail`] does it ahead).
+    /// out over `fade_steps` steps, and one that starts again rises in over as many,
+    /// starting from where it was drawn, moving as it was (0: both at once, which pops).
+    /// The first call orders the strands and finds every level's leaders
+    /// ([`Self::prepare_detail`], O(N²) in the strand count); later calls search nothing.
     pub fn set_detail_level(&mut self, level: u32, fade_steps: u32) {
         let level = level.min(MAX_DETAIL_LEVEL);
         if self.detail.as_ref().map_or(level == 0, |d| d.level() == level) {
             return;
         }
         self.prepare_detail();
-        let roots = self.roots();
         let detail = self.detail.as_mut().expect("prepared");
         let n = self.rest.particles_per_strand;
-        for s in detail.set_level(level, fade_steps, &roots, &self.positions) {
+        for s in detail.set_level(level, fade_steps, &self.positions) {
             // Its solver memory is stale: start it from where it is drawn.
             let particles = s * n..(s + 1) * n;
             self.hints[particles.clone()].fill(ContactHint::NONE);
@@ -387,8 +387,9 @@ impl Strands {
         }
     }
 
-    /// Orders the strands for levels of detail now (O(N²) in the strand count), so that
-    /// the first [`Self::set_detail_level`] does not: for a groom built off the main thread.
+    /// Orders the strands for levels of detail and finds every level's leaders now (O(N²)
+    /// in the strand count, on all cores), so that the first [`Self::set_detail_level`]
+    /// does not: for a groom built off the main thread.
     pub fn prepare_detail(&mut self) {
         if self.detail.is_none() {
             self.detail = Some(Detail::new(&self.roots()));
