@@ -225,6 +225,13 @@ fn detail_bench(
         }
     };
     let phase = |h: usize| h as f32 * 0.37;
+    // What a groom pays once, off the main thread, for its levels of detail.
+    let prepare_ms = {
+        let mut strands = Strands::new(rest.clone(), head_pose(0.0));
+        let start = Instant::now();
+        strands.prepare_detail();
+        start.elapsed().as_secs_f64() * 1e3
+    };
     let mut heads: Vec<Strands> = levels
         .iter()
         .enumerate()
@@ -265,7 +272,7 @@ fn detail_bench(
         "{{\"lod\":true,\"guides\":{guides},\"particles_per_strand\":{particles},\"steps\":{steps},\"threads\":1,\
          \"near_head_ms\":{near_ms:.4},\"sixteen_heads_ms\":{crowd_ms:.4},\"ratio\":{:.3},\
          \"distances_m\":{distances:?},\"heights_px\":{:?},\"levels\":{levels:?},\"simulated\":{simulated:?},\
-         \"max_penetration_m\":{:.6}}}",
+         \"max_penetration_m\":{:.6},\"prepare_ms\":{prepare_ms:.2}}}",
         crowd_ms / near_ms,
         distances.iter().map(|&d| pixels_at(d).round()).collect::<Vec<_>>(),
         deepest.max(0.0)

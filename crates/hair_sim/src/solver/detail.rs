@@ -182,6 +182,20 @@ impl Detail {
         }
     }
 
+    /// Gives each follower its leaders' velocity, weighted as its position is: how it is
+    /// drawn moving (up to the head's turn between the roots), for a strand about to be
+    /// simulated again.
+    pub(crate) fn led_velocities(&self, n: usize, velocities: &mut [Vec3]) {
+        for (s, role) in self.roles.iter().enumerate() {
+            if *role == Role::Following {
+                for j in 1..n {
+                    velocities[s * n + j] =
+                        self.leaders[s].iter().map(|&(k, w)| velocities[k as usize * n + j] * w).sum();
+                }
+            }
+        }
+    }
+
     pub(crate) fn level(&self) -> u32 {
         self.level
     }
@@ -236,18 +250,16 @@ impl Detail {
 
     /// After a step: places the strands the solver did not step, and pulls rising ones.
     /// A follower goes where its leaders' displacement puts its rest shape; a fading
-    /// strand goes there plus what is left of its offset, and a rising strand, stepped, is
-    /// drawn back toward there by what is left of its pull, both with their segments
-    /// brought to their rest lengths from the root down. Each gets the velocity of where it went from the
-    /// step's start, so that it can be simulated (again) moving as it was drawn.
-    /// `positions` and `velocities` are world-space and strand-major, `rest` and `lengths`
-    /// the rest shape's, `pose` the head's at the end of the step.
-    #[allow(clippy::too_many_arguments)]
+    /// strand goes there plus what is left of its offset; and a rising strand, stepped, is
+    /// drawn back toward there by what is left of its pull. The last two get the velocity of
+    /// where they went from the step's start, so that they can be simulated (again) moving
+    /// as they were drawn (a follower gets its leaders' when it rises).
+    /// `positions` and `velocities` are world-space and strand-major, `rest` the rest
+    /// shape's positions, `pose` the head's at the end of the step.
     pub(crate) fn follow(
         &mut self,
         n: usize,
         rest: &[Vec3],
-        lengths: &[f32],
         pose: &Pose,
         dt: f32,
         positions: &mut [Vec3],
@@ -266,8 +278,7 @@ impl Detail {
         }
         let inverse_dt = if dt > 0.0 { dt.recip() } else { 0.0 };
         let (rotation, translation) = (Mat3A::from_quat(pose.rotation), Vec3A::from(pose.translation));
-        // Per particle of the strand at hand: where it is wanted (before its segment gets
-        // its rest length), and where the step started from.
+        // Per particle of the strand at hand: where it goes, and where the step started from.
         let (mut wanted, mut start) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
         for s in 0..self.roles.len() {
             let strand = s * n..(s + 1) * n;
@@ -299,15 +310,13 @@ impl Detail {
                 Role::Following => {
                     // Where the leaders put it, lengths as they come: kept exactly, they
                     // would chain each particle's square root onto its parent's, the bulk
-                    // of the cost of a far head (a rising strand gets them back).
+                    // of the cost of a far head (the solver restores them once it rises).
+                    // Its velocity is its leaders', taken when it rises (`led_velocities`).
                     let moved = self.leaders[s].map(|(k, w)| (&self.displacement[k as usize * n..][..n], w));
-                    let particles = positions[strand.clone()].iter_mut().zip(&mut velocities[strand.clone()]);
-                    for (j, ((x, v), &r)) in particles.zip(&rest[strand]).enumerate() {
+                    for (j, (x, &r)) in positions[strand.clone()].iter_mut().zip(&rest[strand]).enumerate() {
                         let [(a, wa), (b, wb), (c, wc)] = moved;
                         let displaced = if j == 0 { Vec3A::ZERO } else { a[j] * wa + b[j] * wb + c[j] * wc };
-                        let placed = rotation * Vec3A::from(r) + translation + displaced;
-                        *v = Vec3::from(placed - Vec3A::from(*x)) * inverse_dt;
-                        *x = placed.into();
+                        *x = (rotation * Vec3A::from(r) + translation + displaced).into();
                     }
                     continue;
                 }
@@ -321,14 +330,13 @@ impl Detail {
                 }
             };
             self.roles[s] = next;
-            let mut parent = pose.transform_point(rest[s * n]);
+            // Lengths as they come, as a follower's: a rising strand's are the solver's to
+            // restore, a little more each step as the pull lets go.
             for j in 0..n {
                 let i = s * n + j;
-                if j > 0 {
-                    parent += (wanted[j] - parent).normalize_or(Vec3::NEG_Y) * lengths[i];
-                }
-                velocities[i] = (parent - start[j]) * inverse_dt;
-                positions[i] = parent;
+                let placed = if j == 0 { pose.transform_point(rest[i]) } else { wanted[j] };
+                velocities[i] = (placed - start[j]) * inverse_dt;
+                positions[i] = placed;
             }
             if matches!(next, Role::Rising { .. }) {
                 self.starts[strand.clone()].copy_from_slice(&positions[strand]);

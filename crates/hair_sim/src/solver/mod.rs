@@ -377,6 +377,7 @@ impl Strands {
         self.prepare_detail();
         let detail = self.detail.as_mut().expect("prepared");
         let n = self.rest.particles_per_strand;
+        detail.led_velocities(n, &mut self.velocities);
         for s in detail.set_level(level, fade_steps, &self.positions) {
             // Its solver memory is stale: start it from where it is drawn.
             let particles = s * n..(s + 1) * n;
@@ -421,15 +422,7 @@ impl Strands {
         let Some(detail) = self.detail.as_mut() else { return };
         let Some(dt) = step::step_length(input) else { return };
         let n = self.rest.particles_per_strand;
-        detail.follow(
-            n,
-            &self.rest.positions,
-            &self.rest.lengths,
-            &input.head_to,
-            dt,
-            &mut self.positions,
-            &mut self.velocities,
-        );
+        detail.follow(n, &self.rest.positions, &input.head_to, dt, &mut self.positions, &mut self.velocities);
     }
 
     /// Head-local rest roots, one per strand.
