@@ -224,3 +224,54 @@ fn chunked_stepping_with_followers_matches_step() {
     let bits = |s: &Strands| s.positions().iter().map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<_>>();
     assert_eq!(bits(&whole), bits(&chunked));
 }
+
+/// Levels of detail under what a game throws at a groom: a 10 m teleport, a 1 s hitch, a
+/// NaN pose and a level switch in the same steps. Every strand, followers included, stays
+/// finite with its root on the head, and the followers come back with it.
+#[test]
+fn followers_survive_teleports_hitches_and_bad_poses() {
+    let (groom, rest) = groom();
+    let params = SimParams::default();
+    let n = rest.particles_per_strand;
+    let mut strands = Strands::new(rest.clone(), looking_around(0));
+    strands.set_detail_level(4, 10);
+    let far = Pose::new(Quat::from_rotation_y(1.0), Vec3::new(10.0, 1.6, 3.0));
+    let nan = Pose::new(Quat::IDENTITY, Vec3::splat(f32::NAN));
+    // (step length, head pose after the step, level to switch to before it)
+    let script: [(f32, Pose, Option<u32>); 6] = [
+        (DT, looking_around(1), None),
+        (DT, far, Some(2)),
+        (1.0, far, None),
+        (DT, nan, Some(5)),
+        (DT, far, Some(0)),
+        (DT, far, Some(3)),
+    ];
+    let mut from = looking_around(0);
+    for (k, (dt, to, level)) in script.into_iter().enumerate() {
+        if let Some(level) = level {
+            strands.set_detail_level(level, 10);
+        }
+        strands.step(&StepInput {
+            dt,
+            time: k as f32 * DT,
+            head_from: from,
+            head_to: to,
+            collider: Some(&groom.collider),
+            extra_colliders: &[],
+            surface_patch: None,
+            params: &params,
+        });
+        assert!(strands.positions().iter().all(|p| p.is_finite()), "step {k}: a particle is not finite");
+        if to.is_valid() {
+            for (s, root) in strands.positions().iter().step_by(n).enumerate() {
+                let pinned = to.transform_point(rest.positions[s * n]);
+                assert!(root.distance(pinned) < 1e-4, "step {k}: root {s} is {} m off", root.distance(pinned));
+            }
+            from = to;
+        }
+    }
+    // All strands near the head after the teleport: none left behind at the old place.
+    let pose = far;
+    let farthest = strands.positions().iter().map(|p| p.distance(pose.translation)).fold(0.0f32, f32::max);
+    assert!(farthest < 0.5, "a particle is {farthest} m from the teleported head");
+}
