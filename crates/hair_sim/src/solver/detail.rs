@@ -10,10 +10,13 @@
 //! pose(restₖ))`. That is how a drawn child follows its guide, so a follower, like a child,
 //! is not collided on its own.
 //!
-//! Switching never pops. A strand that stops being simulated keeps being simulated while it
-//! fades, for a number of steps, each step closing an equal share of what is left of the
-//! gap to where it would follow. A strand that starts being simulated starts from where it
-//! was drawn, with the velocity it was drawn with.
+//! Switching does not pop. A strand that stops being simulated is stepped once more, then
+//! placed where it would follow plus its offset from there, the offset shrinking by an
+//! equal share each step of the fade. A strand that starts being simulated starts from
+//! where it was drawn, moving as its leaders do, and is pulled back toward where it would
+//! follow by a pull that lets go over the fade. Followers' segments keep the lengths
+//! their placement gives them (holding them would cost a square root per particle, in a
+//! chain); the solver restores a rising strand's.
 
 use crate::math::{Pose, Vec3};
 use glam::{Mat3A, Vec3A};
