@@ -37,17 +37,29 @@ fn looking_around(k: usize) -> Pose {
     )
 }
 
-fn step(strands: &mut Strands, k: usize, collider: &HeadCollider, params: &SimParams) -> StepReport {
-    strands.step(&StepInput {
-        dt: DT,
+/// Step `k` of `dt` from head pose `from` to `to`.
+fn input<'a>(
+    k: usize,
+    dt: f32,
+    (from, to): (Pose, Pose),
+    collider: &'a HeadCollider,
+    params: &'a SimParams,
+) -> StepInput<'a> {
+    StepInput {
+        dt,
         time: k as f32 * DT,
-        head_from: looking_around(k),
-        head_to: looking_around(k + 1),
+        head_from: from,
+        head_to: to,
         collider: Some(collider),
         extra_colliders: &[],
         surface_patch: None,
         params,
-    })
+    }
+}
+
+/// Step `k` of the head looking around.
+fn step(strands: &mut Strands, k: usize, collider: &HeadCollider, params: &SimParams) -> StepReport {
+    strands.step(&input(k, DT, (looking_around(k), looking_around(k + 1)), collider, params))
 }
 
 #[test]
@@ -206,16 +218,7 @@ fn chunked_stepping_with_followers_matches_step() {
     chunked.set_detail_level(2, 5);
     for k in 0..30 {
         step(&mut whole, k, &groom.collider, &params);
-        let input = StepInput {
-            dt: DT,
-            time: k as f32 * DT,
-            head_from: looking_around(k),
-            head_to: looking_around(k + 1),
-            collider: Some(&groom.collider),
-            extra_colliders: &[],
-            surface_patch: None,
-            params: &params,
-        };
+        let input = input(k, DT, (looking_around(k), looking_around(k + 1)), &groom.collider, &params);
         for mut chunk in chunked.chunks_mut(48) {
             chunk.step(&input);
         }
@@ -251,16 +254,7 @@ fn followers_survive_teleports_hitches_and_bad_poses() {
         if let Some(level) = level {
             strands.set_detail_level(level, 10);
         }
-        strands.step(&StepInput {
-            dt,
-            time: k as f32 * DT,
-            head_from: from,
-            head_to: to,
-            collider: Some(&groom.collider),
-            extra_colliders: &[],
-            surface_patch: None,
-            params: &params,
-        });
+        strands.step(&input(k, dt, (from, to), &groom.collider, &params));
         assert!(strands.positions().iter().all(|p| p.is_finite()), "step {k}: a particle is not finite");
         if to.is_valid() {
             for (s, root) in strands.positions().iter().step_by(n).enumerate() {

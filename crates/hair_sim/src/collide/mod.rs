@@ -116,6 +116,35 @@ pub struct HeadCollider {
     id: u32,
 }
 
+/// `count` random segments near `head` (ears included), from `seed`: from 0–6 mm off a
+/// random point of a triangle, a segment up to 2.5 cm long in any direction; or (every
+/// other one) a chord up to 2.5 cm long across the surface, centred 0–2 mm above it, which
+/// crosses wherever the surface bends more than that. For the tests of the segment
+/// filters.
+#[cfg(test)]
+pub(crate) fn segments_near(head: &HeadMesh, seed: u64, count: usize) -> Vec<(Vec3, Vec3)> {
+    let mut rng = crate::groom::SplitMix64::new(seed);
+    let mut unit = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+    (0..count)
+        .map(|k| {
+            let t = k * 7919 % head.triangles.len();
+            let [u, v, _] = unit().to_array();
+            let bary = if u + v <= 1.0 { [u, v, 1.0 - u - v] } else { [1.0 - u, 1.0 - v, u + v - 1.0] };
+            let [height, length, _] = unit().to_array();
+            let (normal, on_surface) = (head.normal_at(t, bary), head.point_at(t, bary));
+            let direction = (unit() * 2.0 - Vec3::ONE).normalize_or(Vec3::X);
+            if k % 2 == 0 {
+                let a = on_surface + normal * height * 0.006;
+                (a, a + direction * length * 0.025)
+            } else {
+                let centre = on_surface + normal * height * 0.002;
+                let across = (direction - normal * direction.dot(normal)).normalize_or(normal.any_orthonormal_vector());
+                (centre - across * length * 0.0125, centre + across * length * 0.0125)
+            }
+        })
+        .collect()
+}
+
 /// Per-particle memory of its last collision query, which lets the next query skip work
 /// (see [`HeadCollider::resolve_hinted`]): a particle resting on the head remembers the
 /// triangle it touched (and, in a crease, how far the surfaces around it were), one away
@@ -657,31 +686,13 @@ mod tests {
     /// may count for the lists and not the BVH (their slack), rarely.
     #[test]
     fn crossing_lists_agree_with_the_bvh() {
-        use crate::groom::SplitMix64;
         use crate::mesh::InsideTest;
         for subdivisions in [3, 4, 5] {
             let head = test_head(subdivisions);
             let collider = HeadCollider::new(&head, 64).unwrap();
             let inside = InsideTest::new(&head);
-            let mut rng = SplitMix64::new(11);
-            let mut unit = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
             let (mut listed, mut crossing, mut only_lists) = (0, 0, 0);
-            for k in 0..40_000 {
-                let t = k * 7919 % head.triangles.len();
-                let [u, v, _] = unit().to_array();
-                let bary = if u + v <= 1.0 { [u, v, 1.0 - u - v] } else { [1.0 - u, 1.0 - v, u + v - 1.0] };
-                let [height, length, _] = unit().to_array();
-                let (normal, on_surface) = (head.normal_at(t, bary), head.point_at(t, bary));
-                let direction = (unit() * 2.0 - Vec3::ONE).normalize_or(Vec3::X);
-                let (a, b) = if k % 2 == 0 {
-                    let a = on_surface + normal * height * 0.006;
-                    (a, a + direction * length * 0.025)
-                } else {
-                    let centre = on_surface + normal * height * 0.002;
-                    let across =
-                        (direction - normal * direction.dot(normal)).normalize_or(normal.any_orthonormal_vector());
-                    (centre - across * length * 0.0125, centre + across * length * 0.0125)
-                };
+            for (a, b) in segments_near(&head, 11, 40_000) {
                 let (ca, cb) = (a - collider.centre, b - collider.centre);
                 let Ok(lists) = collider.crossing.crossing(collider.sag.index_of(0.5 * (ca + cb)), ca, cb) else {
                     continue;

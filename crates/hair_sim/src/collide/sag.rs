@@ -196,7 +196,6 @@ impl SagCells {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::groom::SplitMix64;
     use crate::mesh::{InsideTest, test_head};
 
     /// Random segments near the procedural head (ears included), checked by brute force
@@ -208,29 +207,8 @@ mod tests {
             let head = test_head(subdivisions);
             let sag = SagGrid::bake(&head.positions, &head.triangles);
             let inside = InsideTest::new(&head);
-            let mut rng = SplitMix64::new(7);
-            let mut unit = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
             let (mut cleared, mut crossing, mut skull, mut skull_cleared) = (0, 0, 0, 0);
-            for k in 0..10_000 {
-                // From 0–6 mm off a random point of a triangle, a segment up to 2.5 cm long
-                // in any direction; or (every other one) a chord up to 2.5 cm long across
-                // the surface, centred 0–2 mm above it, which crosses wherever the surface
-                // bends more than that.
-                let t = k * 7919 % head.triangles.len();
-                let [u, v, _] = unit().to_array();
-                let bary = if u + v <= 1.0 { [u, v, 1.0 - u - v] } else { [1.0 - u, 1.0 - v, u + v - 1.0] };
-                let [height, length, _] = unit().to_array();
-                let (normal, on_surface) = (head.normal_at(t, bary), head.point_at(t, bary));
-                let direction = (unit() * 2.0 - Vec3::ONE).normalize_or(Vec3::X);
-                let (a, b) = if k % 2 == 0 {
-                    let a = on_surface + normal * height * 0.006;
-                    (a, a + direction * length * 0.025)
-                } else {
-                    let centre = on_surface + normal * height * 0.002;
-                    let across =
-                        (direction - normal * direction.dot(normal)).normalize_or(normal.any_orthonormal_vector());
-                    (centre - across * length * 0.0125, centre + across * length * 0.0125)
-                };
+            for (a, b) in crate::collide::segments_near(&head, 7, 10_000) {
                 if inside.contains(a) || inside.contains(b) {
                     continue;
                 }
