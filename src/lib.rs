@@ -25,6 +25,10 @@
 //! Drawing interpolates between the last two steps in head space and places the result on
 //! the head as posed in the frame, so the roots sit on the drawn scalp at any frame rate.
 //!
+//! A head with [`HairLod`] simulates fewer of its guides while it is small on screen (the
+//! others follow their simulated neighbours), so a crowd costs little more than its
+//! nearest heads.
+//!
 //! A head that is a skinned mesh (`SkinnedMesh`) follows the joint that carries its scalp
 //! ([`ScalpJoint`]). Hair is drawn by a child of the head, so it shares the head's
 //! visibility and lifetime; [`HairCollider`]s in a character's hierarchy touch only that
