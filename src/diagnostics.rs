@@ -9,9 +9,10 @@ pub struct HairDiagnostics;
 impl HairDiagnostics {
     /// Wall time of the last fixed step's solver work, milliseconds, all grooms.
     pub const STEP_TIME: DiagnosticPath = DiagnosticPath::const_new("hair/step_ms");
-    /// Guide strands simulated.
+    /// Guide strands the solver stepped in the last fixed step, all grooms (a level of
+    /// detail, [`HairLod`](crate::HairLod), leaves out the guides that follow).
     pub const GUIDES: DiagnosticPath = DiagnosticPath::const_new("hair/guides");
-    /// Particles simulated.
+    /// Particles of those guides.
     pub const PARTICLES: DiagnosticPath = DiagnosticPath::const_new("hair/particles");
     /// Strands drawn (guides and children).
     pub const RENDERED_STRANDS: DiagnosticPath = DiagnosticPath::const_new("hair/rendered_strands");

@@ -484,6 +484,8 @@ pub(crate) fn simulate(
             surface_patch: state.skin_patch.as_ref().map(SkinPatch::patch),
             params: &params,
         };
+        // What the solver steps: a level of detail leaves the followers out.
+        let simulated = state.strands.simulated_strands();
         let report = step_on_pool(&mut state.strands, &input, pool);
         if report.nan_resets > 0 {
             warn!("hair on {entity}: {} strands produced non-finite values and were reset", report.nan_resets);
@@ -491,8 +493,8 @@ pub(crate) fn simulate(
         state.last_report = report;
         state.last_step_time = groom_started.elapsed();
         state.time += dt;
-        guides += state.strands.strand_count();
-        particles += state.strands.positions().len();
+        guides += simulated;
+        particles += simulated * state.strands.particles_per_strand();
     }
     let elapsed_ms = started.elapsed().as_secs_f64() * 1e3;
     diagnostics.add_measurement(&HairDiagnostics::STEP_TIME, || elapsed_ms);
