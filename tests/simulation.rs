@@ -377,6 +377,11 @@ fn a_far_head_simulates_a_fraction_of_its_guides() {
     let strands = state(&app, head).strands();
     assert_eq!(strands.detail_level(), 7);
     assert_eq!(strands.simulated_strands(), 2, "1/128 of 200 guides, rounded up");
+    // The diagnostics count what the solver steps.
+    let diagnostics = app.world().resource::<bevy::diagnostic::DiagnosticsStore>();
+    let latest = |path: bevy::diagnostic::DiagnosticPath| diagnostics.get(&path).and_then(|d| d.value());
+    assert_eq!(latest(HairDiagnostics::GUIDES), Some(2.0));
+    assert_eq!(latest(HairDiagnostics::PARTICLES), Some(2.0 * state(&app, head).particles_per_strand() as f64));
     assert!(all_finite(&app, head));
     let roots_before: Vec<Vec3> = roots_and_tips(&app, head).iter().map(|(root, _)| *root).collect();
 
