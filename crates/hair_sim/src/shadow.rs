@@ -17,6 +17,7 @@
 //! map, here with the count measured instead of inferred from depth).
 
 use crate::math::Vec3;
+use glam::Vec4;
 
 /// Cells across a map, per side.
 pub const MAP_SIZE: usize = 32;
@@ -126,8 +127,21 @@ impl OpacityMap {
         for &(uvd, area) in &projected {
             let [x, y] = map.cell_coordinates(uvd);
             let layers = area / map.cell_area(uvd[2]);
-            for (cell, weight) in Self::footprint(x, y) {
-                let z = map.slice_coordinate(uvd[2], cell);
+            // The four cells of the footprint side by side: their slice coordinates (a
+            // square root each, which `slice_coordinate` spells out) in one vector.
+            let footprint: [(usize, f32); 4] = {
+                let mut cells = [(usize::MAX, 0.0); 4];
+                Self::footprint(x, y).enumerate().for_each(|(k, c)| cells[k] = c);
+                cells
+            };
+            let nearest = Vec4::from_array(footprint.map(|(cell, _)| map.nearest.get(cell).copied().unwrap_or(0.0)));
+            // Every cell of a sample's footprint starts at or before it (the pass above).
+            let behind = ((Vec4::splat(uvd[2]) - nearest) / map.first_layer).max(Vec4::ZERO);
+            let z = (((Vec4::ONE + behind * 8.0).sqrt() - Vec4::ONE) * 0.5).to_array();
+            for ((cell, weight), z) in footprint.into_iter().zip(z) {
+                if cell == usize::MAX {
+                    continue;
+                }
                 let z0 = floor(z);
                 let fz = z - z0;
                 for (dz, wz) in [(0, 1.0 - fz), (1, fz)] {
