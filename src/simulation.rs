@@ -102,8 +102,7 @@ impl HairState {
         let current: Vec<Vec3> = strands.positions().iter().map(|&p| from_sim(p + origin)).collect();
         let current_local: Vec<Vec3> = to_head_space(strands.positions(), relative_to(pose, origin)).collect();
         let frame = StampedPose { time: 0.0, pose };
-        let (low, high) =
-            head.positions.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(l, h), p| (l.min(p.y), h.max(p.y)));
+        let head_size = head.height();
         HairState {
             strands,
             collider,
@@ -127,7 +126,7 @@ impl HairState {
             skin_patch,
             reported_issues: Vec::new(),
             detail_issue: None,
-            head_size: (high - low).max(0.0),
+            head_size,
         }
     }
 

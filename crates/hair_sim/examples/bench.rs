@@ -203,9 +203,7 @@ fn detail_bench(
     particles: usize,
     steps: usize,
 ) {
-    let (low, high) =
-        head.positions.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(l, h), p| (l.min(p.y), h.max(p.y)));
-    let head_height = high - low;
+    let head_height = head.height();
     let pixels_at = |distance: f32| head_height / (2.0 * distance * (FIELD_OF_VIEW * 0.5).tan()) * VIEWPORT_HEIGHT;
     let distances: Vec<f32> = (0..16).map(|i| 1.0 + 19.0 * i as f32 / 15.0).collect();
     let levels: Vec<u32> =

@@ -18,6 +18,8 @@
 use super::sag::{REACH, SagGrid};
 use crate::math::Vec3;
 use glam::Vec4;
+use parry3d::query::PointQuery;
+use parry3d::shape::Triangle;
 
 /// Cells whose surface curves tighter than this (radius under 4 cm: rims, the nose, the
 /// chin) get lists; the skull's segments rarely reach the exact test.
@@ -71,13 +73,14 @@ impl CrossingLists {
         for (t, corners) in triangles.iter().enumerate() {
             let [a, b, c] = corners.map(|v| positions[v as usize]);
             let (low, high) = (a.min(b).min(c) - Vec3::splat(reach), a.max(b).max(c) + Vec3::splat(reach));
-            let (lo, hi) = (sag.cell_of(low), sag.cell_of(high));
+            let (lo, hi) = (sag.cell_index(low), sag.cell_index(high));
             for z in lo[2]..=hi[2] {
                 for y in lo[1]..=hi[1] {
                     for x in lo[0]..=hi[0] {
                         let i = x + dims[0] * (y + dims[1] * z);
                         if sharp[i] && found[i].len() <= MAX_TRIANGLES {
-                            let distance = distance_to_triangle(sag.cell_centre([x, y, z]), a, b, c);
+                            let distance =
+                                Triangle::new(a, b, c).distance_to_local_point(sag.cell_centre([x, y, z]), false);
                             if distance <= reach {
                                 found[i].push((distance, t as u32));
                             }
@@ -159,40 +162,4 @@ impl CrossingLists {
         let (enters, leaves) = (enters.min_element(), leaves.max_element());
         Ok((enters <= leaves).then_some((enters, leaves)))
     }
-}
-
-/// The distance from `p` to the triangle `a b c` (Ericson, "Real-Time Collision Detection",
-/// 5.1.5).
-fn distance_to_triangle(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> f32 {
-    let (ab, ac, ap) = (b - a, c - a, p - a);
-    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
-    if d1 <= 0.0 && d2 <= 0.0 {
-        return ap.length();
-    }
-    let bp = p - b;
-    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
-    if d3 >= 0.0 && d4 <= d3 {
-        return bp.length();
-    }
-    let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        return (ap - ab * (d1 / (d1 - d3))).length();
-    }
-    let cp = p - c;
-    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
-    if d6 >= 0.0 && d5 <= d6 {
-        return cp.length();
-    }
-    let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        return (ap - ac * (d2 / (d2 - d6))).length();
-    }
-    let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0 {
-        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-        return (p - (b + (c - b) * w)).length();
-    }
-    let denominator = 1.0 / (va + vb + vc);
-    let (v, w) = (vb * denominator, vc * denominator);
-    (p - (a + ab * v + ac * w)).length()
 }

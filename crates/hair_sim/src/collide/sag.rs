@@ -135,7 +135,8 @@ impl SagGrid {
         convex * length * length / 8.0 + facet
     }
 
-    fn cell_index(&self, p: Vec3) -> [usize; 3] {
+    /// The cell holding `p` (the nearest one for a point beyond the grid).
+    pub fn cell_index(&self, p: Vec3) -> [usize; 3] {
         self.cells().locate(p).to_array().map(|v| v as i32 as usize)
     }
 
@@ -147,11 +148,6 @@ impl SagGrid {
     /// A cell's side, metres.
     pub fn cell_size(&self) -> f32 {
         1.0 / self.inverse_cell
-    }
-
-    /// The cell holding `p` (the nearest one for a point beyond the grid).
-    pub fn cell_of(&self, p: Vec3) -> [usize; 3] {
-        self.cell_index(p)
     }
 
     /// The index of the cell holding `p`, cells in x-fastest order.

@@ -224,6 +224,13 @@ impl HeadMesh {
         0.5 * (b - a).cross(c - a).length()
     }
 
+    /// The height of the mesh's bounding box (its extent along y), in its units; 0 without
+    /// vertices.
+    pub fn height(&self) -> f32 {
+        let (low, high) = crate::math::bounds(&self.positions);
+        (high.y - low.y).max(0.0)
+    }
+
     /// The summed area of all triangles.
     pub fn total_area(&self) -> f32 {
         (0..self.triangles.len()).map(|t| self.triangle_area(t)).sum()

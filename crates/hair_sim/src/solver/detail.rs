@@ -280,16 +280,13 @@ impl Detail {
             }
         }
         let inverse_dt = if dt > 0.0 { dt.recip() } else { 0.0 };
-        let (rotation, translation) = (Mat3A::from_quat(pose.rotation), Vec3A::from(pose.translation));
+        let frame = (Mat3A::from_quat(pose.rotation), Vec3A::from(pose.translation));
         // Per particle of the strand at hand: where it goes, and where the step started from.
         let (mut wanted, mut start) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
         for s in 0..self.roles.len() {
             let strand = s * n..(s + 1) * n;
-            let target = |j: usize| {
-                let moved: Vec3A =
-                    self.leaders[s].iter().map(|&(k, w)| self.displacement[k as usize * n + j] * w).sum();
-                pose.transform_point(rest[s * n + j]) + if j == 0 { Vec3::ZERO } else { moved.into() }
-            };
+            let leaders = self.leaders[s].map(|(k, w)| (&self.displacement[k as usize * n..][..n], w));
+            let target = |j: usize| followed(frame, &leaders, rest[s * n + j], j);
             let (x, offsets) = (&positions[strand.clone()], &self.offsets);
             let next = match self.roles[s] {
                 Role::Simulated => continue,
@@ -315,11 +312,8 @@ impl Detail {
                     // would chain each particle's square root onto its parent's, the bulk
                     // of the cost of a far head (the solver restores them once it rises).
                     // Its velocity is its leaders', taken when it rises (`led_velocities`).
-                    let moved = self.leaders[s].map(|(k, w)| (&self.displacement[k as usize * n..][..n], w));
                     for (j, (x, &r)) in positions[strand.clone()].iter_mut().zip(&rest[strand]).enumerate() {
-                        let [(a, wa), (b, wb), (c, wc)] = moved;
-                        let displaced = if j == 0 { Vec3A::ZERO } else { a[j] * wa + b[j] * wb + c[j] * wc };
-                        *x = (rotation * Vec3A::from(r) + translation + displaced).into();
+                        *x = followed(frame, &leaders, r, j);
                     }
                     continue;
                 }
@@ -337,7 +331,7 @@ impl Detail {
             // restore, a little more each step as the pull lets go.
             for j in 0..n {
                 let i = s * n + j;
-                let placed = if j == 0 { pose.transform_point(rest[i]) } else { wanted[j] };
+                let placed = if j == 0 { target(0) } else { wanted[j] };
                 velocities[i] = (placed - start[j]) * inverse_dt;
                 positions[i] = placed;
             }
@@ -346,6 +340,21 @@ impl Detail {
             }
         }
     }
+}
+
+/// Where particle `j` of a strand follows: its rest position `rest` under the pose
+/// `(rotation, translation)`, displaced as its leaders' particles `j` are (their
+/// displacements and weights); the root (`j = 0`) stays on its rest.
+#[inline(always)]
+fn followed(
+    (rotation, translation): (Mat3A, Vec3A),
+    leaders: &[(&[Vec3A], f32); LEADERS],
+    rest: Vec3,
+    j: usize,
+) -> Vec3 {
+    let [(a, wa), (b, wb), (c, wc)] = *leaders;
+    let displaced = if j == 0 { Vec3A::ZERO } else { a[j] * wa + b[j] * wb + c[j] * wc };
+    (rotation * Vec3A::from(rest) + translation + displaced).into()
 }
 
 /// The strands in farthest-point order over their roots: the first is the one nearest the

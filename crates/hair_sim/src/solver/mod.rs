@@ -366,7 +366,8 @@ impl Strands {
     /// [`MAX_DETAIL_LEVEL`]), and the others follow their simulated neighbours, placed by
     /// [`Self::follow_leaders`] after each step. A strand that stops being simulated fades
     /// out over `fade_steps` steps, and one that starts again rises in over as many,
-    /// starting from where it was drawn, moving as it was (0: both at once, which pops).
+    /// starting from where it was drawn, moving as its leaders do (0: both at once, which
+    /// pops).
     /// The first call orders the strands and finds every level's leaders
     /// ([`Self::prepare_detail`], O(N²) in the strand count); later calls search nothing.
     pub fn set_detail_level(&mut self, level: u32, fade_steps: u32) {
@@ -402,14 +403,15 @@ impl Strands {
         self.detail.as_ref().map_or(0, Detail::level)
     }
 
-    /// Strands the solver steps now: those of the level of detail, and those still fading
-    /// out of it.
+    /// Strands the solver steps in the next step: those of the level of detail (rising
+    /// ones included), and those leaving it that take their last step.
     pub fn simulated_strands(&self) -> usize {
         self.detail.as_ref().map_or(self.strand_count(), |d| d.roles.iter().filter(|r| r.stepped()).count())
     }
 
-    /// Whether the solver steps strand `strand` now (at its level of detail, or fading out
-    /// of it); false for a strand placed from its neighbours, or out of range.
+    /// Whether the solver steps strand `strand` in the next step (as
+    /// [`Self::simulated_strands`] counts); false for a strand placed from its neighbours
+    /// (following, or fading out after its last step), or out of range.
     pub fn is_simulated(&self, strand: usize) -> bool {
         strand < self.strand_count() && self.detail.as_ref().is_none_or(|d| d.roles[strand].stepped())
     }

@@ -311,10 +311,13 @@ pub(super) fn step_chunk(
     let strands = state.positions.len() / n;
     for k in 0..strands {
         let rest_x = &rest.positions[(first_strand + k) * n..][..n];
-        let root_jump = || (head_to.transform_point(rest_x[0]) - state.positions[k * n]).length();
+        let jumped = || {
+            let root_jump = (head_to.transform_point(rest_x[0]) - state.positions[k * n]).length();
+            root_jump.is_nan() || root_jump > p.teleport_distance
+        };
         if roles.is_some_and(|r| !r[k].stepped()) {
             // Placed from its leaders after the step (`Strands::follow_leaders`).
-        } else if root_jump().is_nan() || root_jump() > p.teleport_distance {
+        } else if jumped() {
             reset_strand(state, k, n, rest_x, &head_to);
             report.teleport_resets += 1;
         } else {
