@@ -3,7 +3,8 @@
 //!
 //! ```text
 //! cargo run --release -p hair_sim --example bench -- --guides 2048 --particles 16 --steps 600
-//! # also: --threads T, --no-collision, --no-segment-collision
+//! # also: --threads T, --no-collision, --no-segment-collision,
+//! #       --simd auto|baseline|avx2|avx512 (the SIMD path; all give the same positions)
 //! # levels of detail: 16 heads at 1–20 m against one near head, on one thread
 //! cargo run --release -p hair_sim --example bench -- --lod
 //! ```
@@ -48,6 +49,20 @@ fn arg(name: &str, default: usize) -> usize {
         .unwrap_or(default)
 }
 
+/// `--simd`: the path asked for (`auto` by default); one this CPU lacks is an error.
+fn simd_path() -> SimdPath {
+    let args: Vec<String> = std::env::args().collect();
+    let Some(name) = args.iter().position(|a| a == "--simd").and_then(|i| args.get(i + 1)) else {
+        return SimdPath::Auto;
+    };
+    let path = [SimdPath::Auto, SimdPath::Baseline, SimdPath::Avx2, SimdPath::Avx512]
+        .into_iter()
+        .find(|p| p.to_string() == *name)
+        .unwrap_or_else(|| panic!("--simd takes auto, baseline, avx2 or avx512, got {name}"));
+    assert!(path.is_available(), "--simd {name}: this CPU does not have it");
+    path
+}
+
 /// Waits for `ready`, spinning first: a step is a few milliseconds, and waking a parked
 /// thread would be timed with it (rayon's workers, too, spin and yield before they sleep).
 fn wait_until(ready: impl Fn() -> bool) {
@@ -87,8 +102,13 @@ fn main() {
     // `--no-collision` measures the solver alone (the groom still settles on the head).
     // `--no-segment-collision` leaves out the whole-segment test (`SimParams::segment_collision`).
     let flag = |name: &str| std::env::args().any(|a| a == name);
-    let params =
-        SimParams { collision: !flag("--no-collision"), segment_collision: !flag("--no-segment-collision"), ..params };
+    let simd = simd_path();
+    let params = SimParams {
+        collision: !flag("--no-collision"),
+        segment_collision: !flag("--no-segment-collision"),
+        simd,
+        ..params
+    };
     if flag("--lod") {
         return detail_bench(&head, &collider, &rest, &params, guides, particles, steps);
     }
@@ -173,8 +193,10 @@ fn main() {
     let particle_steps = (guides * particles) as f64;
     println!(
         "{{\"guides\":{guides},\"particles_per_strand\":{particles},\"steps\":{steps},\"threads\":{threads},\
+         \"simd\":\"{}\",\
          \"head_triangles\":{},\"ms_per_step\":{median:.4},\"ns_per_particle_step\":{:.2},\
          \"max_stretch\":{:.6},\"max_penetration_m\":{:.6},\"teleport_resets\":{},\"nan_resets\":{}}}",
+        simd.resolved(),
         head.triangles.len(),
         median * 1e6 / particle_steps,
         strands.max_stretch(),

@@ -56,6 +56,6 @@ pub mod prelude {
     pub use crate::math::{Pose, Quat, Vec3};
     pub use crate::mesh::{HeadMesh, MeshError, test_head};
     pub use crate::solver::{
-        CollisionResponse, LengthMode, RestShape, SimParams, StepInput, StepReport, Strands, Wind,
+        CollisionResponse, LengthMode, RestShape, SimParams, SimdPath, StepInput, StepReport, Strands, Wind,
     };
 }

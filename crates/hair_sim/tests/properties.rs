@@ -50,10 +50,12 @@ fn wild_params() -> impl Strategy<Value = SimParams> {
         Just(CollisionResponse::SurfaceNormal),
         prop::array::uniform3(wild_f32()).prop_map(|offset| CollisionResponse::CentreRay { offset }),
     ];
+    let simd =
+        prop_oneof![Just(SimdPath::Auto), Just(SimdPath::Baseline), Just(SimdPath::Avx2), Just(SimdPath::Avx512)];
     (
         (prop::array::uniform3(wild_f32()), wild_count(), wild_count(), wild_f32(), mode, wild_f32(), wild_f32()),
         (wild_f32(), wild_f32(), wild_f32(), wild_f32(), wild_f32(), wild_f32(), wind),
-        (any::<bool>(), wild_f32(), response, any::<bool>(), wild_f32(), wild_f32(), wild_f32()),
+        (any::<bool>(), wild_f32(), response, any::<bool>(), wild_f32(), wild_f32(), wild_f32(), simd),
     )
         .prop_map(
             |(
@@ -67,6 +69,7 @@ fn wild_params() -> impl Strategy<Value = SimParams> {
                     friction,
                     max_speed,
                     teleport_distance,
+                    simd,
                 ),
             )| SimParams {
                 gravity,
@@ -90,6 +93,7 @@ fn wild_params() -> impl Strategy<Value = SimParams> {
                 friction,
                 max_speed,
                 teleport_distance,
+                simd,
             },
         )
 }

@@ -16,16 +16,18 @@ pub use detail::{FULL_DETAIL_HEIGHT, MAX_DETAIL_LEVEL, level_for_height, level_w
 pub use step::MIN_STEP;
 mod wind;
 
-pub use params::{CollisionResponse, LengthMode, ParamIssue, SimParams, Wind, stiffness_per_application};
+pub use params::{CollisionResponse, LengthMode, ParamIssue, SimParams, SimdPath, Wind, stiffness_per_application};
 pub use wind::wind_at;
 
 use crate::collide::{ContactHint, ExtraCollider, HeadCollider, SurfacePatch};
 use crate::math::{Pose, Quat, Vec3};
 use std::fmt;
 
-/// Strands the solver steps side by side in SIMD lanes. Chunks of a multiple of this
-/// many strands (see [`Strands::chunks_mut`]) leave no lane idle.
-pub const STRANDS_PER_GROUP: usize = lanes::LANES;
+/// The most strands the solver steps side by side in SIMD lanes (on the widest
+/// [`SimdPath`]; see [`SimdPath::strands_per_group`] for the path a CPU runs). Chunks of a
+/// multiple of this many strands (see [`Strands::chunks_mut`]) leave no lane idle on any
+/// path.
+pub const STRANDS_PER_GROUP: usize = lanes::MAX_LANES;
 
 /// Shortest segment the solver accepts, metres; shorter rest segments are lengthened.
 pub const MIN_SEGMENT_LENGTH: f32 = 1e-5;

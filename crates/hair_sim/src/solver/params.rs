@@ -68,6 +68,70 @@ impl Default for Wind {
     }
 }
 
+/// Which SIMD instructions the solver steps strands with. Every path gives the same
+/// positions, bit for bit (IEEE rounding, no fused multiply-add); they differ in speed
+/// only. Strands are stepped in groups of four vectors' worth of lanes, so a wider path
+/// also steps more strands at once.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "reflect", derive(Reflect))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub enum SimdPath {
+    /// The widest path this CPU has, found at run time.
+    #[default]
+    Auto,
+    /// The portable path, 16 strands a group: SSE2 on x86-64, NEON on aarch64, scalar
+    /// elsewhere.
+    Baseline,
+    /// AVX2 on x86-64, 32 strands a group.
+    Avx2,
+    /// AVX-512 (AVX-512F) on x86-64, 64 strands a group.
+    Avx512,
+}
+
+impl SimdPath {
+    /// Whether this CPU can run the path ([`SimdPath::Auto`] always can).
+    pub fn is_available(self) -> bool {
+        match self {
+            SimdPath::Auto | SimdPath::Baseline => true,
+            #[cfg(target_arch = "x86_64")]
+            SimdPath::Avx2 => std::arch::is_x86_feature_detected!("avx2"),
+            #[cfg(target_arch = "x86_64")]
+            SimdPath::Avx512 => std::arch::is_x86_feature_detected!("avx512f"),
+            #[cfg(not(target_arch = "x86_64"))]
+            SimdPath::Avx2 | SimdPath::Avx512 => false,
+        }
+    }
+
+    /// The path a step runs: this one if the CPU has it and it is not
+    /// [`SimdPath::Auto`], else the widest the CPU has.
+    pub fn resolved(self) -> SimdPath {
+        if self != SimdPath::Auto && self.is_available() {
+            return self;
+        }
+        [SimdPath::Avx512, SimdPath::Avx2].into_iter().find(|p| p.is_available()).unwrap_or(SimdPath::Baseline)
+    }
+
+    /// Strands the [resolved](Self::resolved) path steps side by side.
+    pub fn strands_per_group(self) -> usize {
+        match self.resolved() {
+            SimdPath::Avx512 => 64,
+            SimdPath::Avx2 => 32,
+            _ => 16,
+        }
+    }
+}
+
+impl fmt::Display for SimdPath {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            SimdPath::Auto => "auto",
+            SimdPath::Baseline => "baseline",
+            SimdPath::Avx2 => "avx2",
+            SimdPath::Avx512 => "avx512",
+        })
+    }
+}
+
 /// Every setting of the solver. Stiffnesses are "fraction of the error removed per 1/60 s":
 /// they mean the same whatever the timestep, substep or iteration count.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -127,6 +191,9 @@ pub struct SimParams {
     pub max_speed: f32,
     /// A root moving further than this in one step, m, resets its strand to the rest pose.
     pub teleport_distance: f32,
+    /// The SIMD instructions to step with; the same results on every path. A path this
+    /// CPU lacks runs as [`SimdPath::Auto`].
+    pub simd: SimdPath,
 }
 
 impl Default for SimParams {
@@ -153,6 +220,7 @@ impl Default for SimParams {
             friction: 0.3,
             max_speed: 15.0,
             teleport_distance: 0.5,
+            simd: SimdPath::Auto,
         }
     }
 }

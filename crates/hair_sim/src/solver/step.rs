@@ -9,14 +9,16 @@
 //!    particle back inside a collider ([`keep_outside`]);
 //! 5. velocities from the position change, plus Müller's FTL correction.
 //!
-//! Strands go through this sixteen at a time, side by side in SIMD lanes
-//! ([`lanes`](super::lanes)); collision, whose path differs per particle, takes them one
+//! Strands go through this 16, 32 or 64 at a time (by the SIMD path), side by side in
+//! SIMD lanes ([`lanes`](super::lanes)); collision, whose path differs per particle, takes them one
 //! by one. A strand whose root jumped more than `teleport_distance` is reset to the rest
 //! pose instead; a strand that somehow produced a non-finite value is reset too.
 
 use super::detail::Role;
-use super::lanes::{LANES, M3, Mask, PoseLanes, V3, Wide};
-use super::params::{CollisionResponse, LengthMode, SimParams, stiffness_per_application};
+#[cfg(target_arch = "x86_64")]
+use super::lanes::{Avx2, Avx512};
+use super::lanes::{Baseline, M3, MAX_LANES, Mask, PoseLanes, Simd, V3, Wide};
+use super::params::{CollisionResponse, LengthMode, SimParams, SimdPath, stiffness_per_application};
 use super::wind::wind_at;
 use super::{ChunkState, RestShape, StepInput, StepReport};
 use crate::collide::{Contact, ContactHint, HeadCollider, Resolution};
@@ -71,19 +73,19 @@ impl PoseMatrix {
 }
 
 /// Per-step constants shared by every strand of a chunk.
-struct Constants {
+struct Constants<S: Simd> {
     h: f32,
     poses: Vec<Pose>,
     /// `poses` as matrices.
     matrices: Vec<PoseMatrix>,
     /// `matrices` splatted across the lanes.
-    lane_poses: Vec<PoseLanes>,
+    lane_poses: Vec<PoseLanes<S>>,
     drag_factor: f32,
     max_step_move: f32,
     local_alpha: f32,
     global_alpha: Vec<f32>,
-    spring_k: Wide,
-    spring_d: Wide,
+    spring_k: Wide<S>,
+    spring_d: Wide<S>,
     /// Where [`CollisionResponse::CentreRay`] pushes from, head-local; `None` for the
     /// normal push, and for a centre outside the head (no ray from there leads out).
     ray_from: Option<Vec3>,
@@ -96,7 +98,7 @@ pub(super) fn step_length(input: &StepInput) -> Option<f32> {
     (input.dt >= MIN_STEP && input.dt.is_finite() && input.head_to.is_valid()).then(|| input.dt.min(MAX_STEP))
 }
 
-impl Constants {
+impl<S: Simd> Constants<S> {
     fn new(input: &StepInput, n: usize) -> Option<Self> {
         let p = input.params;
         let dt = step_length(input)?;
@@ -141,93 +143,93 @@ impl Constants {
 /// One group's state while it steps: its strands side by side (see [`lanes`](super::lanes)),
 /// particle `j` of every lane at index `j`. Allocated once per chunk and step and reused
 /// by each group; lanes without a strand copy lane 0 and are never written back.
-struct GroupState {
+struct GroupState<S: Simd> {
     /// Strand index of each real lane, within the chunk.
-    strands: [usize; LANES],
+    strands: [usize; MAX_LANES],
     lanes: usize,
-    positions: Vec<V3>,
-    velocities: Vec<V3>,
+    positions: Vec<V3<S>>,
+    velocities: Vec<V3<S>>,
     /// Positions at the start of the substep.
-    start: Vec<V3>,
+    start: Vec<V3<S>>,
     /// Where each particle would be with no velocity this substep, and the time its
     /// velocity acts over: the integrator's `x = base + step · v`. Explicit Euler has
     /// `base = start`, `step = h`; BDF2 blends in the substep before ([`implicit_springs`]).
-    base: Vec<V3>,
-    step: Wide,
+    base: Vec<V3<S>>,
+    step: Wide<S>,
     /// Gravity and wind, per particle.
-    accel: Vec<V3>,
+    accel: Vec<V3<S>>,
     /// The spring model's memory of the substep before: its start positions and
     /// velocities, and per lane the substep length they were taken at (0: none).
-    previous_positions: Vec<V3>,
-    previous_velocities: Vec<V3>,
-    history_step: Wide,
+    previous_positions: Vec<V3<S>>,
+    previous_velocities: Vec<V3<S>>,
+    history_step: Wide<S>,
     /// The spring solve's scratch: segment directions, and the tridiagonal sweep's
     /// coefficients and unknowns per segment.
-    directions: Vec<V3>,
-    sweep: Vec<Wide>,
-    tension: Vec<Wide>,
+    directions: Vec<V3<S>>,
+    sweep: Vec<Wide<S>>,
+    tension: Vec<Wide<S>>,
     /// Per segment: its length minus rest length at the predicted positions, the right
     /// side of its spring row, its bound (`± length_tolerance × l0`), and whether it is
     /// held there.
-    stretch: Vec<Wide>,
-    spring_rhs: Vec<Wide>,
-    bound: Vec<Wide>,
-    rigid: Vec<Mask>,
-    ftl_correction: Vec<V3>,
+    stretch: Vec<Wide<S>>,
+    spring_rhs: Vec<Wide<S>>,
+    bound: Vec<Wide<S>>,
+    rigid: Vec<Mask<S>>,
+    ftl_correction: Vec<V3<S>>,
     /// Head-local positions during collision, and per particle the lanes it moved.
-    local: Vec<V3>,
+    local: Vec<V3<S>>,
     /// Positions right after collision, before the final length pass.
-    collided: Vec<V3>,
+    collided: Vec<V3<S>>,
     /// Per particle, how far `collided` is at least from the head's surface: what the
     /// collision pass knows without asking again (the thickness, less any slide after).
-    clearance: Vec<Wide>,
-    moved: Vec<u32>,
-    rest_positions: Vec<V3>,
-    rest_directions: Vec<V3>,
-    lengths: Vec<Wide>,
+    clearance: Vec<Wide<S>>,
+    moved: Vec<u64>,
+    rest_positions: Vec<V3<S>>,
+    rest_directions: Vec<V3<S>>,
+    lengths: Vec<Wide<S>>,
     /// Head-local root frame of each lane.
-    root_frames: [Quat; LANES],
+    root_frames: [Quat; MAX_LANES],
     /// Wind seeds: the strands' indices in the whole groom.
-    seeds: [u32; LANES],
+    seeds: [u32; MAX_LANES],
 }
 
-impl GroupState {
+impl<S: Simd> GroupState<S> {
     /// One bit per real lane, as [`Mask::bitmask`] numbers them: empty lanes and the bits
-    /// beyond [`LANES`] are clear, so a mask of lanes still to do can reach zero.
-    fn real_lanes(&self) -> u32 {
-        u32::MAX.checked_shr(32 - self.lanes as u32).unwrap_or(0)
+    /// beyond [`Wide::LANES`] are clear, so a mask of lanes still to do can reach zero.
+    fn real_lanes(&self) -> u64 {
+        u64::MAX.checked_shr(64 - self.lanes as u32).unwrap_or(0)
     }
 
     fn new(n: usize) -> Self {
         GroupState {
-            strands: [0; LANES],
+            strands: [0; MAX_LANES],
             lanes: 0,
-            positions: vec![V3::ZERO; n],
-            velocities: vec![V3::ZERO; n],
-            start: vec![V3::ZERO; n],
-            base: vec![V3::ZERO; n],
-            step: Wide::ZERO,
-            accel: vec![V3::ZERO; n],
-            previous_positions: vec![V3::ZERO; n],
-            previous_velocities: vec![V3::ZERO; n],
-            history_step: Wide::ZERO,
-            directions: vec![V3::ZERO; n],
-            sweep: vec![Wide::ZERO; n],
-            tension: vec![Wide::ZERO; n],
-            stretch: vec![Wide::ZERO; n],
-            spring_rhs: vec![Wide::ZERO; n],
-            bound: vec![Wide::ZERO; n],
+            positions: vec![V3::zero(); n],
+            velocities: vec![V3::zero(); n],
+            start: vec![V3::zero(); n],
+            base: vec![V3::zero(); n],
+            step: Wide::zero(),
+            accel: vec![V3::zero(); n],
+            previous_positions: vec![V3::zero(); n],
+            previous_velocities: vec![V3::zero(); n],
+            history_step: Wide::zero(),
+            directions: vec![V3::zero(); n],
+            sweep: vec![Wide::zero(); n],
+            tension: vec![Wide::zero(); n],
+            stretch: vec![Wide::zero(); n],
+            spring_rhs: vec![Wide::zero(); n],
+            bound: vec![Wide::zero(); n],
             rigid: vec![Mask::from_bits(0); n],
-            ftl_correction: vec![V3::ZERO; n],
-            local: vec![V3::ZERO; n],
-            collided: vec![V3::ZERO; n],
-            clearance: vec![Wide::ZERO; n],
+            ftl_correction: vec![V3::zero(); n],
+            local: vec![V3::zero(); n],
+            collided: vec![V3::zero(); n],
+            clearance: vec![Wide::zero(); n],
             moved: vec![0; n],
-            rest_positions: vec![V3::ZERO; n],
-            rest_directions: vec![V3::ZERO; n],
-            lengths: vec![Wide::ZERO; n],
-            root_frames: [Quat::IDENTITY; LANES],
-            seeds: [0; LANES],
+            rest_positions: vec![V3::zero(); n],
+            rest_directions: vec![V3::zero(); n],
+            lengths: vec![Wide::zero(); n],
+            root_frames: [Quat::IDENTITY; MAX_LANES],
+            seeds: [0; MAX_LANES],
         }
     }
 
@@ -239,7 +241,7 @@ impl GroupState {
         // Empty lanes repeat the first strand: finite work whose result is dropped.
         self.strands = std::array::from_fn(|l| strands.get(l).copied().unwrap_or(strands[0]));
         // Strand by strand, so each reads its particles in order.
-        for (l, &k) in self.strands.iter().enumerate() {
+        for (l, &k) in self.strands[..Wide::<S>::LANES].iter().enumerate() {
             let (at, global) = (k * n, (first_strand + k) * n);
             let positions = state.positions[at..][..n].iter().zip(&state.velocities[at..][..n]);
             let rest_values = rest.positions[global..][..n].iter().zip(&rest.local_directions[global..][..n]);
@@ -253,9 +255,9 @@ impl GroupState {
         }
         self.root_frames = self.strands.map(|k| rest.root_frames[first_strand + k]);
         self.seeds = self.strands.map(|k| (first_strand + k) as u32);
-        self.history_step = Wide::ZERO;
+        self.history_step = Wide::zero();
         if history {
-            for (l, &k) in self.strands.iter().enumerate() {
+            for (l, &k) in self.strands[..Wide::<S>::LANES].iter().enumerate() {
                 let memory =
                     state.previous_positions[k * n..][..n].iter().zip(&state.previous_velocities[k * n..][..n]);
                 for (j, (&x, &v)) in memory.enumerate() {
@@ -287,7 +289,57 @@ impl GroupState {
     }
 }
 
+/// Steps the strands of a chunk on the SIMD path the settings ask for
+/// ([`SimParams::simd`]).
 pub(super) fn step_chunk(
+    first_strand: usize,
+    rest: &RestShape,
+    roles: Option<&[Role]>,
+    state: &mut ChunkState,
+    input: &StepInput,
+) -> StepReport {
+    match input.params.simd.resolved() {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: `resolved` picks a path only where the CPU has its instructions.
+        SimdPath::Avx512 => unsafe { step_chunk_avx512(first_strand, rest, roles, state, input) },
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: as above.
+        SimdPath::Avx2 => unsafe { step_chunk_avx2(first_strand, rest, roles, state, input) },
+        _ => step_chunk_on::<Baseline>(first_strand, rest, roles, state, input),
+    }
+}
+
+/// [`step_chunk_on`] compiled for AVX-512: everything it inlines (the whole step but the
+/// collider's out-of-line queries) may use it.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn step_chunk_avx512(
+    first_strand: usize,
+    rest: &RestShape,
+    roles: Option<&[Role]>,
+    state: &mut ChunkState,
+    input: &StepInput,
+) -> StepReport {
+    step_chunk_on::<Avx512>(first_strand, rest, roles, state, input)
+}
+
+/// [`step_chunk_on`] compiled for AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn step_chunk_avx2(
+    first_strand: usize,
+    rest: &RestShape,
+    roles: Option<&[Role]>,
+    state: &mut ChunkState,
+    input: &StepInput,
+) -> StepReport {
+    step_chunk_on::<Avx2>(first_strand, rest, roles, state, input)
+}
+
+/// The step on path `S`. It and everything it calls on lanes are `#[inline(always)]`, so
+/// that the whole step is compiled for the instructions of the function that calls it.
+#[inline(always)]
+fn step_chunk_on<S: Simd>(
     first_strand: usize,
     rest: &RestShape,
     roles: Option<&[Role]>,
@@ -296,17 +348,17 @@ pub(super) fn step_chunk(
 ) -> StepReport {
     let n = rest.particles_per_strand;
     let mut report = StepReport::default();
-    let Some(c) = Constants::new(input, n) else {
+    let Some(c) = Constants::<S>::new(input, n) else {
         return report;
     };
     let p = input.params;
     let head_to = *c.poses.last().expect("at least one pose");
-    let mut group_state = GroupState::new(n);
+    let mut group_state = GroupState::<S>::new(n);
     // Only the spring model integrates with memory of the substep before.
     let history = p.length_mode == LengthMode::Springs;
 
     // Chunk-local indices of the strands gathered for the next group.
-    let mut group = [0usize; LANES];
+    let mut group = [0usize; MAX_LANES];
     let mut lanes = 0;
     let strands = state.positions.len() / n;
     for k in 0..strands {
@@ -324,7 +376,7 @@ pub(super) fn step_chunk(
             group[lanes] = k;
             lanes += 1;
         }
-        if lanes == LANES || (k + 1 == strands && lanes > 0) {
+        if lanes == Wide::<S>::LANES || (k + 1 == strands && lanes > 0) {
             group_state.load(&group[..lanes], first_strand, rest, state, history);
             step_group(&mut group_state, state, &c, input, &mut report);
             group_state.store(state, history);
@@ -353,7 +405,14 @@ fn reset_strand(state: &mut ChunkState, k: usize, n: usize, rest_x: &[Vec3], pos
     state.history_step[k] = 0.0;
 }
 
-fn step_group(g: &mut GroupState, state: &mut ChunkState, c: &Constants, input: &StepInput, report: &mut StepReport) {
+#[inline(always)]
+fn step_group<S: Simd>(
+    g: &mut GroupState<S>,
+    state: &mut ChunkState,
+    c: &Constants<S>,
+    input: &StepInput,
+    report: &mut StepReport,
+) {
     for s in 1..c.poses.len() {
         let poses = SubstepPoses {
             before: &c.matrices[s - 1],
@@ -368,11 +427,11 @@ fn step_group(g: &mut GroupState, state: &mut ChunkState, c: &Constants, input: 
 }
 
 /// The head at the start and end of a substep.
-struct SubstepPoses<'a> {
+struct SubstepPoses<'a, S: Simd> {
     /// For one particle at a time (friction at a contact).
     before: &'a PoseMatrix,
     /// For whole lanes at once.
-    now: &'a PoseLanes,
+    now: &'a PoseLanes<S>,
     /// The same, for one particle at a time.
     now_one: &'a PoseMatrix,
     /// The rotation of `now`, for the root frames of local shape.
@@ -381,12 +440,13 @@ struct SubstepPoses<'a> {
     last: bool,
 }
 
-fn substep(
-    g: &mut GroupState,
+#[inline(always)]
+fn substep<S: Simd>(
+    g: &mut GroupState<S>,
     state: &mut ChunkState,
-    c: &Constants,
+    c: &Constants<S>,
     time: f32,
-    poses: &SubstepPoses,
+    poses: &SubstepPoses<S>,
     input: &StepInput,
     report: &mut StepReport,
 ) {
@@ -396,15 +456,18 @@ fn substep(
 
     // 1. Forces and integration of the free particles; 2. the root follows the head.
     g.start.copy_from_slice(&g.positions);
-    let wind = V3::from_lanes(g.seeds.map(|seed| wind_at(&p.wind, seed, time)));
+    let lanes = Wide::<S>::LANES;
+    let wind = V3::from_lanes(&std::array::from_fn::<_, MAX_LANES, _>(|l| {
+        if l < lanes { wind_at(&p.wind, g.seeds[l], time) } else { Vec3::ZERO }
+    }));
     let gravity = V3::splat(Vec3::from_array(p.gravity));
-    let windless = wind == V3::ZERO;
+    let windless = wind == V3::zero();
     for j in 1..n {
         // Only the wind across the segment pushes; without wind, skip the normalize.
         let wind_across = if windless {
-            V3::ZERO
+            V3::zero()
         } else {
-            let tangent = (g.positions[j] - g.positions[j - 1]).normalize_or(V3::ZERO);
+            let tangent = (g.positions[j] - g.positions[j - 1]).normalize_or(V3::zero());
             wind - tangent * wind.dot(tangent)
         };
         g.accel[j] = gravity + wind_across;
@@ -424,8 +487,10 @@ fn substep(
     }
 
     // 3. Shape and length.
-    g.ftl_correction.fill(V3::ZERO);
-    let root_frame = M3::from_lanes(g.root_frames.map(|q| Mat3A::from_quat(poses.frame * q)));
+    g.ftl_correction.fill(V3::zero());
+    let root_frame = M3::from_lanes(&std::array::from_fn::<_, MAX_LANES, _>(|l| {
+        if l < lanes { Mat3A::from_quat(poses.frame * g.root_frames[l]) } else { Mat3A::IDENTITY }
+    }));
     for _ in 0..p.iterations {
         global_shape(g, &c.global_alpha, poses.now);
         if c.local_alpha > 0.0 {
@@ -455,7 +520,7 @@ fn substep(
     g.velocities[0] = ((g.positions[0] - g.start[0]) * h.recip()).clamp_length_max(max_speed);
     let inv_step = g.step.recip();
     for j in 1..n {
-        let next_correction = if j + 1 < n { g.ftl_correction[j + 1] } else { V3::ZERO };
+        let next_correction = if j + 1 < n { g.ftl_correction[j + 1] } else { V3::zero() };
         let v = (g.positions[j] - g.base[j]) * inv_step - next_correction * ftl_velocity;
         g.velocities[j] = v.clamp_length_max(max_speed);
     }
@@ -478,14 +543,15 @@ fn substep(
 /// A segment that this would take past the length tolerance is instead held at its bound
 /// in a second solve, its tension whatever that takes (a rigid rod): the clamp is part of
 /// the balance, and the segments below a clamped one still carry exactly their weight.
-fn implicit_springs(g: &mut GroupState, c: &Constants, p: &SimParams) {
+#[inline(always)]
+fn implicit_springs<S: Simd>(g: &mut GroupState<S>, c: &Constants<S>, p: &SimParams) {
     let n = g.positions.len();
     let h = Wide::splat(c.h);
     // BDF2 where a lane remembers a substep of the same length, else backward Euler.
     let first = g.history_step.cmpne(h);
     let (now, before) = (Wide::splat(4.0 / 3.0), Wide::splat(1.0 / 3.0));
-    let current = Wide::select(first, Wide::ONE, now);
-    let previous = Wide::select(first, Wide::ZERO, before);
+    let current = Wide::select(first, Wide::one(), now);
+    let previous = Wide::select(first, Wide::zero(), before);
     let step = Wide::select(first, h, h * Wide::splat(2.0 / 3.0));
     let drag = Wide::splat(c.drag_factor);
     for j in 1..n {
@@ -509,7 +575,7 @@ fn implicit_springs(g: &mut GroupState, c: &Constants, p: &SimParams) {
         let segment = g.positions[j] - g.positions[j - 1];
         let l = segment.length();
         // A collapsed segment has no direction to pull along.
-        g.directions[j] = V3::select(l.cmpgt(Wide::splat(1e-9)), segment * l.recip(), V3::ZERO);
+        g.directions[j] = V3::select(l.cmpgt(Wide::splat(1e-9)), segment * l.recip(), V3::zero());
         g.stretch[j] = l - g.lengths[j];
         let parent_velocity = if j == 1 { root_velocity } else { g.velocities[j - 1] };
         g.spring_rhs[j] = -(k * g.stretch[j] + d * g.directions[j].dot(g.velocities[j] - parent_velocity));
@@ -535,7 +601,7 @@ fn implicit_springs(g: &mut GroupState, c: &Constants, p: &SimParams) {
             if new != 0 {
                 // The bound on the side the segment went past.
                 let signed =
-                    Wide::select(stretch.cmpgt(Wide::ZERO), g.lengths[j] * tolerance, -(g.lengths[j] * tolerance));
+                    Wide::select(stretch.cmpgt(Wide::zero()), g.lengths[j] * tolerance, -(g.lengths[j] * tolerance));
                 let new = Mask::from_bits(new);
                 g.bound[j] = Wide::select(new, signed, g.bound[j]);
                 g.rigid[j] = Mask::from_bits(g.rigid[j].bitmask() | new.bitmask());
@@ -562,9 +628,9 @@ const MAX_ACTIVE_SET_PASSES: usize = 4;
 
 /// The net force of the tensions on particle `j`: its own segment pulls it toward the
 /// parent, the next one toward the child.
-#[inline]
-fn pull(g: &GroupState, j: usize) -> V3 {
-    let child = if j + 1 < g.positions.len() { g.directions[j + 1] * g.tension[j + 1] } else { V3::ZERO };
+#[inline(always)]
+fn pull<S: Simd>(g: &GroupState<S>, j: usize) -> V3<S> {
+    let child = if j + 1 < g.positions.len() { g.directions[j + 1] * g.tension[j + 1] } else { V3::zero() };
     g.directions[j] * g.tension[j] - child
 }
 
@@ -574,25 +640,26 @@ fn pull(g: &GroupState, j: usize) -> V3 {
 /// a rigid row (`g.rigid`) asks that the segment end at its bound,
 /// `(1 ± length_tolerance) l0`, where `displacement` (step² / m) turns a tension into
 /// how far it moves a particle.
-fn solve_tensions(g: &mut GroupState, coupling: Wide, displacement: Wide) {
+#[inline(always)]
+fn solve_tensions<S: Simd>(g: &mut GroupState<S>, coupling: Wide<S>, displacement: Wide<S>) {
     let n = g.positions.len();
-    let mut upper_before = Wide::ZERO;
+    let mut upper_before = Wide::zero();
     for j in 1..n {
         // J M⁻¹ Jᵀ in units of 1/m: 1 on the diagonal of the first segment (its parent is
         // pinned), 2 elsewhere, −cos(angle) to each neighbour.
-        let own = if j == 1 { Wide::ONE } else { Wide::splat(2.0) };
-        let lower = if j == 1 { Wide::ZERO } else { -g.directions[j].dot(g.directions[j - 1]) };
-        let upper = if j + 1 < n { -g.directions[j].dot(g.directions[j + 1]) } else { Wide::ZERO };
+        let own = if j == 1 { Wide::one() } else { Wide::splat(2.0) };
+        let lower = if j == 1 { Wide::zero() } else { -g.directions[j].dot(g.directions[j - 1]) };
+        let upper = if j + 1 < n { -g.directions[j].dot(g.directions[j + 1]) } else { Wide::zero() };
         let rigid = g.rigid[j];
         // A rigid row: the linearised length change equals the way to the bound.
         let to_bound = g.bound[j] - g.stretch[j];
-        let scale = Wide::select(rigid, Wide::ONE, coupling);
-        let diagonal = Wide::select(rigid, own, Wide::ONE + coupling * own);
+        let scale = Wide::select(rigid, Wide::one(), coupling);
+        let diagonal = Wide::select(rigid, own, Wide::one() + coupling * own);
         let rhs = Wide::select(rigid, to_bound / displacement, g.spring_rhs[j]);
         let (lower, upper) = (lower * scale, upper * scale);
         let pivot = (diagonal - lower * upper_before).recip();
         g.sweep[j] = upper * pivot;
-        let carried = if j == 1 { Wide::ZERO } else { lower * g.tension[j - 1] };
+        let carried = if j == 1 { Wide::zero() } else { lower * g.tension[j - 1] };
         g.tension[j] = (rhs - carried) * pivot;
         upper_before = g.sweep[j];
     }
@@ -602,7 +669,8 @@ fn solve_tensions(g: &mut GroupState, coupling: Wide, displacement: Wide) {
 }
 
 /// The length constraint of `p.length_mode`.
-fn length_pass(g: &mut GroupState, p: &SimParams) {
+#[inline(always)]
+fn length_pass<S: Simd>(g: &mut GroupState<S>, p: &SimParams) {
     match p.length_mode {
         LengthMode::Inextensible => follow_the_leader(g),
         LengthMode::Springs => clamp_lengths(g, p.length_tolerance),
@@ -611,12 +679,13 @@ fn length_pass(g: &mut GroupState, p: &SimParams) {
 
 /// Moves particles out of the head and the extra colliders, with friction. Queries are
 /// per particle (their paths differ), on the real lanes only.
-fn collide(
-    g: &mut GroupState,
+#[inline(always)]
+fn collide<S: Simd>(
+    g: &mut GroupState<S>,
     state: &mut ChunkState,
     p: &SimParams,
-    c: &Constants,
-    poses: &SubstepPoses,
+    c: &Constants<S>,
+    poses: &SubstepPoses<S>,
     input: &StepInput,
     report: &mut StepReport,
 ) {
@@ -745,25 +814,26 @@ const LENGTH_SLACK: f32 = 1.0 - FRICTION_SLACK;
 /// thickness` above every surface. From there, each particle is placed as the length pass
 /// places it (the same rule, one lane at a time) and, if that is inside a collider, its
 /// segment is turned about its parent until it is out ([`outside_at_length`]).
-fn keep_outside(
-    g: &mut GroupState,
+#[inline(always)]
+fn keep_outside<S: Simd>(
+    g: &mut GroupState<S>,
     state: &mut ChunkState,
     p: &SimParams,
-    poses: &SubstepPoses,
+    poses: &SubstepPoses<S>,
     input: &StepInput,
     report: &mut StepReport,
 ) {
     let n = g.positions.len();
     let margin = LENGTH_SLACK * p.collision_thickness;
     // Per lane, the first particle moved too far (n: none).
-    let mut first = [n; LANES];
+    let mut first = [n; MAX_LANES];
     let mut pending = g.real_lanes();
     for j in 1..n {
         if pending == 0 {
             break;
         }
         let far = (g.positions[j] - g.collided[j]).length().cmpgt(Wide::splat(margin)).bitmask() & pending;
-        for l in (0..LANES).filter(|&l| far & (1 << l) != 0) {
+        for l in (0..Wide::<S>::LANES).filter(|&l| far & (1 << l) != 0) {
             first[l] = j;
         }
         pending &= !far;
@@ -779,11 +849,12 @@ fn keep_outside(
 /// until it is out ([`outside_at_length`]). Unless `verify`, `g.collided` is known to be
 /// outside, and only particles moved further than [`LENGTH_SLACK`] from it are tested.
 #[allow(clippy::too_many_arguments)]
-fn place_outside(
-    g: &mut GroupState,
+#[inline(always)]
+fn place_outside<S: Simd>(
+    g: &mut GroupState<S>,
     state: &mut ChunkState,
     p: &SimParams,
-    poses: &SubstepPoses,
+    poses: &SubstepPoses<S>,
     input: &StepInput,
     report: &mut StepReport,
     l: usize,
@@ -825,7 +896,8 @@ fn place_outside(
 
 /// Moves particle `j` of lane `l` to `placed` in the final pass; FTL's velocity correction
 /// counts the move.
-fn set_final(g: &mut GroupState, p: &SimParams, l: usize, j: usize, placed: Vec3) {
+#[inline(always)]
+fn set_final<S: Simd>(g: &mut GroupState<S>, p: &SimParams, l: usize, j: usize, placed: Vec3) {
     if p.length_mode == LengthMode::Inextensible {
         let length_pass_placed = g.positions[j].lane(l);
         let correction = g.ftl_correction[j].lane(l) + (placed - length_pass_placed);
@@ -837,10 +909,11 @@ fn set_final(g: &mut GroupState, p: &SimParams, l: usize, j: usize, placed: Vec3
 /// The deepest contact at world point `x` with anything: the head as baked or the skin that
 /// moved against it, else an extra collider. Along the normal whatever the response:
 /// turning a segment onto the tangent plane needs the plane.
-fn contact_at(
+#[inline(always)]
+fn contact_at<S: Simd>(
     x: Vec3,
     p: &SimParams,
-    poses: &SubstepPoses,
+    poses: &SubstepPoses<S>,
     input: &StepInput,
     hint: &mut ContactHint,
 ) -> Option<Contact> {
@@ -866,11 +939,12 @@ fn contact_at(
 /// parent until the middle of the crossed stretch is out on the collision shell (a few
 /// turns at most), the strand below follows it as a leader, and the final pass places the rest
 /// outside from there ([`place_outside`]).
-fn keep_segments_outside(
-    g: &mut GroupState,
+#[inline(always)]
+fn keep_segments_outside<S: Simd>(
+    g: &mut GroupState<S>,
     state: &mut ChunkState,
     p: &SimParams,
-    poses: &SubstepPoses,
+    poses: &SubstepPoses<S>,
     input: &StepInput,
     report: &mut StepReport,
 ) {
@@ -878,10 +952,10 @@ fn keep_segments_outside(
     let n = g.positions.len();
     let real_lanes = g.real_lanes();
     // Lanes whose particles from here on were moved by a turn: their clearance is unknown.
-    let mut turned_lanes = 0u32;
+    let mut turned_lanes = 0u64;
     // What collision knew, less how far the final pass moved each particle since.
     for j in 1..n {
-        g.clearance[j] = (g.clearance[j] - (g.positions[j] - g.collided[j]).length()).max(Wide::ZERO);
+        g.clearance[j] = (g.clearance[j] - (g.positions[j] - g.collided[j]).length()).max(Wide::zero());
     }
     let cells = collider.rise_cells();
     let (origin, inverse_cell, last) =
@@ -889,8 +963,8 @@ fn keep_segments_outside(
     for j in 2..n {
         let length = (g.positions[j] - g.positions[j - 1]).length();
         let turned = Mask::from_bits(turned_lanes);
-        let clear_parent = Wide::select(turned, Wide::ZERO, g.clearance[j - 1]);
-        let clear_child = Wide::select(turned, Wide::ZERO, g.clearance[j]);
+        let clear_parent = Wide::select(turned, Wide::zero(), g.clearance[j - 1]);
+        let clear_child = Wide::select(turned, Wide::zero(), g.clearance[j]);
         // Every point of the segment is within `length` of an end together.
         let uncovered = !(clear_parent + clear_child).cmpgt(length).bitmask() & real_lanes;
         if uncovered == 0 {
@@ -898,7 +972,7 @@ fn keep_segments_outside(
         }
         let lowest = clear_parent.min(clear_child);
         let middle = poses.now.local_point((g.positions[j - 1] + g.positions[j]) * Wide::splat(0.5));
-        let cell = ((middle - origin) * inverse_cell).max(V3::ZERO).min(last);
+        let cell = ((middle - origin) * inverse_cell).max(V3::zero()).min(last);
         for l in (0..g.lanes).filter(|&l| uncovered & (1 << l) != 0) {
             if lowest.get(l) > collider.rise_in_cell(cell.lane(l), length.get(l)) {
                 continue;
@@ -1078,7 +1152,8 @@ fn outside_at_length(
 }
 
 /// Pulls each particle toward the rest pose carried by the head, by `alpha[j]`.
-fn global_shape(g: &mut GroupState, alpha: &[f32], pose: &PoseLanes) {
+#[inline(always)]
+fn global_shape<S: Simd>(g: &mut GroupState<S>, alpha: &[f32], pose: &PoseLanes<S>) {
     for ((x, &rest), &alpha) in g.positions.iter_mut().zip(&g.rest_positions).zip(alpha).skip(1) {
         if alpha > 0.0 {
             *x = *x + (pose.world_point(rest) - *x) * Wide::splat(alpha);
@@ -1091,7 +1166,8 @@ fn global_shape(g: &mut GroupState, alpha: &[f32], pose: &PoseLanes) {
 /// The frame starts as the head-carried root frame; each segment's deviation from where
 /// its parent expected it rotates the frame handed to its child, so a bent strand keeps
 /// its curl relative to the bend instead of snapping back to the head's orientation.
-fn local_shape(g: &mut GroupState, alpha: f32, root_frame: M3) {
+#[inline(always)]
+fn local_shape<S: Simd>(g: &mut GroupState<S>, alpha: f32, root_frame: M3<S>) {
     let alpha = Wide::splat(alpha);
     let mut frame = root_frame;
     for j in 1..g.positions.len() {
@@ -1110,7 +1186,8 @@ fn local_shape(g: &mut GroupState, alpha: f32, root_frame: M3) {
 
 /// Follow-The-Leader: walk root → tip, putting each particle at rest length from its
 /// parent. Records each particle's correction for Müller's velocity term.
-fn follow_the_leader(g: &mut GroupState) {
+#[inline(always)]
+fn follow_the_leader<S: Simd>(g: &mut GroupState<S>) {
     let down = V3::splat(Vec3::NEG_Y);
     for j in 1..g.positions.len() {
         let parent = g.positions[j - 1];
@@ -1123,7 +1200,8 @@ fn follow_the_leader(g: &mut GroupState) {
 
 /// The reference's length constraint: no segment longer or shorter than `tolerance` ×
 /// its rest length. Root → tip, so each fix rests on an already-fixed parent.
-fn clamp_lengths(g: &mut GroupState, tolerance: f32) {
+#[inline(always)]
+fn clamp_lengths<S: Simd>(g: &mut GroupState<S>, tolerance: f32) {
     let down = V3::splat(Vec3::NEG_Y);
     let (shortest, longest) = (Wide::splat(1.0 - tolerance), Wide::splat(1.0 + tolerance));
     for j in 1..g.positions.len() {
@@ -1151,7 +1229,7 @@ mod tests {
     use crate::solver::Strands;
 
     /// A group holding one strand at `xs`, with rest shape `rest_positions`.
-    fn one(rest_positions: Vec<Vec3>, xs: &[Vec3]) -> GroupState {
+    fn one(rest_positions: Vec<Vec3>, xs: &[Vec3]) -> GroupState<Baseline> {
         let mut strands = strands_at(RestShape::new(rest_positions, xs.len()).unwrap(), xs);
         let chunks = strands.chunks_mut(1);
         let mut g = GroupState::new(xs.len());
@@ -1166,7 +1244,7 @@ mod tests {
         strands
     }
 
-    fn lane0(values: &[V3]) -> Vec<Vec3> {
+    fn lane0(values: &[V3<Baseline>]) -> Vec<Vec3> {
         values.iter().map(|v| v.lane(0)).collect()
     }
 
@@ -1232,10 +1310,10 @@ mod tests {
         let mut strands = strands_at(rest.clone(), &doubled);
         let mut chunks = strands.chunks_mut(2);
         let state = &mut chunks[0].state;
-        let mut g = GroupState::new(n);
+        let mut g = GroupState::<Baseline>::new(n);
         g.load(&[1], 0, &rest, state, false);
-        assert_eq!((g.lanes, g.strands), (1, [1; LANES]));
-        assert!((0..LANES).all(|l| g.positions[2].lane(l) == Vec3::new(0.0, -4.0, 0.0)));
+        assert_eq!((g.lanes, g.strands), (1, [1; MAX_LANES]));
+        assert!((0..Wide::<Baseline>::LANES).all(|l| g.positions[2].lane(l) == Vec3::new(0.0, -4.0, 0.0)));
         follow_the_leader(&mut g);
         g.store(state, false);
         assert_eq!(state.positions[n + 2], Vec3::new(0.0, -2.0, 0.0), "strand 1 restored to rest length");
