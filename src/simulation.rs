@@ -22,7 +22,7 @@ use hair_sim::collide::{ExtraCollider, HeadCollider};
 use hair_sim::groom::{HairFile, RootBinding};
 use hair_sim::math::{Pose, Vec3 as SimVec3};
 use hair_sim::mesh::HeadMesh;
-use hair_sim::solver::{STRANDS_PER_GROUP, StepInput, StepReport, Strands};
+use hair_sim::solver::{StepInput, StepReport, Strands};
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -507,7 +507,7 @@ pub(crate) fn simulate(
 pub fn step_on_pool(strands: &mut Strands, input: &StepInput, pool: &TaskPool) -> StepReport {
     let strands_per_task = strands.strand_count().div_ceil(pool.thread_num().max(1) * 4).max(MIN_STRANDS_PER_TASK);
     // Whole SIMD groups per task, so no task steps idle lanes.
-    let strands_per_task = strands_per_task.next_multiple_of(STRANDS_PER_GROUP);
+    let strands_per_task = strands_per_task.next_multiple_of(input.params.simd.strands_per_group());
     let reports = pool.scope(|scope| {
         for mut chunk in strands.chunks_mut(strands_per_task) {
             scope.spawn(async move { chunk.step(input) });

@@ -11,7 +11,7 @@
 
 use hair_sim::prelude::*;
 use hair_sim::solver::FULL_DETAIL_HEIGHT;
-use hair_sim::solver::{STRANDS_PER_GROUP, StrandChunk};
+use hair_sim::solver::StrandChunk;
 use std::sync::atomic::{AtomicU32, AtomicUsize, Ordering};
 use std::time::Instant;
 
@@ -114,7 +114,7 @@ fn main() {
     }
     let mut strands = Strands::new(rest, head_pose(0.0));
 
-    let chunk = strands.strand_count().div_ceil(threads * 4).next_multiple_of(STRANDS_PER_GROUP);
+    let chunk = strands.strand_count().div_ceil(threads * 4).next_multiple_of(params.simd.strands_per_group());
     let n = strands.particles_per_strand();
     let dt = 1.0 / 60.0;
     let input_at = |k: usize| {

@@ -23,12 +23,6 @@ use crate::collide::{ContactHint, ExtraCollider, HeadCollider, SurfacePatch};
 use crate::math::{Pose, Quat, Vec3};
 use std::fmt;
 
-/// The most strands the solver steps side by side in SIMD lanes (on the widest
-/// [`SimdPath`]; see [`SimdPath::strands_per_group`] for the path a CPU runs). Chunks of a
-/// multiple of this many strands (see [`Strands::chunks_mut`]) leave no lane idle on any
-/// path.
-pub const STRANDS_PER_GROUP: usize = lanes::MAX_LANES;
-
 /// Shortest segment the solver accepts, metres; shorter rest segments are lengthened.
 pub const MIN_SEGMENT_LENGTH: f32 = 1e-5;
 
@@ -318,7 +312,7 @@ impl Strands {
 
     /// Splits the state into chunks of `strands_per_chunk` strands (the last may be
     /// shorter) that can be stepped on different threads. Multiples of
-    /// [`STRANDS_PER_GROUP`] use the SIMD lanes fully.
+    /// [`SimdPath::strands_per_group`] use the SIMD lanes fully.
     pub fn chunks_mut(&mut self, strands_per_chunk: usize) -> Vec<StrandChunk<'_>> {
         let n = self.rest.particles_per_strand;
         let strands = strands_per_chunk.max(1);

@@ -15,12 +15,15 @@
 //! pose instead; a strand that somehow produced a non-finite value is reset too.
 
 use super::detail::Role;
-#[cfg(target_arch = "x86_64")]
-use super::lanes::{Avx2, Avx512};
 use super::lanes::{Baseline, M3, MAX_LANES, Mask, PoseLanes, Simd, V3, Wide};
-use super::params::{CollisionResponse, LengthMode, SimParams, SimdPath, stiffness_per_application};
+use super::params::{CollisionResponse, LengthMode, SimParams, stiffness_per_application};
 use super::wind::wind_at;
 use super::{ChunkState, RestShape, StepInput, StepReport};
+#[cfg(target_arch = "x86_64")]
+use super::{
+    lanes::{Avx2, Avx512},
+    params::SimdPath,
+};
 use crate::collide::{Contact, ContactHint, HeadCollider, Resolution};
 use crate::math::{Pose, Quat, Vec3};
 use glam::{Mat3A, Vec3A};
