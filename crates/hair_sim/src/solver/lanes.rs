@@ -566,12 +566,24 @@ impl<S: Simd> V3<S> {
         V3 { x: Wide::splat(v.x), y: Wide::splat(v.y), z: Wide::splat(v.z) }
     }
 
-    /// One vector per lane, lane `l` from `v[l]`; `v` holds at least [`Wide::LANES`].
-    #[inline(always)]
+    /// Lane `l` from `v[l]`; `v` holds at least [`Wide::LANES`] vectors.
+    #[cfg(test)]
     pub fn from_lanes(v: &[Vec3]) -> Self {
-        let component =
-            |c: usize| Wide::from_slice(&std::array::from_fn::<f32, MAX_LANES, _>(|l| v.get(l).map_or(0.0, |v| v[c])));
-        V3 { x: component(0), y: component(1), z: component(2) }
+        Self::from_fn(|l| v[l])
+    }
+
+    /// Lane `l` from `f(l)`.
+    #[inline(always)]
+    pub fn from_fn(mut f: impl FnMut(usize) -> Vec3) -> Self {
+        let mut components = [[0.0; MAX_LANES]; 3];
+        for l in 0..Wide::<S>::LANES {
+            let v = f(l);
+            for (c, component) in components.iter_mut().enumerate() {
+                component[l] = v[c];
+            }
+        }
+        let [x, y, z] = components.map(|c| Wide::from_slice(&c));
+        V3 { x, y, z }
     }
 
     #[inline(always)]
@@ -701,14 +713,18 @@ impl<S: Simd> Clone for M3<S> {
 impl<S: Simd> Copy for M3<S> {}
 
 impl<S: Simd> M3<S> {
-    /// One matrix per lane.
-    pub fn from_lanes(m: &[Mat3A]) -> Self {
-        let column = |c: usize| {
-            V3::from_lanes(&std::array::from_fn::<Vec3, MAX_LANES, _>(|l| {
-                m.get(l).map_or(Vec3::ZERO, |m| m.col(c).into())
-            }))
-        };
-        M3 { x_axis: column(0), y_axis: column(1), z_axis: column(2) }
+    /// Lane `l` from `f(l)`.
+    #[inline(always)]
+    pub fn from_fn(mut f: impl FnMut(usize) -> Mat3A) -> Self {
+        let mut columns = [[Vec3::ZERO; MAX_LANES]; 3];
+        for l in 0..Wide::<S>::LANES {
+            let m = f(l);
+            for (c, column) in columns.iter_mut().enumerate() {
+                column[l] = m.col(c).into();
+            }
+        }
+        let [x_axis, y_axis, z_axis] = columns.map(|c| V3::from_fn(|l| c[l]));
+        M3 { x_axis, y_axis, z_axis }
     }
 
     /// The same matrix in every lane.

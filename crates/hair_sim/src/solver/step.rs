@@ -459,10 +459,7 @@ fn substep<S: Simd>(
 
     // 1. Forces and integration of the free particles; 2. the root follows the head.
     g.start.copy_from_slice(&g.positions);
-    let lanes = Wide::<S>::LANES;
-    let wind = V3::from_lanes(&std::array::from_fn::<_, MAX_LANES, _>(|l| {
-        if l < lanes { wind_at(&p.wind, g.seeds[l], time) } else { Vec3::ZERO }
-    }));
+    let wind = V3::from_fn(|l| wind_at(&p.wind, g.seeds[l], time));
     let gravity = V3::splat(Vec3::from_array(p.gravity));
     let windless = wind == V3::zero();
     for j in 1..n {
@@ -491,9 +488,7 @@ fn substep<S: Simd>(
 
     // 3. Shape and length.
     g.ftl_correction.fill(V3::zero());
-    let root_frame = M3::from_lanes(&std::array::from_fn::<_, MAX_LANES, _>(|l| {
-        if l < lanes { Mat3A::from_quat(poses.frame * g.root_frames[l]) } else { Mat3A::IDENTITY }
-    }));
+    let root_frame = M3::from_fn(|l| Mat3A::from_quat(poses.frame * g.root_frames[l]));
     for _ in 0..p.iterations {
         global_shape(g, &c.global_alpha, poses.now);
         if c.local_alpha > 0.0 {
