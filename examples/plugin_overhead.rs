@@ -1,11 +1,12 @@
 //! What the plugin costs beyond the solver: one groom on the procedural head, stepped
 //! through `HairPlugin` in a headless app (one 60 Hz hair step per update, the head turning),
-//! then the same strands stepped by the raw solver ([`step_on_pool`]: same head motion,
-//! same task pool and chunks) without the app, then the app's updates with the groom
-//! removed (what the app costs without hair). Prints one JSON line: median ms per update,
-//! the solver's share of an update (`HairState::last_step_time`), the raw solver's ms per
-//! step, the update without hair, and the plugin's overhead: what an update with hair
-//! costs beyond one without, over the raw solver's step, less one.
+//! the same strands stepped by the raw solver ([`step_on_pool`]: same head motion, same task
+//! pool and chunks) without the app, and a second app with the same head and no groom (what
+//! the app costs without hair). The three take turns, update by update, so that all see the
+//! same machine. Prints one JSON line: median ms per update, the solver's share of an
+//! update (`HairState::last_step_time`), the raw solver's ms per step, the update without
+//! hair, and the plugin's overhead: what an update with hair costs beyond one without, over
+//! the raw solver's step, less one.
 //!
 //! Bevy gives its compute pool what the IO and async pools leave (one thread on two cores);
 //! this app gives it every core, as a game that simulates hair on a small machine should.
@@ -34,12 +35,9 @@ fn main() {
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     // Before TaskPoolPlugin, whose `get_or_init` then keeps this pool.
     ComputeTaskPool::get_or_init(|| TaskPoolBuilder::new().num_threads(cores).build());
-    let mut app = App::new();
-    app.add_plugins((MinimalPlugins, TransformPlugin, AssetPlugin::default(), MeshPlugin, HairPlugin::default()))
-        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_nanos(16_666_667)));
-    let mesh = app.world_mut().resource_mut::<Assets<Mesh>>().add(bevy_hair::procedural_head_mesh(4));
-    let groom = HairGroom { guides, segments: particles - 1, length: 0.2, settle_steps: 60, ..default() };
-    let head = app.world_mut().spawn((Mesh3d(mesh), Transform::from_xyz(0.0, 1.6, 0.0), groom)).id();
+    let (mut app, head) =
+        app_with_head(Some(HairGroom { guides, segments: particles - 1, length: 0.2, settle_steps: 60, ..default() }));
+    let (mut bare_app, bare_head) = app_with_head(None);
 
     let start = Instant::now();
     while app.world().get::<HairState>(head).is_none() {
@@ -56,27 +54,21 @@ fn main() {
         let t = k as f32 / 60.0;
         (0.9 * (2.1 * t).sin(), 0.4 * (3.3 * t).sin())
     };
-    let turn = |app: &mut App, k: usize| {
+    let turn = |app: &mut App, head: Entity, k: usize| {
         let (yaw, pitch) = angles(k);
         app.world_mut().get_mut::<Transform>(head).unwrap().rotation =
             Quat::from_rotation_y(yaw) * Quat::from_rotation_x(pitch);
     };
     for k in 0..60 {
-        turn(&mut app, k);
+        turn(&mut app, head, k);
         app.update();
-    }
-    let (mut frames, mut steps) = (Vec::with_capacity(updates), Vec::with_capacity(updates));
-    for k in 60..60 + updates {
-        turn(&mut app, k);
-        let started = Instant::now();
-        app.update();
-        frames.push(started.elapsed().as_secs_f64() * 1e3);
-        steps.push(app.world().get::<HairState>(head).unwrap().last_step_time().as_secs_f64() * 1e3);
+        turn(&mut bare_app, bare_head, k);
+        bare_app.update();
     }
 
-    // The raw solver: the groom's strands as the plugin left them, the same motion onward.
+    // The raw solver: the groom's strands as the plugin has them now, the same motion onward.
     let state = app.world().get::<HairState>(head).unwrap();
-    let (collider, origin) = (state.collider(), state.origin());
+    let origin = state.origin();
     let params = app.world().resource::<HairSettings>().0;
     let mut strands = state.strands().clone();
     let pose = |k: usize| {
@@ -86,8 +78,18 @@ fn main() {
     };
     let pool = ComputeTaskPool::get();
     let dt = 1.0 / 60.0;
-    let mut raw = Vec::with_capacity(updates);
-    for k in 60 + updates..60 + 2 * updates {
+
+    let (mut frames, mut steps) = (Vec::with_capacity(updates), Vec::with_capacity(updates));
+    let (mut raw, mut bare) = (Vec::with_capacity(updates), Vec::with_capacity(updates));
+    for k in 60..60 + updates {
+        turn(&mut app, head, k);
+        let started = Instant::now();
+        app.update();
+        frames.push(started.elapsed().as_secs_f64() * 1e3);
+        steps.push(app.world().get::<HairState>(head).unwrap().last_step_time().as_secs_f64() * 1e3);
+
+        // The plugin's own collider, borrowed while the app rests.
+        let collider = app.world().get::<HairState>(head).unwrap().collider();
         let input = StepInput {
             dt,
             time: k as f32 * dt,
@@ -102,15 +104,10 @@ fn main() {
         let report = step_on_pool(&mut strands, &input, pool);
         raw.push(started.elapsed().as_secs_f64() * 1e3);
         assert_eq!(report.nan_resets + report.teleport_resets, 0, "the raw solver reset strands");
-    }
 
-    // The same app without hair: the frame's cost that is not the plugin's.
-    app.world_mut().entity_mut(head).remove::<(HairState, HairGroom)>();
-    let mut bare = Vec::with_capacity(updates);
-    for k in 60 + 2 * updates..60 + 3 * updates {
-        turn(&mut app, k);
+        turn(&mut bare_app, bare_head, k);
         let started = Instant::now();
-        app.update();
+        bare_app.update();
         bare.push(started.elapsed().as_secs_f64() * 1e3);
     }
 
@@ -126,4 +123,18 @@ fn main() {
         pool.thread_num(),
         (frame - bare) / raw - 1.0
     );
+}
+
+/// A headless app with the procedural head at 1.6 m, wearing `groom` if given.
+fn app_with_head(groom: Option<HairGroom>) -> (App, Entity) {
+    let mut app = App::new();
+    app.add_plugins((MinimalPlugins, TransformPlugin, AssetPlugin::default(), MeshPlugin, HairPlugin::default()))
+        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_nanos(16_666_667)));
+    let mesh = app.world_mut().resource_mut::<Assets<Mesh>>().add(bevy_hair::procedural_head_mesh(4));
+    let mut head = app.world_mut().spawn((Mesh3d(mesh), Transform::from_xyz(0.0, 1.6, 0.0)));
+    if let Some(groom) = groom {
+        head.insert(groom);
+    }
+    let head = head.id();
+    (app, head)
 }

@@ -728,6 +728,7 @@ impl<S: Simd> M3<S> {
     }
 
     /// The same matrix in every lane.
+    #[inline(always)]
     pub fn splat(m: Mat3A) -> Self {
         M3 {
             x_axis: V3::splat(m.x_axis.into()),
@@ -784,6 +785,7 @@ pub(super) struct PoseLanes<S: Simd> {
 }
 
 impl<S: Simd> PoseLanes<S> {
+    #[inline(always)]
     pub fn new(rotation: Mat3A, translation: Vec3A) -> Self {
         PoseLanes {
             rotation: M3::splat(rotation),

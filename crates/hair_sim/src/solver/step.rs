@@ -102,6 +102,7 @@ pub(super) fn step_length(input: &StepInput) -> Option<f32> {
 }
 
 impl<S: Simd> Constants<S> {
+    #[inline(always)]
     fn new(input: &StepInput, n: usize) -> Option<Self> {
         let p = input.params;
         let dt = step_length(input)?;
@@ -199,10 +200,12 @@ struct GroupState<S: Simd> {
 impl<S: Simd> GroupState<S> {
     /// One bit per real lane, as [`Mask::bitmask`] numbers them: empty lanes and the bits
     /// beyond [`Wide::LANES`] are clear, so a mask of lanes still to do can reach zero.
+    #[inline(always)]
     fn real_lanes(&self) -> u64 {
         u64::MAX.checked_shr(64 - self.lanes as u32).unwrap_or(0)
     }
 
+    #[inline(always)]
     fn new(n: usize) -> Self {
         GroupState {
             strands: [0; MAX_LANES],
@@ -238,6 +241,7 @@ impl<S: Simd> GroupState<S> {
 
     /// Loads the strands `strands` (chunk-local) of the chunk into the lanes, and their
     /// spring memory if `history`.
+    #[inline(always)]
     fn load(&mut self, strands: &[usize], first_strand: usize, rest: &RestShape, state: &ChunkState, history: bool) {
         let n = self.positions.len();
         self.lanes = strands.len();
@@ -274,6 +278,7 @@ impl<S: Simd> GroupState<S> {
 
     /// Writes the real lanes back into the chunk, and their spring memory if `history`
     /// (without, the chunk is told it has none).
+    #[inline(always)]
     fn store(&self, state: &mut ChunkState, history: bool) {
         let n = self.positions.len();
         for (l, &k) in self.strands[..self.lanes].iter().enumerate() {
