@@ -205,8 +205,11 @@ impl<S: Simd> GroupState<S> {
         u64::MAX.checked_shr(64 - self.lanes as u32).unwrap_or(0)
     }
 
+    /// A group of strands of `n` particles; the spring model's memory and scratch only
+    /// with `springs` (zeroing them for nothing is a cost each chunk pays every step).
     #[inline(always)]
-    fn new(n: usize) -> Self {
+    fn new(n: usize, springs: bool) -> Self {
+        let spring_n = if springs { n } else { 0 };
         GroupState {
             strands: [0; MAX_LANES],
             lanes: 0,
@@ -216,16 +219,16 @@ impl<S: Simd> GroupState<S> {
             base: vec![V3::zero(); n],
             step: Wide::zero(),
             accel: vec![V3::zero(); n],
-            previous_positions: vec![V3::zero(); n],
-            previous_velocities: vec![V3::zero(); n],
+            previous_positions: vec![V3::zero(); spring_n],
+            previous_velocities: vec![V3::zero(); spring_n],
             history_step: Wide::zero(),
-            directions: vec![V3::zero(); n],
-            sweep: vec![Wide::zero(); n],
-            tension: vec![Wide::zero(); n],
-            stretch: vec![Wide::zero(); n],
-            spring_rhs: vec![Wide::zero(); n],
-            bound: vec![Wide::zero(); n],
-            rigid: vec![Mask::from_bits(0); n],
+            directions: vec![V3::zero(); spring_n],
+            sweep: vec![Wide::zero(); spring_n],
+            tension: vec![Wide::zero(); spring_n],
+            stretch: vec![Wide::zero(); spring_n],
+            spring_rhs: vec![Wide::zero(); spring_n],
+            bound: vec![Wide::zero(); spring_n],
+            rigid: vec![Mask::from_bits(0); spring_n],
             ftl_correction: vec![V3::zero(); n],
             local: vec![V3::zero(); n],
             collided: vec![V3::zero(); n],
@@ -361,9 +364,9 @@ fn step_chunk_on<S: Simd>(
     };
     let p = input.params;
     let head_to = *c.poses.last().expect("at least one pose");
-    let mut group_state = GroupState::<S>::new(n);
     // Only the spring model integrates with memory of the substep before.
     let history = p.length_mode == LengthMode::Springs;
+    let mut group_state = GroupState::<S>::new(n, history);
 
     // Chunk-local indices of the strands gathered for the next group.
     let mut group = [0usize; MAX_LANES];
@@ -1235,7 +1238,7 @@ mod tests {
     fn one(rest_positions: Vec<Vec3>, xs: &[Vec3]) -> GroupState<Baseline> {
         let mut strands = strands_at(RestShape::new(rest_positions, xs.len()).unwrap(), xs);
         let chunks = strands.chunks_mut(1);
-        let mut g = GroupState::new(xs.len());
+        let mut g = GroupState::new(xs.len(), false);
         g.load(&[0], 0, chunks[0].rest, &chunks[0].state, false);
         g
     }
@@ -1313,7 +1316,7 @@ mod tests {
         let mut strands = strands_at(rest.clone(), &doubled);
         let mut chunks = strands.chunks_mut(2);
         let state = &mut chunks[0].state;
-        let mut g = GroupState::<Baseline>::new(n);
+        let mut g = GroupState::<Baseline>::new(n, false);
         g.load(&[1], 0, &rest, state, false);
         assert_eq!((g.lanes, g.strands), (1, [1; MAX_LANES]));
         assert!((0..Wide::<Baseline>::LANES).all(|l| g.positions[2].lane(l) == Vec3::new(0.0, -4.0, 0.0)));
