@@ -67,7 +67,7 @@ pub use groom::GroomPlugin;
 pub use hair_asset::{HairAsset, HairAssetError, HairAssetLoader};
 pub use hair_sim;
 pub use hair_sim::groom::{ChildParams, Spiral};
-pub use hair_sim::solver::{CollisionResponse, LengthMode, SimParams, StepReport, Wind};
+pub use hair_sim::solver::{CollisionResponse, LengthMode, SimParams, SimdPath, StepReport, Wind};
 pub use head_mesh::{ATTRIBUTE_SCALP, is_procedural_scalp, procedural_head_mesh};
 pub use preset::{HairPreset, PresetError};
 #[cfg(feature = "render")]
@@ -88,7 +88,8 @@ pub mod prelude {
     pub use crate::{
         ChildParams, CollisionResponse, GroomStatus, Hair, HairCollider, HairDiagnostics, HairError, HairErrorKind,
         HairGroom, HairLod, HairPlugin, HairPreset, HairSchedule, HairSettings, HairSettingsOverride, HairState,
-        HairSystems, HairTime, LengthMode, RootDistribution, ScalpPredicate, ScalpSource, SimParams, Spiral, Wind,
+        HairSystems, HairTime, LengthMode, RootDistribution, ScalpPredicate, ScalpSource, SimParams, SimdPath, Spiral,
+        Wind,
     };
     #[cfg(feature = "render")]
     pub use crate::{HairLook, HairRenderStats, HairShading, SpecularLobe};
