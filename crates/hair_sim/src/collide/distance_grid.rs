@@ -16,7 +16,7 @@ const COARSE_STRIDE: usize = 4;
 /// distance from the point to the cell's corners, which peaks at the cell centre.
 /// [`DistanceGrid::max_error`] is that bound.
 ///
-/// Only the samples within [`EXACT_BAND_CELLS`] cells of the surface are exact. Farther
+/// Only the samples within 4 cells (`EXACT_BAND_CELLS`) of the surface are exact. Farther
 /// out a sample holds a bound from the nearest of a coarse lattice of exact samples (the
 /// distance is 1-Lipschitz): the right sign, and never farther from zero than the truth.
 /// There a sample still proves a point clear of the surface by at least its value less

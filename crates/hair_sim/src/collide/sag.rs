@@ -119,8 +119,9 @@ impl SagGrid {
         SagCells { origin: self.origin.into(), inverse_cell: self.inverse_cell, last: Vec3::from_array(last) }
     }
 
-    /// [`Self::bound`] for a segment of `length` whose middle lies at `cell` (grid
-    /// coordinates within the grid, from [`SagCells::locate`]).
+    /// How far the surface may rise above a segment of `length` whose middle lies at
+    /// `cell` (grid coordinates within the grid, from [`SagCells::locate`]): where both
+    /// its ends are farther than this from the surface, the segment does not reach it.
     #[inline]
     pub fn bound_in(&self, cell: Vec3, length: f32) -> f32 {
         if length.is_nan() || length > 2.0 * REACH {
@@ -167,9 +168,9 @@ impl SagGrid {
     }
 }
 
-/// Where the cells of a [`SagGrid`] lie: `(p - origin) * inverse_cell`, clamped to the
-/// grid, gives a point's cell coordinates. Lane-wide code can do that arithmetic itself
-/// and hand each lane's coordinates to [`SagGrid::bound_in`].
+/// Where the cells of the collider's curvature grid lie: `(p - origin) * inverse_cell`,
+/// clamped to the grid, gives a point's cell coordinates. Lane-wide code can do that
+/// arithmetic itself and hand each lane's coordinates to the grid's lookup.
 #[derive(Clone, Copy, Debug)]
 pub struct SagCells {
     /// The grid's corner.
