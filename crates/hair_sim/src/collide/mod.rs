@@ -372,6 +372,11 @@ impl HeadCollider {
                 if let Some(certified) = self.triangles.certify(triangle, p, gap) {
                     return contact(certified.point, certified.normal, certified.distance, thickness);
                 }
+                // Slid onto a neighbouring face: its own certificate may hold.
+                if let Some((neighbour, certified)) = self.triangles.certify_neighbours(triangle, p) {
+                    hint.0 = Hint::Touching { triangle: neighbour, at: p, gap: 0.0, collider: self.id };
+                    return contact(certified.point, certified.normal, certified.distance, thickness);
+                }
             }
             // Moved less than the clearance it had, minus the thickness: still no contact.
             // (The ball belongs to the mesh it was measured on; a triangle hint needs no such

@@ -153,6 +153,18 @@ impl FlatTriangles {
         Some(Certified { point: (Vec3A::from(p) - normal * height).into(), distance: height, normal: t.normal })
     }
 
+    /// [`Self::certify`] on the faces across `triangle`'s edges (by their own clearance),
+    /// for a point that slid off `triangle`: the first that proves the closest point, and
+    /// which face that is. Out of line: it runs only where the hinted face failed.
+    #[inline(never)]
+    pub fn certify_neighbours(&self, triangle: u32, p: Vec3) -> Option<(u32, Certified)> {
+        let edges = self.edges.get(triangle as usize)?;
+        edges
+            .iter()
+            .filter(|edge| edge.neighbour != u32::MAX)
+            .find_map(|edge| self.certify(edge.neighbour, p, || 0.0).map(|certified| (edge.neighbour, certified)))
+    }
+
     /// The edge certificate (module docs) for `p` beside `triangle`'s face.
     fn certify_edge(&self, triangle: u32, p: Vec3) -> Option<Certified> {
         let t = &self.triangles[triangle as usize];
