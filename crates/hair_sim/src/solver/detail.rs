@@ -281,46 +281,47 @@ impl Detail {
         }
         let inverse_dt = if dt > 0.0 { dt.recip() } else { 0.0 };
         let frame = (Mat3A::from_quat(pose.rotation), Vec3A::from(pose.translation));
-        // Per particle of the strand at hand: where it goes, and where the step started from.
-        let (mut wanted, mut start) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
+        // Per particle of the strand at hand: where its leaders put it, where it goes, and
+        // where the step started from.
+        let (mut target, mut wanted, mut start) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
         for s in 0..self.roles.len() {
             let strand = s * n..(s + 1) * n;
             let leaders = self.leaders[s].map(|(k, w)| (&self.displacement[k as usize * n..][..n], w));
-            let target = |j: usize| followed(frame, &leaders, rest[s * n + j], j);
-            let (x, offsets) = (&positions[strand.clone()], &self.offsets);
+            let (rest, x, offsets) = (&rest[strand.clone()], &positions[strand.clone()], &self.offsets);
             let next = match self.roles[s] {
                 Role::Simulated => continue,
-                Role::Fading { left, total } if left == total => {
-                    // Just stepped: from here on, the offset from the target shrinks.
-                    self.offsets.resize(positions.len(), Vec3::ZERO);
-                    for j in 0..n {
-                        self.offsets[s * n + j] = pose.rotation.inverse() * (positions[s * n + j] - target(j));
-                    }
-                    self.roles[s] = if total > 1 { Role::Fading { left: total - 1, total } } else { Role::Following };
-                    continue;
-                }
-                Role::Fading { left, total } => {
-                    let share = left as f32 / total as f32;
-                    for j in 0..n {
-                        wanted[j] = target(j) + pose.rotation * offsets[s * n + j] * share;
-                    }
-                    start.copy_from_slice(x);
-                    if left > 1 { Role::Fading { left: left - 1, total } } else { Role::Following }
-                }
                 Role::Following => {
                     // Where the leaders put it, lengths as they come: kept exactly, they
                     // would chain each particle's square root onto its parent's, the bulk
                     // of the cost of a far head (the solver restores them once it rises).
                     // Its velocity is its leaders', taken when it rises (`led_velocities`).
-                    for (j, (x, &r)) in positions[strand.clone()].iter_mut().zip(&rest[strand]).enumerate() {
-                        *x = followed(frame, &leaders, r, j);
-                    }
+                    followed(frame, &leaders, rest, &mut positions[strand]);
                     continue;
                 }
+                Role::Fading { left, total } if left == total => {
+                    // Just stepped: from here on, the offset from the target shrinks.
+                    followed(frame, &leaders, rest, &mut target);
+                    self.offsets.resize(positions.len(), Vec3::ZERO);
+                    for j in 0..n {
+                        self.offsets[s * n + j] = pose.rotation.inverse() * (positions[s * n + j] - target[j]);
+                    }
+                    self.roles[s] = if total > 1 { Role::Fading { left: total - 1, total } } else { Role::Following };
+                    continue;
+                }
+                Role::Fading { left, total } => {
+                    followed(frame, &leaders, rest, &mut target);
+                    let share = left as f32 / total as f32;
+                    for j in 0..n {
+                        wanted[j] = target[j] + pose.rotation * offsets[s * n + j] * share;
+                    }
+                    start.copy_from_slice(x);
+                    if left > 1 { Role::Fading { left: left - 1, total } } else { Role::Following }
+                }
                 Role::Rising { left, total } => {
+                    followed(frame, &leaders, rest, &mut target);
                     let pull = (left - 1) as f32 / total as f32;
                     for j in 0..n {
-                        wanted[j] = x[j] + (target(j) - x[j]) * pull;
+                        wanted[j] = x[j] + (target[j] - x[j]) * pull;
                     }
                     start.copy_from_slice(&self.starts[strand.clone()]);
                     if left > 1 { Role::Rising { left: left - 1, total } } else { Role::Simulated }
@@ -331,7 +332,7 @@ impl Detail {
             // restore, a little more each step as the pull lets go.
             for j in 0..n {
                 let i = s * n + j;
-                let placed = if j == 0 { target(0) } else { wanted[j] };
+                let placed = if j == 0 { target[0] } else { wanted[j] };
                 velocities[i] = (placed - start[j]) * inverse_dt;
                 positions[i] = placed;
             }
@@ -342,19 +343,23 @@ impl Detail {
     }
 }
 
-/// Where particle `j` of a strand follows: its rest position `rest` under the pose
-/// `(rotation, translation)`, displaced as its leaders' particles `j` are (their
-/// displacements and weights); the root (`j = 0`) stays on its rest.
+/// Where a strand's particles follow: its rest positions `rest` under the pose
+/// `(rotation, translation)`, each displaced as its leaders' particles are (their
+/// displacements and weights), into `out`; the root stays on its rest.
 #[inline(always)]
 fn followed(
     (rotation, translation): (Mat3A, Vec3A),
     leaders: &[(&[Vec3A], f32); LEADERS],
-    rest: Vec3,
-    j: usize,
-) -> Vec3 {
+    rest: &[Vec3],
+    out: &mut [Vec3],
+) {
     let [(a, wa), (b, wb), (c, wc)] = *leaders;
-    let displaced = if j == 0 { Vec3A::ZERO } else { a[j] * wa + b[j] * wb + c[j] * wc };
-    (rotation * Vec3A::from(rest) + translation + displaced).into()
+    let placed = |r: Vec3, displaced: Vec3A| (rotation * Vec3A::from(r) + translation + displaced).into();
+    out[0] = placed(rest[0], Vec3A::ZERO);
+    let moved = rest.iter().zip(a).zip(b).zip(c).skip(1);
+    for (x, (((&r, &a), &b), &c)) in out[1..].iter_mut().zip(moved) {
+        *x = placed(r, a * wa + b * wb + c * wc);
+    }
 }
 
 /// The strands in farthest-point order over their roots: the first is the one nearest the
