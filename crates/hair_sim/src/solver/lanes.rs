@@ -26,9 +26,10 @@ pub(super) const MAX_LANES: usize = VECTORS * 16;
 /// ordered (false with a NaN) except `ne`, and `max`/`min` return `b` where either is
 /// NaN, as SSE's `maxps` and `minps` do.
 ///
-/// An implementation for a feature the baseline lacks is only called from code compiled
-/// with that feature (`step.rs` dispatches on it), into which its `#[inline(always)]`
-/// bodies are inlined.
+/// An implementation for a feature the baseline lacks runs only where the CPU has that
+/// feature: the solver calls it from code compiled for it (`step.rs` dispatches on
+/// [`SimdPath`](super::SimdPath)), into which its `#[inline(always)]` bodies inline; the
+/// lane tests call it out of line, after detecting the feature.
 pub(super) trait Simd: Copy + 'static {
     /// A vector of `f32`.
     type F: Copy;
