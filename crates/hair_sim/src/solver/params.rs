@@ -90,7 +90,10 @@ pub enum SimdPath {
     Baseline,
     /// AVX2 on x86-64, 32 strands a group.
     Avx2,
-    /// AVX-512 (AVX-512F) on x86-64, 64 strands a group.
+    /// AVX-512 (AVX-512F) on x86-64, 64 strands a group. In a build that does not
+    /// optimise `hair_sim` (opt-level 0) its step needs 2–4 MiB of stack, more than a
+    /// thread's default 2 MiB (the other paths need under 512 KiB; optimised, all need
+    /// under 64 KiB): choose it only in optimised builds.
     Avx512,
 }
 
