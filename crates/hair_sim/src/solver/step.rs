@@ -10,9 +10,9 @@
 //! 5. velocities from the position change, plus Müller's FTL correction.
 //!
 //! Strands go through this 16, 32 or 64 at a time (by the SIMD path), side by side in
-//! SIMD lanes ([`lanes`](super::lanes)); collision, whose path differs per particle, takes them one
-//! by one. A strand whose root jumped more than `teleport_distance` is reset to the rest
-//! pose instead; a strand that somehow produced a non-finite value is reset too.
+//! SIMD lanes ([`lanes`](super::lanes)); collision, whose path differs per particle, takes
+//! them one by one. A strand whose root jumped more than `teleport_distance` is reset to
+//! the rest pose instead; a strand that somehow produced a non-finite value is reset too.
 
 use super::detail::Role;
 use super::lanes::{Baseline, M3, MAX_LANES, Mask, PoseLanes, Simd, V3, Wide};
