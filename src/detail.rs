@@ -93,16 +93,20 @@ const UNKNOWN_VIEWPORT_HEIGHT: f32 = 1080.0;
 /// if the camera draws it (in front of it).
 fn height_on_screen(size: f32, centre: Vec3, camera: &Camera, projection: &Projection, at: &GlobalTransform) -> f32 {
     let viewport = camera.logical_viewport_size().map_or(UNKNOWN_VIEWPORT_HEIGHT, |s| s.y);
+    let depth = (centre - at.translation()).dot(*at.forward());
+    if depth <= 0.0 && matches!(projection, Projection::Perspective(_)) {
+        return 0.0;
+    }
+    size * pixels_per_metre(depth, viewport, projection)
+}
+
+/// How many pixels one metre across (facing the camera) spans at view depth `depth` (in
+/// front of a perspective camera), in a viewport `viewport` pixels tall. Infinite for a
+/// projection of the user's own: as near as can be.
+pub(crate) fn pixels_per_metre(depth: f32, viewport: f32, projection: &Projection) -> f32 {
     match projection {
-        Projection::Perspective(perspective) => {
-            let depth = (centre - at.translation()).dot(*at.forward());
-            if depth <= 0.0 {
-                return 0.0;
-            }
-            size / (2.0 * depth * (perspective.fov * 0.5).tan()) * viewport
-        }
-        Projection::Orthographic(orthographic) => size / orthographic.area.height() * viewport,
-        // A projection of the user's own: as near as can be.
+        Projection::Perspective(perspective) => viewport / (2.0 * depth * (perspective.fov * 0.5).tan()),
+        Projection::Orthographic(orthographic) => viewport / orthographic.area.height(),
         Projection::Custom(_) => f32::INFINITY,
     }
 }

@@ -5,7 +5,7 @@
 //! ```text
 //! cargo run --release --example demo
 //! cargo run --example demo -- [--preset NAME] [--lights KIND] [--shading MODEL] [--self-shadow X]
-//!     [--no-antialias] [--camera Y,P,D] [--screenshot FILE [--frames N] [--no-panel] [--size WxH]]
+//!     [--antialias MODE] [--camera Y,P,D] [--screenshot FILE [--frames N] [--no-panel] [--size WxH]]
 //! ```
 //!
 //! Mouse: drag to orbit, wheel to zoom; in "drag the head" mode the left button moves the
@@ -32,14 +32,15 @@ use bevy_egui::EguiPlugin;
 use bevy_hair::prelude::*;
 use std::path::PathBuf;
 
-const USAGE: &str = "usage: demo [--preset NAME] [--lights KIND] [--shading MODEL] [--self-shadow X] [--no-antialias]
+const USAGE: &str = "usage: demo [--preset NAME] [--lights KIND] [--shading MODEL] [--self-shadow X] [--antialias MODE]
             [--camera Y,P,D] [--screenshot FILE [--frames N] [--no-panel] [--size WxH]]
   --preset NAME      start with this hairstyle: Shoulder (default), Short, Long, Curly, Windy, Reference
   --lights KIND      studio (default: key, fill and rim lights), lamps (a point and a spot light),
                      above (one light from above), behind (one light from behind)
   --shading MODEL    kajiya-kay or marschner (default: the preset's)
   --self-shadow X    how much light a layer of hair stops, 0 to 1 (0: no self-shadowing)
-  --no-antialias     draw thin strands as plain ribbons
+  --antialias MODE   how strands thinner than a pixel are drawn: auto (default: blended when the
+                     whole groom is that thin), coverage (MSAA alpha-to-coverage), blended, off
   --camera Y,P,D     start the orbit camera at yaw Y and pitch P (radians), D metres away
   --screenshot FILE  render N frames once the hair is grown, save the last as FILE (PNG), check it, exit
   --frames N         frames of animation before the screenshot (default 60)
@@ -78,7 +79,12 @@ fn parse_args() -> Result<Options, String> {
             "--screenshot" => options.screenshot = Some(args.next().ok_or("--screenshot needs a file name")?.into()),
             "--frames" => options.frames = parse_frames(&args.next().ok_or("--frames needs a number")?)?,
             "--no-panel" => options.panel = false,
-            "--no-antialias" => options.stage.antialias = Some(false),
+            "--antialias" => {
+                let name = args.next().ok_or("--antialias needs a mode")?;
+                let mode = scene::ANTIALIAS_MODES.iter().find_map(|&(mode, n)| (n == name).then_some(mode));
+                options.stage.antialias =
+                    Some(mode.ok_or(format!("--antialias is auto, coverage, blended or off, not {name:?}"))?);
+            }
             "--lights" => {
                 let name = args.next().ok_or("--lights needs a kind")?;
                 options.stage.lights = scene::Lights::named(&name).ok_or(format!("no lights are called {name:?}"))?;

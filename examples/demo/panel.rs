@@ -6,7 +6,7 @@
 
 use crate::motion::Motion;
 use crate::presets::{self, Preset};
-use crate::scene::Head;
+use crate::scene::{ANTIALIAS_MODES, Head};
 use bevy::diagnostic::{DiagnosticPath, DiagnosticsStore, FrameTimeDiagnosticsPlugin};
 use bevy::prelude::*;
 use bevy_egui::{EguiContexts, EguiPrimaryContextPass, egui};
@@ -289,7 +289,12 @@ fn look_section(ui: &mut egui::Ui, look: &mut HairLook) {
     ui.checkbox(&mut look.receive_shadows, "shadows on hair");
     ui.checkbox(&mut look.cast_shadows, "hair casts shadows");
     slider(ui, &mut look.self_shadow, 0.0..=1.0, "self-shadowing (per fibre layer)");
-    ui.checkbox(&mut look.antialias, "anti-aliased thin strands (MSAA)");
+    ui.horizontal(|ui| {
+        ui.label("thin strands");
+        for (mode, name) in ANTIALIAS_MODES {
+            ui.selectable_value(&mut look.antialias, mode, name);
+        }
+    });
     ui.checkbox(&mut look.guides_only, "show guides only");
 }
 

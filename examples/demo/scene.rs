@@ -62,6 +62,14 @@ impl Lights {
     }
 }
 
+/// The ways to draw thin strands, by their names on the command line and in the panel.
+pub const ANTIALIAS_MODES: [(HairAntialias, &str); 4] = [
+    (HairAntialias::Auto, "auto"),
+    (HairAntialias::Coverage, "coverage"),
+    (HairAntialias::Blended, "blended"),
+    (HairAntialias::Off, "off"),
+];
+
 /// How the stage is set up from the command line: the lights, and changes to the preset's
 /// look (`None`: the preset's own).
 #[derive(Resource, Clone, Copy, Debug, Default)]
@@ -72,8 +80,8 @@ pub struct Stage {
     pub shading: Option<HairShading>,
     /// `--self-shadow`.
     pub self_shadow: Option<f32>,
-    /// `--no-antialias` sets `Some(false)`.
-    pub antialias: Option<bool>,
+    /// `--antialias`.
+    pub antialias: Option<HairAntialias>,
     /// `--camera`: where the orbit camera starts.
     pub camera: Option<OrbitCamera>,
 }

@@ -7,7 +7,7 @@
 // position matters, and the lights, shadows and tonemapping are not bound.
 
 #import bevy_hair::strand::{
-    HAIR_FLAGS_ANTIALIAS, HAIR_FLAGS_RECEIVE_SHADOWS, coverage_samples, hair, hash_unit, self_shadow,
+    HAIR_FLAGS_ANTIALIAS, HAIR_FLAGS_BLENDED, HAIR_FLAGS_RECEIVE_SHADOWS, coverage_samples, hair, hash_unit, self_shadow,
     strand_point, strand_response, unit_or,
 }
 #import bevy_pbr::{
@@ -35,7 +35,7 @@
 #endif
 
 struct Vertex {
-    // x: rendered strand, y: curve sample * 2 + ribbon side
+    // x: drawn piece * strands per guide + child, y: curve sample in the piece * 2 + ribbon side
     @location(0) hair_vertex: vec2<u32>,
 };
 
@@ -76,7 +76,8 @@ fn vertex(in: Vertex) -> DepthOutput {
     return out;
 }
 
-#ifdef PREPASS_FRAGMENT
+// Defined whether or not the pipeline asks for it: Bevy's shadow pass wants a fragment
+// stage for blended materials (`MAY_DISCARD`) even without `PREPASS_FRAGMENT`.
 #ifdef UNCLIPPED_DEPTH_ORTHO_EMULATION
 @fragment
 fn fragment(in: DepthOutput) -> @builtin(frag_depth) f32 {
@@ -86,7 +87,6 @@ fn fragment(in: DepthOutput) -> @builtin(frag_depth) f32 {
 @fragment
 fn fragment(in: DepthOutput) {}
 #endif
-#endif
 
 #else // PREPASS_PIPELINE
 
@@ -95,25 +95,33 @@ fn vertex(in: Vertex) -> VertexOutput {
     var point = strand_point(in.hair_vertex, view.world_position);
     var out: VertexOutput;
     out.coverage = 1.0;
+    // A ribbon thinner than `least` pixels is drawn that wide, and covers only that share of
+    // it: with MSAA a pixel wide, by the share of its samples (alpha-to-coverage), or,
+    // blended, two pixels wide, by its opacity. Distant hair keeps its density.
+    var least = 0.0;
 #ifdef MULTISAMPLED
-    // A ribbon thinner than a pixel is drawn a pixel wide, and the fragment covers only
-    // that share of its samples: distant hair keeps its density and does not shimmer.
     if (hair.flags & HAIR_FLAGS_ANTIALIAS) != 0u {
+        least = 1.0;
+    }
+#endif
+    if (hair.flags & HAIR_FLAGS_BLENDED) != 0u {
+        least = 2.0;
+    }
+    if least > 0.0 {
         let centre = point.position - point.across * (point.side * 0.5 * point.width);
         let a = position_world_to_clip(centre);
         let b = position_world_to_clip(centre + point.across * point.width);
         let pixels = length((b.xy / b.w - a.xy / a.w) * 0.5 * view.viewport.zw);
-        if pixels < 1.0 && pixels > 0.0 && a.w > 0.0 && b.w > 0.0 {
-            out.coverage = pixels;
-            point.position = centre + point.across * (point.side * 0.5 * point.width / pixels);
+        if pixels < least && pixels > 0.0 && a.w > 0.0 && b.w > 0.0 {
+            out.coverage = pixels / least;
+            point.position = centre + point.across * (point.side * 0.5 * point.width * least / pixels);
         }
     }
-#endif
     out.clip_position = position_world_to_clip(point.position);
     out.world_position = vec4(point.position, 1.0);
     out.tangent = point.tangent;
     out.t = point.t;
-    out.strand = in.hair_vertex.x;
+    out.strand = point.strand;
     out.normal = normalize(cross(point.across, point.tangent));
     return out;
 }
@@ -228,6 +236,14 @@ fn fragment(in: VertexOutput) -> FragmentOutput {
 #ifdef MULTISAMPLED
     out.samples = coverage_samples(in.strand, in.coverage);
 #endif
+    if (hair.flags & HAIR_FLAGS_BLENDED) != 0u {
+        // The strand's share of the wider ribbon it is drawn as. (An opacity falling from
+        // the middle to the edges, with the same mean, measured darker and less steady.)
+        out.color.a = in.coverage;
+#ifdef MULTISAMPLED
+        out.samples = 0xffffffffu;
+#endif
+    }
     return out;
 }
 

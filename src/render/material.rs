@@ -71,7 +71,8 @@ pub struct HairUniform {
     pub tint_variation: f32,
     /// Diffuse strength.
     pub diffuse: f32,
-    /// [`Self::RECEIVE_SHADOWS`], [`Self::MARSCHNER`], [`Self::ANTIALIAS`].
+    /// [`Self::RECEIVE_SHADOWS`], [`Self::MARSCHNER`], [`Self::ANTIALIAS`],
+    /// [`Self::BLENDED`].
     pub flags: u32,
     /// Guides drawn.
     pub guides: u32,
@@ -98,6 +99,10 @@ impl HairUniform {
     /// Flag: with MSAA, draw strands thinner than a pixel a pixel wide, covering their true
     /// share of its samples.
     pub const ANTIALIAS: u32 = 4;
+    /// Flag: blend the strands over what is behind them (Bevy's transparent pass), those
+    /// thinner than two pixels drawn two pixels wide with their coverage as opacity. The
+    /// guide buffer's draw order should then be back to front.
+    pub const BLENDED: u32 = 8;
 
     /// The same uniform drawing `layout` (its guide, particle, strand and subdivision counts).
     pub fn with_layout(self, layout: &StrandLayout) -> Self {
@@ -112,6 +117,10 @@ impl HairUniform {
 }
 
 impl Material for HairMaterial {
+    fn alpha_mode(&self) -> AlphaMode {
+        if self.uniform.flags & HairUniform::BLENDED != 0 { AlphaMode::Blend } else { AlphaMode::Opaque }
+    }
+
     fn vertex_shader() -> ShaderRef {
         shader_path().into()
     }

@@ -12,10 +12,11 @@
 mod layout;
 mod material;
 
-pub use layout::{ATTRIBUTE_HAIR_VERTEX, StrandLayout};
+pub use layout::{ATTRIBUTE_HAIR_VERTEX, SEGMENTS_PER_PIECE, StrandLayout};
 pub use material::{HairMaterial, HairUniform, shader_path};
 
 use crate::convert::{from_sim, quat_from_sim, to_sim};
+use crate::detail::pixels_per_metre;
 use crate::diagnostics::HairDiagnostics;
 use crate::{Hair, HairGroom, HairState, HairSystems, HairTime};
 use bevy::asset::embedded_asset;
@@ -39,13 +40,14 @@ impl Plugin for HairRenderPlugin {
         load_shader_library!(app, "strand.wgsl");
         app.add_plugins(MaterialPlugin::<HairMaterial>::default())
             .register_type::<HairLook>()
+            .register_type::<HairAntialias>()
             .register_type::<HairRenderStats>()
             .register_required_components::<HairGroom, HairLook>()
             .init_resource::<HairRenderStats>()
             .init_resource::<ShadowCastingLights>()
             .add_systems(
                 PostUpdate,
-                (find_shadow_casting_lights, sync_drawing, upload_guides, update_materials)
+                (find_shadow_casting_lights, sync_drawing, choose_blending, upload_guides, update_materials)
                     .chain()
                     .in_set(HairSystems::Draw)
                     .after(VisibilitySystems::VisibilityPropagate)
@@ -133,10 +135,40 @@ pub struct HairLook {
     /// (`hair_sim::shadow`), and a strand behind `n` layers of fibres gets
     /// `exp(−self_shadow · n)` of that light, whatever Bevy's shadow cascades.
     pub self_shadow: f32,
-    /// With MSAA on the camera (Bevy's default), draw strands thinner than a pixel a pixel
-    /// wide, each covering its true share of the pixel's samples (stochastic
-    /// alpha-to-coverage), so distant hair keeps its density and does not shimmer.
-    pub antialias: bool,
+    /// How strands thinner than a pixel are drawn, so that distant hair keeps its density
+    /// and does not shimmer.
+    pub antialias: HairAntialias,
+}
+
+/// How strands thinner than a pixel are drawn ([`HairLook::antialias`]).
+///
+/// Measured on the procedural head at 2 m and 4 m in a 256-pixel view, strands a tenth of
+/// a pixel wide (`tests/render.rs`): a quarter-pixel camera move changes the hair's pixels
+/// by about 0.6 of what plain ribbons give with [`Coverage`](Self::Coverage), and by about
+/// a third with [`Blended`](Self::Blended), close to what the move changes in an ideally
+/// filtered picture.
+#[derive(Reflect, Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum HairAntialias {
+    /// Solid ribbons however thin: far hair breaks up and shimmers as it moves.
+    Off,
+    /// With MSAA on the camera (Bevy's default): a strand thinner than a pixel is drawn a
+    /// pixel wide and covers its true share of the samples (stochastic alpha-to-coverage,
+    /// the same samples in every frame). Depth-exact, but which strand is in front at each
+    /// sample still changes as the camera moves. Without MSAA, plain ribbons.
+    Coverage,
+    /// In Bevy's transparent pass: a strand thinner than two pixels is drawn two pixels
+    /// wide with its true coverage as opacity, blended over what is behind it. The strands
+    /// are cut into pieces of [`SEGMENTS_PER_PIECE`] segments, drawn back to front from
+    /// the nearest active camera (sorted on the CPU every frame). Every pixel averages
+    /// many strands, with or without MSAA, but the order is by piece, not by pixel: about
+    /// 8 % darker than exact far away, and up close, where strands cross in depth, wrong
+    /// where [`Coverage`](Self::Coverage) is exact.
+    Blended,
+    /// [`Blended`](Self::Blended) while the groom's widest strand is under a pixel wide on
+    /// every active camera (back to [`Coverage`](Self::Coverage) above 1.25 pixels, so a
+    /// head at the threshold does not flip), [`Coverage`](Self::Coverage) otherwise.
+    #[default]
+    Auto,
 }
 
 impl Default for HairLook {
@@ -156,7 +188,7 @@ impl Default for HairLook {
             guides_only: false,
             shading: HairShading::KajiyaKay,
             self_shadow: 0.5,
-            antialias: true,
+            antialias: HairAntialias::Auto,
         }
     }
 }
@@ -190,6 +222,17 @@ pub struct HairDrawing {
     roots: Vec<DrawnRoot>,
     /// Deep opacity maps the buffer has room for.
     opacity_maps: usize,
+    /// Where the guides are sorted from (back to front) when the strands are blended
+    /// ([`HairAntialias`]); `None` when they are not.
+    blended_from: Option<Vec3>,
+}
+
+impl HairDrawing {
+    /// Whether the strands are drawn blended ([`HairAntialias::Blended`], or
+    /// [`HairAntialias::Auto`] with every strand under a pixel wide).
+    pub fn blended(&self) -> bool {
+        self.blended_from.is_some()
+    }
 }
 
 /// A guide's root as the children need it, head space.
@@ -276,8 +319,10 @@ fn sync_drawing(
             .collect();
         let bytes = (guide_buffer_len(&layout) + opacity_maps_len(opacity_maps)) * size_of::<Vec4>();
         let guides = buffers.add(ShaderBuffer::with_size(bytes, default()));
-        let material = materials.add(HairMaterial { guides: guides.clone(), uniform: uniform(&layout, groom, look) });
-        let drawing = HairDrawing { head, guides, material: material.clone(), layout, roots, opacity_maps };
+        let material =
+            materials.add(HairMaterial { guides: guides.clone(), uniform: uniform(&layout, groom, look, false) });
+        let drawing =
+            HairDrawing { head, guides, material: material.clone(), layout, roots, opacity_maps, blended_from: None };
         let bundle = (Mesh3d(meshes.add(layout.mesh())), MeshMaterial3d(material), drawing, Transform::IDENTITY);
         match existing {
             Some((entity, _)) => _ = commands.entity(entity).insert(bundle),
@@ -302,9 +347,72 @@ fn sync_drawing(
 }
 
 /// One `vec4` per guide particle for its position, then one per particle for its frame,
-/// then one per guide for the scalp at its root, then the head's centre.
+/// then one per guide for the scalp at its root, then the head's centre, then the order
+/// the strands' pieces are drawn in (four per `vec4`).
 fn guide_buffer_len(layout: &StrandLayout) -> usize {
-    (2 * layout.guides * layout.particles + layout.guides + 1) as usize
+    (2 * layout.guides * layout.particles + layout.guides + 1 + (layout.guides * layout.pieces()).div_ceil(4)) as usize
+}
+
+/// [`HairAntialias::Auto`] blends a groom whose widest strand is under this many pixels…
+const BLEND_BELOW_PIXELS: f32 = 1.0;
+/// …and stops blending it above this many.
+const UNBLEND_ABOVE_PIXELS: f32 = 1.25;
+
+/// Chooses, per drawing, whether its strands are blended ([`HairAntialias`]) and from
+/// which camera they are sorted: the nearest active one.
+fn choose_blending(
+    heads: Query<&HairLook>,
+    cameras: Query<(&Camera, &Projection, &GlobalTransform)>,
+    mut drawings: Query<(&mut HairDrawing, &GlobalTransform, &Aabb)>,
+) {
+    for (mut drawing, placed, aabb) in &mut drawings {
+        let Ok(look) = heads.get(drawing.head) else { continue };
+        // The strands' bounding sphere, in the world.
+        let centre = placed.transform_point(aabb.center.into());
+        let radius = placed.affine().matrix3.to_cols_array().iter().fold(0.0f32, |m, c| m.max(c.abs()))
+            * 3.0
+            * aabb.half_extents.length();
+        let width = look.root_width.max(look.tip_width);
+        let active = || cameras.iter().filter(|(camera, ..)| camera.is_active);
+        let blended = match look.antialias {
+            HairAntialias::Off | HairAntialias::Coverage => false,
+            HairAntialias::Blended => true,
+            HairAntialias::Auto => {
+                let widest = active()
+                    .map(|(camera, projection, at)| strand_pixels(width, centre, radius, camera, projection, at))
+                    .reduce(f32::max);
+                let limit = if drawing.blended() { UNBLEND_ABOVE_PIXELS } else { BLEND_BELOW_PIXELS };
+                widest.is_some_and(|w| w < limit)
+            }
+        };
+        let nearest = active()
+            .map(|(_, _, at)| at.translation())
+            .min_by(|a, b| a.distance_squared(centre).total_cmp(&b.distance_squared(centre)));
+        let blended_from = if blended { nearest.or(Some(centre)) } else { None };
+        if drawing.blended_from != blended_from {
+            drawing.blended_from = blended_from;
+        }
+    }
+}
+
+/// How many pixels wide a strand `width` metres across is drawn by a camera at most,
+/// anywhere in the sphere of `radius` around `centre`: infinite when the camera is inside
+/// the sphere, 0 when the sphere is behind it.
+fn strand_pixels(
+    width: f32,
+    centre: Vec3,
+    radius: f32,
+    camera: &Camera,
+    projection: &Projection,
+    at: &GlobalTransform,
+) -> f32 {
+    let viewport = camera.physical_viewport_size().map_or(1080.0, |s| s.y as f32);
+    let depth = (centre - at.translation()).dot(*at.forward());
+    match projection {
+        Projection::Perspective(_) if depth + radius <= 0.0 => 0.0,
+        Projection::Perspective(_) if at.translation().distance(centre) <= radius || depth <= radius => f32::INFINITY,
+        _ => width * pixels_per_metre(depth - radius, viewport, projection),
+    }
 }
 
 /// Deep opacity maps per groom at most: toward the first shadow-casting lights
@@ -440,6 +548,7 @@ fn upload_guides(
         data.extend(drawing.roots.iter().map(|root| (rotation * root.normal).extend(root.curvature)));
         let pose = state.drawn_head_pose();
         data.push(from_sim(pose.transform_point(state.collider().centre())).extend(1.0));
+        data.extend(StrandLayout::pack_order(&draw_order(&positions, &drawing.layout, drawing.blended_from)));
         if look.self_shadow > 0.0 {
             write_opacity_maps(&mut data, drawing.opacity_maps, &lights.0, &positions, &drawing.layout, look);
         }
@@ -471,6 +580,25 @@ fn upload_guides(
     diagnostics.add_measurement(&HairDiagnostics::RENDERED_VERTICES, || frame.rendered_vertices as f64);
 }
 
+/// The order the strands' pieces are drawn in (`guide · pieces + piece`,
+/// [`StrandLayout::pieces`]): back to front from `camera` (by the particle in each piece's
+/// middle) when the strands are blended, else as grown. `positions` is strand-major.
+fn draw_order(positions: &[Vec3], layout: &StrandLayout, camera: Option<Vec3>) -> Vec<u32> {
+    let mut order = layout.grown_order();
+    if let Some(camera) = camera {
+        let (particles, pieces) = (layout.particles, layout.pieces());
+        let depths: Vec<f32> = order
+            .iter()
+            .map(|&piece| {
+                let middle = ((piece % pieces) * SEGMENTS_PER_PIECE + SEGMENTS_PER_PIECE / 2).min(particles - 1);
+                positions[((piece / pieces) * particles + middle) as usize].distance_squared(camera)
+            })
+            .collect();
+        order.sort_unstable_by(|&a, &b| depths[b as usize].total_cmp(&depths[a as usize]));
+    }
+    order
+}
+
 /// How far a child can stray from its guide: the outermost spiral radius (clumping only
 /// shrinks it) plus the tip spread.
 fn child_reach(children: &ChildParams) -> f32 {
@@ -499,7 +627,7 @@ fn update_materials(
             (false, false) => _ = commands.entity(entity).insert(NotShadowCaster),
             _ => {}
         }
-        let wanted = uniform(&drawing.layout, groom, look);
+        let wanted = uniform(&drawing.layout, groom, look, drawing.blended());
         if materials.get(&drawing.material).is_some_and(|m| m.uniform != wanted)
             && let Some(mut material) = materials.get_mut(&drawing.material)
         {
@@ -508,9 +636,10 @@ fn update_materials(
     }
 }
 
-/// The shader's uniform block from the look and the child placement. Values are
-/// sanitised here, so NaN or negative widths never reach the GPU.
-fn uniform(layout: &StrandLayout, groom: &HairGroom, look: &HairLook) -> HairUniform {
+/// The shader's uniform block from the look and the child placement, blended or not
+/// ([`choose_blending`]). Values are sanitised here, so NaN or negative widths never reach
+/// the GPU.
+fn uniform(layout: &StrandLayout, groom: &HairGroom, look: &HairLook, blended: bool) -> HairUniform {
     let (children, _) = groom.children.sanitized();
     let finite = |x: f32, fallback: f32| if x.is_finite() { x } else { fallback };
     let non_negative = |x: f32, fallback: f32| finite(x, fallback).max(0.0);
@@ -543,7 +672,11 @@ fn uniform(layout: &StrandLayout, groom: &HairGroom, look: &HairLook) -> HairUni
         diffuse: non_negative(look.diffuse, defaults.diffuse),
         flags: if look.receive_shadows { HairUniform::RECEIVE_SHADOWS } else { 0 }
             | if marschner.is_some() { HairUniform::MARSCHNER } else { 0 }
-            | if look.antialias { HairUniform::ANTIALIAS } else { 0 },
+            | match (look.antialias, blended) {
+                (HairAntialias::Off, _) => 0,
+                (_, true) => HairUniform::BLENDED,
+                (_, false) => HairUniform::ANTIALIAS,
+            },
         roughness: marschner.map_or(0.0, |(roughness, _)| roughness),
         cuticle_tilt: marschner.map_or(0.0, |(_, tilt)| tilt),
         self_shadow: non_negative(look.self_shadow, 0.0).min(1.0),
@@ -555,6 +688,20 @@ fn uniform(layout: &StrandLayout, groom: &HairGroom, look: &HairLook) -> HairUni
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn blended_pieces_are_drawn_back_to_front() {
+        // Two guides of 4 particles (3 segments: pieces of 2 and 1), the first along the
+        // view axis from 1 to 4 m in front of the camera, the second across it at 2.5 m.
+        let layout = StrandLayout { guides: 2, particles: 4, strands_per_guide: 1, subdivisions: 1 };
+        let along = (0..4).map(|j| Vec3::new(0.0, 0.0, -1.0 - j as f32));
+        let across = (0..4).map(|j| Vec3::new(0.1 * j as f32, 0.0, -2.5));
+        let positions: Vec<Vec3> = along.chain(across).collect();
+        assert_eq!(draw_order(&positions, &layout, None), [0, 1, 2, 3], "as grown");
+        // Pieces' middles: 2 m and 4 m along (the second piece's middle is its tip), 2.5 m
+        // aside by 0.1 m and 0.3 m across.
+        assert_eq!(draw_order(&positions, &layout, Some(Vec3::ZERO)), [1, 3, 2, 0], "back to front");
+    }
 
     #[test]
     fn bad_look_values_never_reach_the_gpu() {
@@ -570,7 +717,7 @@ mod tests {
         };
         let groom =
             HairGroom { children: ChildParams { clumping: f32::NAN, tip_spread: -1.0, ..default() }, ..default() };
-        let u = uniform(&layout, &groom, &bad);
+        let u = uniform(&layout, &groom, &bad, false);
         let values = [
             u.primary_exponent,
             u.primary_shift,

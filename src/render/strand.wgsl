@@ -5,8 +5,9 @@
 // per particle holding its parallel-transport frame vector `u`, which the CPU computes in
 // one pass per guide instead of every vertex walking its strand from the root, then one
 // vec4 per guide with the scalp's normal and curvature at its root, then the head's
-// centre, then the deep opacity maps). Every vertex of the static strand mesh knows its
-// rendered strand and curve sample (`HairVertex`); from those `strand_point` evaluates the
+// centre, then the order the strands' pieces are drawn in, then the deep opacity maps).
+// Every vertex of the static strand mesh knows its drawn piece, child and curve sample
+// (`HairVertex`); from those `strand_point` evaluates the
 // Bézier curve through the guide, offsets children along the Archimedean spiral in the
 // guide's frame, and widens the curve into a ribbon facing the camera. The shading lobes
 // (Kajiya-Kay, Marschner) follow.
@@ -50,10 +51,12 @@ struct HairUniform {
     self_shadow: f32,
 }
 
-// Mirror `bevy_hair::render::HairUniform::RECEIVE_SHADOWS`, `MARSCHNER` and `ANTIALIAS`.
+// Mirror `bevy_hair::render::HairUniform::RECEIVE_SHADOWS`, `MARSCHNER`, `ANTIALIAS` and
+// `BLENDED`.
 const HAIR_FLAGS_RECEIVE_SHADOWS: u32 = 1u;
 const HAIR_FLAGS_MARSCHNER: u32 = 2u;
 const HAIR_FLAGS_ANTIALIAS: u32 = 4u;
+const HAIR_FLAGS_BLENDED: u32 = 8u;
 
 @group(#{MATERIAL_BIND_GROUP}) @binding(0) var<storage, read> guides: array<vec4<f32>>;
 @group(#{MATERIAL_BIND_GROUP}) @binding(1) var<uniform> hair: HairUniform;
@@ -79,7 +82,27 @@ fn head_centre() -> vec3<f32> {
     return guides[2u * hair.guides * hair.particles + hair.guides].xyz;
 }
 
-// The deep opacity maps follow the head's centre: their count, then per map a header of
+// Guide segments per drawn piece of a strand. Mirrors
+// `bevy_hair::render::SEGMENTS_PER_PIECE`.
+const SEGMENTS_PER_PIECE: u32 = 2u;
+
+// Pieces per strand (`StrandLayout::pieces`).
+fn pieces() -> u32 {
+    return (hair.particles - 1u + SEGMENTS_PER_PIECE - 1u) / SEGMENTS_PER_PIECE;
+}
+
+// The order the strands' pieces are drawn in follows the head's centre, four per vec4,
+// each `guide · pieces + piece`: back to front when the strands are blended, else as grown.
+fn order_start() -> u32 {
+    return 2u * hair.guides * hair.particles + hair.guides + 1u;
+}
+
+// The piece drawn `slot`th.
+fn drawn_piece(slot: u32) -> u32 {
+    return u32(guides[order_start() + slot / 4u][slot % 4u]);
+}
+
+// The deep opacity maps follow the draw order: their count, then per map a header of
 // `MAP_HEADER` vec4s, each cell's nearest strand, and its coverage, four values per vec4
 // (`hair_sim::shadow`). Mirror `hair_sim::shadow::MAP_SIZE` and `MAP_LAYERS`.
 const MAP_SIZE: i32 = 32;
@@ -89,7 +112,7 @@ const MAP_CELLS: u32 = 32u * 32u;
 const MAP_STRIDE: u32 = 5u + 32u * 32u / 4u + 32u * 32u * 16u / 4u;
 
 fn maps_start() -> u32 {
-    return 2u * hair.guides * hair.particles + hair.guides + 1u;
+    return order_start() + (hair.guides * pieces() + 3u) / 4u;
 }
 
 fn map_header(map: u32, k: u32) -> vec4<f32> {
@@ -310,15 +333,19 @@ struct StrandPoint {
     width: f32,
     // -1 or 1: which edge of the ribbon
     side: f32,
+    // the rendered strand (guide * strands per guide + child), whatever the draw order
+    strand: u32,
 }
 
 fn strand_point(hair_vertex: vec2<u32>, camera: vec3<f32>) -> StrandPoint {
-    let strand = hair_vertex.x;
-    let sample_index = hair_vertex.y >> 1u;
-    let side = f32(hair_vertex.y & 1u) * 2.0 - 1.0;
     let per_guide = hair.strands_per_guide;
-    let guide = strand / per_guide;
-    let child = strand % per_guide; // 0 is the guide itself
+    let piece = drawn_piece(hair_vertex.x / per_guide);
+    let guide = piece / pieces();
+    let child = hair_vertex.x % per_guide; // 0 is the guide itself
+    // The last piece's samples past the tip fold onto it (empty triangles).
+    let first_sample = (piece % pieces()) * SEGMENTS_PER_PIECE * hair.subdivisions;
+    let sample_index = min(first_sample + (hair_vertex.y >> 1u), (hair.particles - 1u) * hair.subdivisions);
+    let side = f32(hair_vertex.y & 1u) * 2.0 - 1.0;
     let s = f32(sample_index) / f32(hair.subdivisions);
     let t = s / f32(hair.particles - 1u);
 
@@ -345,6 +372,7 @@ fn strand_point(hair_vertex: vec2<u32>, camera: vec3<f32>) -> StrandPoint {
     out.t = t;
     out.width = width;
     out.side = side;
+    out.strand = guide * per_guide + child;
     return out;
 }
 
