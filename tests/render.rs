@@ -676,9 +676,52 @@ fn distant_hair_does_not_shimmer() {
     assert!(!blended(&mut scene), "Auto does not blend strands wider than a pixel (0.3 m)");
 }
 
+/// Bevy's distance fog covers the hair as it covers the head (`StandardMaterial`): in a
+/// linear fog that is total from 30 cm, hair and skin pixels both take the fog's colour
+/// (within 1/255); in one from 30 cm to 1 m, the hair (50–70 cm away) moves part of the way
+/// toward it.
+#[test]
+fn fog_covers_the_hair_as_it_covers_the_head() {
+    require_adapter!();
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let (mut scene, _) = settled_scene();
+    let clear = scene.capture("fog-none");
+    let (hair, skin) =
+        (inside_hair(&[&clear]), inside_where(&[&clear], |c| !Picture::is_hair(c) && !Picture::is_background(c)));
+    assert!(hair.len() > 500 && skin.len() > 500, "{} hair and {} skin pixels", hair.len(), skin.len());
+    let mean_colour = |picture: &Picture, pixels: &[usize]| {
+        let sum = pixels.iter().fold(Vec3::ZERO, |sum, &i| sum + Vec3::from_array(picture.pixels[i]));
+        sum / pixels.len() as f32
+    };
+    let fog = Color::srgb(0.3, 0.35, 0.9);
+    let fog_srgb = Vec3::from_array(fog.to_srgba().to_f32_array_no_alpha());
+    let fogged = |scene: &mut Scene, name: &str, start: f32, end: f32| {
+        let falloff = FogFalloff::Linear { start, end };
+        scene.app.world_mut().entity_mut(scene.camera).insert(DistanceFog { color: fog, falloff, ..default() });
+        scene.frames(3);
+        scene.capture(name)
+    };
+    let total = fogged(&mut scene, "fog-total", 0.05, 0.3);
+    let (hair_colour, skin_colour) = (mean_colour(&total, &hair), mean_colour(&total, &skin));
+    println!("total fog {fog_srgb}: hair {hair_colour}, skin {skin_colour}");
+    assert!((hair_colour - fog_srgb).abs().max_element() <= 1.0 / 255.0, "hair {hair_colour} under fog {fog_srgb}");
+    assert!((skin_colour - fog_srgb).abs().max_element() <= 1.0 / 255.0, "skin {skin_colour} under fog {fog_srgb}");
+
+    let partial = fogged(&mut scene, "fog-partial", 0.3, 1.0);
+    let (before, after) = (mean_colour(&clear, &hair), mean_colour(&partial, &hair));
+    let moved = 1.0 - after.distance(fog_srgb) / before.distance(fog_srgb);
+    println!("partial fog: hair {before} → {after}, {moved:.2} of the way to the fog");
+    assert!((0.1..0.6).contains(&moved), "the hair moved {moved} of the way to the fog's colour");
+}
+
 /// The pixels inside the hair (a pixel from its edge) in every one of `pictures`.
 fn inside_hair(pictures: &[&Picture]) -> Vec<usize> {
-    let hair = |j: usize| pictures.iter().all(|picture| Picture::is_hair(picture.pixels[j]));
+    inside_where(pictures, Picture::is_hair)
+}
+
+/// The pixels whose 3 × 3 neighbourhood is all `what` in every one of `pictures`.
+fn inside_where(pictures: &[&Picture], what: fn([f32; 3]) -> bool) -> Vec<usize> {
+    let hair = |j: usize| pictures.iter().all(|picture| what(picture.pixels[j]));
     let inside = |i: usize| {
         let (x, y) = ((i as u32 % SIZE) as i32, (i as u32 / SIZE) as i32);
         (-1..=1).all(|dy| {
@@ -1055,6 +1098,7 @@ fn every_shader_variant_composes_and_validates_without_a_gpu() {
     let flag = |def: &str| vec![ShaderDefVal::from(def)];
     let main_options = [
         ("MULTISAMPLED", flag("MULTISAMPLED")),
+        ("DISTANCE_FOG", flag("DISTANCE_FOG")),
         ("ENVIRONMENT_MAP", flag("ENVIRONMENT_MAP")),
         ("TONEMAP_IN_SHADER", tonemapping),
     ];
@@ -1067,7 +1111,7 @@ fn every_shader_variant_composes_and_validates_without_a_gpu() {
         combinations("shadow", vec!["PREPASS_PIPELINE".into(), "DEPTH_PREPASS".into()], &shadow_options),
     ]
     .concat();
-    assert_eq!(variants.len(), 12);
+    assert_eq!(variants.len(), 20);
     let failures: Vec<String> = variants
         .iter()
         .enumerate()

@@ -13,6 +13,7 @@ use bevy::prelude::*;
 use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured};
 use bevy::time::TimeUpdateStrategy;
 use bevy_hair::prelude::*;
+use bevy_hair::render::HairDrawing;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -44,6 +45,7 @@ impl Plugin for ScreenshotPlugin {
                 roots: Vec::new(),
                 frame_ms: Vec::new(),
                 frame_began: None,
+                blended: false,
             })
             .add_systems(Update, drive);
     }
@@ -74,6 +76,8 @@ struct Shot {
     /// Wall time between the frames played, milliseconds, and when the last one began.
     frame_ms: Vec<f64>,
     frame_began: Option<Instant>,
+    /// Whether the hair was drawn blended when time stopped ([`HairAntialias`]).
+    blended: bool,
 }
 
 impl Shot {
@@ -99,6 +103,7 @@ fn drive(
     mut time: ResMut<Time<Virtual>>,
     head: Option<Single<HeadHair, With<Head>>>,
     camera: Single<(&Camera, &GlobalTransform)>,
+    drawings: Query<&HairDrawing>,
     mut exit: MessageWriter<AppExit>,
 ) {
     let mut fail = |reason: String| {
@@ -141,6 +146,7 @@ fn drive(
             time.pause();
             let (camera, camera_transform) = *camera;
             shot.roots = facing_root_pixels(state, camera, camera_transform);
+            shot.blended = drawings.iter().any(HairDrawing::blended);
             shot.capture(&mut commands);
             shot.stage = Stage::CapturingHair;
         }
@@ -162,7 +168,7 @@ fn drive(
             let mut frame_ms = std::mem::take(&mut shot.frame_ms);
             frame_ms.sort_by(f64::total_cmp);
             let median_ms = frame_ms.get(frame_ms.len() / 2).copied().unwrap_or(f64::NAN);
-            match check_and_save(&with_hair, &bare, &shot.roots, &shot.path, median_ms) {
+            match check_and_save(&with_hair, &bare, &shot.roots, &shot.path, median_ms, shot.blended) {
                 Ok(summary) => {
                     info!("screenshot: {summary}");
                     println!("{summary}");
@@ -195,13 +201,15 @@ fn facing_root_pixels(state: &HairState, camera: &Camera, camera_transform: &Glo
 }
 
 /// Compares the two frames at the root pixels, saves the one with hair, and says what it found
-/// (with `frame_ms`, the median wall time of the frames played).
+/// (with `frame_ms`, the median wall time of the frames played, and whether the hair was
+/// `blended`).
 fn check_and_save(
     with_hair: &Image,
     bare: &Image,
     roots: &[UVec2],
     path: &PathBuf,
     frame_ms: f64,
+    blended: bool,
 ) -> Result<String, String> {
     let rgb = |image: &Image| image.clone().try_into_dynamic().map(|i| i.to_rgb8()).map_err(|e| e.to_string());
     let (hair, bare) = (rgb(with_hair)?, rgb(bare)?);
@@ -223,7 +231,7 @@ fn check_and_save(
     hair.save(path).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     let summary = format!(
         "{{\"screenshot\":{:?},\"facing_roots\":{},\"covered_roots\":{},\"hair_pixels\":{},\"width\":{},\"height\":{},\
-         \"frame_ms\":{frame_ms:.0}}}",
+         \"frame_ms\":{frame_ms:.0},\"blended\":{blended}}}",
         path.display().to_string(),
         inside.len(),
         covered,

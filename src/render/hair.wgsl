@@ -32,6 +32,13 @@
 #ifdef TONEMAP_IN_SHADER
 #import bevy_core_pipeline::tonemapping::tone_mapping
 #endif
+#ifdef DISTANCE_FOG
+#import bevy_pbr::{
+    fog as distance_fog,
+    mesh_view_bindings::fog,
+    mesh_view_types::{FOG_MODE_ATMOSPHERIC, FOG_MODE_EXPONENTIAL, FOG_MODE_EXPONENTIAL_SQUARED, FOG_MODE_LINEAR},
+}
+#endif
 #endif
 
 struct Vertex {
@@ -191,6 +198,40 @@ fn environment_light(in: VertexOutput, ranges: ptr<function, ClusterableObjectIn
 #endif
 }
 
+// Bevy's distance fog over a shaded fragment, as `bevy_pbr::pbr_functions::apply_fog` lays
+// it over `StandardMaterial` (mirrored: that module also binds `StandardMaterial`'s own
+// material), so hair and skin fade alike.
+fn fogged(color: vec4<f32>, in: VertexOutput, view_z: f32) -> vec4<f32> {
+#ifdef DISTANCE_FOG
+    let to_fragment = in.world_position.xyz - view.world_position;
+    let distance = length(to_fragment);
+    // Light scattered toward the eye by the fog, from directional lights, unless shadowed.
+    var scattering = vec3(0.0);
+    if fog.directional_light_color.a > 0.0 {
+        let along = to_fragment / distance;
+        for (var i = 0u; i < lights.n_directional_lights; i++) {
+            let directional = &lights.directional_lights[i];
+            var shadow = 1.0;
+            if ((*directional).flags & DIRECTIONAL_LIGHT_FLAGS_SHADOWS_ENABLED_BIT) != 0u {
+                shadow = fetch_directional_shadow(i, in.world_position, -along, view_z, in.clip_position.xy);
+            }
+            scattering += pow(max(dot(along, (*directional).direction_to_light), 0.0), fog.directional_light_exponent)
+                * (*directional).color.rgb * view.exposure * shadow;
+        }
+    }
+    if fog.mode == FOG_MODE_LINEAR {
+        return distance_fog::linear_fog(fog, color, distance, scattering);
+    } else if fog.mode == FOG_MODE_EXPONENTIAL {
+        return distance_fog::exponential_fog(fog, color, distance, scattering);
+    } else if fog.mode == FOG_MODE_EXPONENTIAL_SQUARED {
+        return distance_fog::exponential_squared_fog(fog, color, distance, scattering);
+    } else if fog.mode == FOG_MODE_ATMOSPHERIC {
+        return distance_fog::atmospheric_fog(fog, color, distance, scattering);
+    }
+#endif
+    return color;
+}
+
 struct FragmentOutput {
     @location(0) color: vec4<f32>,
 #ifdef MULTISAMPLED
@@ -227,7 +268,7 @@ fn fragment(in: VertexOutput) -> FragmentOutput {
     light += clustered_light(in, ranges, tangent, normal, to_view, albedo);
     light += environment_light(in, &ranges, tangent, to_view, albedo);
 
-    var color = vec4(light * view.exposure, 1.0);
+    var color = fogged(vec4(light * view.exposure, 1.0), in, view_z);
 #ifdef TONEMAP_IN_SHADER
     color = tone_mapping(color, view.color_grading);
 #endif

@@ -587,14 +587,18 @@ fn draw_order(positions: &[Vec3], layout: &StrandLayout, camera: Option<Vec3>) -
     let mut order = layout.grown_order();
     if let Some(camera) = camera {
         let (particles, pieces) = (layout.particles, layout.pieces());
-        let depths: Vec<f32> = order
+        // Each piece's squared distance (a non-negative float, so its bits sort as it
+        // does), inverted for back to front, above the piece: one integer sort.
+        let mut keyed: Vec<u64> = order
             .iter()
             .map(|&piece| {
                 let middle = ((piece % pieces) * SEGMENTS_PER_PIECE + SEGMENTS_PER_PIECE / 2).min(particles - 1);
-                positions[((piece / pieces) * particles + middle) as usize].distance_squared(camera)
+                let depth = positions[((piece / pieces) * particles + middle) as usize].distance_squared(camera);
+                (u64::from(!depth.to_bits()) << 32) | u64::from(piece)
             })
             .collect();
-        order.sort_unstable_by(|&a, &b| depths[b as usize].total_cmp(&depths[a as usize]));
+        keyed.sort_unstable();
+        order = keyed.into_iter().map(|key| key as u32).collect();
     }
     order
 }
