@@ -11,6 +11,7 @@
 use bevy::asset::RenderAssetUsages;
 use bevy::math::Vec4;
 use bevy::mesh::{Indices, Mesh, MeshVertexAttribute, PrimitiveTopology, VertexAttributeValues, VertexFormat};
+use hair_sim::draw_order::pieces_per_strand;
 
 /// Guide segments per drawn piece of a strand (`strand.wgsl`'s `SEGMENTS_PER_PIECE`).
 pub const SEGMENTS_PER_PIECE: u32 = 2;
@@ -44,7 +45,7 @@ impl StrandLayout {
     /// Pieces each strand is drawn in: [`SEGMENTS_PER_PIECE`] segments each, the last
     /// perhaps fewer (its extra samples fold onto the tip).
     pub fn pieces(&self) -> u32 {
-        (self.particles - 1).div_ceil(SEGMENTS_PER_PIECE)
+        pieces_per_strand(self.particles as usize, SEGMENTS_PER_PIECE as usize) as u32
     }
 
     /// Samples along each piece, both ends included.

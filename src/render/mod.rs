@@ -27,6 +27,7 @@ use bevy::light::NotShadowCaster;
 use bevy::prelude::*;
 use bevy::render::storage::ShaderBuffer;
 use bevy::shader::load_shader_library;
+use hair_sim::draw_order::back_to_front;
 use hair_sim::groom::{ChildParams, MAX_CURVATURE, transport_frames};
 use hair_sim::shadow::{LightSource, MAP_LAYERS, MAP_SIZE, OpacityMap};
 
@@ -581,26 +582,16 @@ fn upload_guides(
 }
 
 /// The order the strands' pieces are drawn in (`guide · pieces + piece`,
-/// [`StrandLayout::pieces`]): back to front from `camera` (by the particle in each piece's
-/// middle) when the strands are blended, else as grown. `positions` is strand-major.
+/// [`StrandLayout::pieces`]): back to front from `camera` when the strands are blended
+/// ([`hair_sim::draw_order`]), else as grown. `positions` is strand-major.
 fn draw_order(positions: &[Vec3], layout: &StrandLayout, camera: Option<Vec3>) -> Vec<u32> {
-    let mut order = layout.grown_order();
-    if let Some(camera) = camera {
-        let (particles, pieces) = (layout.particles, layout.pieces());
-        // Each piece's squared distance (a non-negative float, so its bits sort as it
-        // does), inverted for back to front, above the piece: one integer sort.
-        let mut keyed: Vec<u64> = order
-            .iter()
-            .map(|&piece| {
-                let middle = ((piece % pieces) * SEGMENTS_PER_PIECE + SEGMENTS_PER_PIECE / 2).min(particles - 1);
-                let depth = positions[((piece / pieces) * particles + middle) as usize].distance_squared(camera);
-                (u64::from(!depth.to_bits()) << 32) | u64::from(piece)
-            })
-            .collect();
-        keyed.sort_unstable();
-        order = keyed.into_iter().map(|key| key as u32).collect();
+    match camera {
+        Some(eye) => {
+            let points: Vec<_> = positions.iter().map(|&p| to_sim(p)).collect();
+            back_to_front(&points, layout.particles as usize, SEGMENTS_PER_PIECE as usize, to_sim(eye))
+        }
+        None => layout.grown_order(),
     }
-    order
 }
 
 /// How far a child can stray from its guide: the outermost spiral radius (clumping only
@@ -695,16 +686,13 @@ mod tests {
 
     #[test]
     fn blended_pieces_are_drawn_back_to_front() {
-        // Two guides of 4 particles (3 segments: pieces of 2 and 1), the first along the
-        // view axis from 1 to 4 m in front of the camera, the second across it at 2.5 m.
+        // Two guides of 4 particles (3 segments: pieces of 2 and 1) along the view axis, the
+        // second farther: its pieces first, each guide's tip piece before its root piece.
         let layout = StrandLayout { guides: 2, particles: 4, strands_per_guide: 1, subdivisions: 1 };
-        let along = (0..4).map(|j| Vec3::new(0.0, 0.0, -1.0 - j as f32));
-        let across = (0..4).map(|j| Vec3::new(0.1 * j as f32, 0.0, -2.5));
-        let positions: Vec<Vec3> = along.chain(across).collect();
+        let positions: Vec<Vec3> =
+            (0..8).map(|k| Vec3::new(0.0, 0.0, -1.0 - (k / 4) as f32 * 10.0 - (k % 4) as f32)).collect();
         assert_eq!(draw_order(&positions, &layout, None), [0, 1, 2, 3], "as grown");
-        // Pieces' middles: 2 m and 4 m along (the second piece's middle is its tip), 2.5 m
-        // aside by 0.1 m and 0.3 m across.
-        assert_eq!(draw_order(&positions, &layout, Some(Vec3::ZERO)), [1, 3, 2, 0], "back to front");
+        assert_eq!(draw_order(&positions, &layout, Some(Vec3::ZERO)), [3, 2, 1, 0], "back to front");
     }
 
     #[test]

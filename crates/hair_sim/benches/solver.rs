@@ -147,6 +147,16 @@ fn opacity_map(c: &mut Criterion) {
     group.finish();
 }
 
+/// The back-to-front order of a settled 2,048 × 16 groom's pieces of two segments (the
+/// plugin sorts them every frame while a groom's strands are blended).
+fn draw_order(c: &mut Criterion) {
+    let (_, rest) = settled_groom(2048, 60);
+    let eye = Vec3::new(0.3, 0.1, 2.0);
+    c.bench_function("draw_order::back_to_front 2048x16, pieces of 2", |b| {
+        b.iter(|| hair_sim::draw_order::back_to_front(black_box(&rest.positions), 16, 2, eye))
+    });
+}
+
 fn config() -> Criterion {
     Criterion::default()
         .sample_size(10)
@@ -158,6 +168,6 @@ fn config() -> Criterion {
 criterion_group! {
     name = benches;
     config = config();
-    targets = collider_build, collider_resolve, strand_step, groom, opacity_map
+    targets = collider_build, collider_resolve, strand_step, groom, opacity_map, draw_order
 }
 criterion_main!(benches);

@@ -33,11 +33,13 @@
 //! Layout: [`mesh`] (the head and its validation), [`groom`] (roots, guides, child
 //! strands and Bézier tessellation),
 //! [`solver`] (state, settings, the step), [`collide`] (BVH + distance grid, spheres,
-//! capsules), [`shadow`] (how much hair lies between a point and a light). All public vectors are glam 0.33 ([`math`]), the version parry3d uses.
+//! capsules), [`shadow`] (how much hair lies between a point and a light), [`draw_order`]
+//! (blended strands back to front). All public vectors are glam 0.33 ([`math`]), the version parry3d uses.
 
 #![warn(missing_docs)]
 
 pub mod collide;
+pub mod draw_order;
 pub mod groom;
 pub mod math;
 pub mod mesh;
