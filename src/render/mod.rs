@@ -27,6 +27,7 @@ use bevy::light::NotShadowCaster;
 use bevy::prelude::*;
 use bevy::render::storage::ShaderBuffer;
 use bevy::shader::load_shader_library;
+use bevy::utils::Parallel;
 use hair_sim::draw_order::back_to_front;
 use hair_sim::groom::{ChildParams, MAX_CURVATURE, transport_frames};
 use hair_sim::shadow::{LightSource, MAP_LAYERS, MAP_SIZE, OpacityMap};
@@ -370,9 +371,9 @@ fn choose_blending(
         let Ok(look) = heads.get(drawing.head) else { continue };
         // The strands' bounding sphere, in the world.
         let centre = placed.transform_point(aabb.center.into());
-        let radius = placed.affine().matrix3.to_cols_array().iter().fold(0.0f32, |m, c| m.max(c.abs()))
-            * 3.0
-            * aabb.half_extents.length();
+        let m = placed.affine().matrix3;
+        let scale = m.x_axis.length().max(m.y_axis.length()).max(m.z_axis.length());
+        let radius = scale * aabb.half_extents.length();
         let width = look.root_width.max(look.tip_width);
         let active = || cameras.iter().filter(|(camera, ..)| camera.is_active);
         let blended = match look.antialias {
@@ -504,10 +505,19 @@ fn write_opacity_maps(
     data.resize(data.len() + (slots - maps.len()) * (opacity_maps_len(1) - 1), Vec4::ZERO);
 }
 
+/// A groom's guide buffer contents for this frame, written on a task of its own.
+struct WrittenGuides {
+    buffer: Handle<ShaderBuffer>,
+    data: Vec<Vec4>,
+    layout: StrandLayout,
+}
+
 /// Writes this frame's guide particles (interpolated between the last two hair steps, on
-/// the head as posed this frame) and their transport frames into each drawing's storage
-/// buffer, and fits its bounding box (in the drawing's own frame: it is a child of the
-/// head, and a skinned head's hair follows a joint instead).
+/// the head as posed this frame), their transport frames, the draw order and the opacity
+/// maps into each drawing's storage buffer, and fits its bounding box (in the drawing's
+/// own frame: it is a child of the head, and a skinned head's hair follows a joint
+/// instead). The grooms are written in parallel.
+#[allow(clippy::too_many_arguments)] // one system: the buffers, their inputs and the statistics
 fn upload_guides(
     clock: Res<Time<Hair>>,
     heads: Query<(&HairState, &HairGroom, &HairLook)>,
@@ -516,10 +526,10 @@ fn upload_guides(
     mut buffers: ResMut<Assets<ShaderBuffer>>,
     mut stats: ResMut<HairRenderStats>,
     mut diagnostics: Diagnostics,
+    mut written: Local<Parallel<Vec<WrittenGuides>>>,
 ) {
-    let mut frame = HairRenderStats::default();
     let overstep = clock.overstep_fraction();
-    let mut write = |drawing: &HairDrawing, placed: &GlobalTransform, frame: &mut HairRenderStats| -> Option<Aabb> {
+    let write = |drawing: &HairDrawing, placed: &GlobalTransform| -> Option<(Vec<Vec4>, Option<Aabb>)> {
         let (state, groom, look) = heads.get(drawing.head).ok()?;
         if state.roots().len() != drawing.roots.len() {
             return None; // regrown with another guide count; sync_drawing rebuilds next frame
@@ -553,26 +563,41 @@ fn upload_guides(
         if look.self_shadow > 0.0 {
             write_opacity_maps(&mut data, drawing.opacity_maps, &lights.0, &positions, &drawing.layout, look);
         }
-        frame.uploaded_bytes += (data.len() * size_of::<Vec4>()) as u64;
-        frame.rendered_strands += drawing.layout.strands() as u64;
-        frame.rendered_vertices += drawing.layout.vertices() as u64;
-        buffers.get_mut(&drawing.guides)?.set_data(data);
         // Children sit at most the spiral's outer radius plus the tip spread from their
         // guide, and ribbons add half their width; in the drawing's frame that length is
         // stretched at most by the inverse's Frobenius norm (1.7 for a rigid frame).
         let stretch = to_drawing.matrix3.to_cols_array().iter().map(|c| c * c).sum::<f32>().sqrt();
         let reach = (child_reach(&groom.children.sanitized().0) + look.root_width.max(look.tip_width)) * stretch;
-        (min.is_finite() && max.is_finite())
-            .then(|| Aabb::from_min_max(min - Vec3::splat(reach), max + Vec3::splat(reach)))
+        let fitted = (min.is_finite() && max.is_finite())
+            .then(|| Aabb::from_min_max(min - Vec3::splat(reach), max + Vec3::splat(reach)));
+        Some((data, fitted))
     };
-    for (drawing, placed, mut aabb, inherited) in &mut drawings {
+    // Each groom's buffer is written on a task of its own (a crowd's grooms on every core),
+    // then handed to its asset here.
+    drawings.par_iter_mut().for_each(|(drawing, placed, mut aabb, inherited)| {
         // The head or the hair is hidden (the drawing's own `Visibility` is part of its
         // inherited one): nothing is drawn, so nothing is uploaded.
         if !inherited.get() {
-            continue;
+            return;
         }
-        if let Some(fitted) = write(drawing, placed, &mut frame) {
-            *aabb = fitted;
+        if let Some((data, fitted)) = write(drawing, placed) {
+            if let Some(fitted) = fitted {
+                *aabb = fitted;
+            }
+            written.borrow_local_mut().push(WrittenGuides {
+                buffer: drawing.guides.clone(),
+                data,
+                layout: drawing.layout,
+            });
+        }
+    });
+    let mut frame = HairRenderStats::default();
+    for WrittenGuides { buffer, data, layout } in written.iter_mut().flat_map(|written| written.drain(..)) {
+        frame.uploaded_bytes += (data.len() * size_of::<Vec4>()) as u64;
+        frame.rendered_strands += layout.strands() as u64;
+        frame.rendered_vertices += layout.vertices() as u64;
+        if let Some(mut buffer) = buffers.get_mut(&buffer) {
+            buffer.set_data(data);
         }
     }
     *stats = frame;
