@@ -27,6 +27,7 @@ use bevy::light::NotShadowCaster;
 use bevy::prelude::*;
 use bevy::render::storage::ShaderBuffer;
 use bevy::shader::load_shader_library;
+use bevy::tasks::{ComputeTaskPool, TaskPool};
 use bevy::utils::Parallel;
 use hair_sim::draw_order::back_to_front;
 use hair_sim::groom::{ChildParams, MAX_CURVATURE, transport_frames};
@@ -479,8 +480,17 @@ fn write_opacity_maps(
             layout.strands_per_guide as f32 * width.max(0.0) * (points[i] - points[i - 1]).length()
         })
         .collect();
-    let maps: Vec<OpacityMap> =
-        lights.iter().take(slots).filter_map(|&light| OpacityMap::build(light, &points, &areas)).collect();
+    // One task per light; the maps come back in the lights' order.
+    let (points, areas) = (&points, &areas);
+    let maps: Vec<OpacityMap> = ComputeTaskPool::get_or_init(TaskPool::default)
+        .scope(|scope| {
+            for &light in lights.iter().take(slots) {
+                scope.spawn(async move { OpacityMap::build(light, points, areas) });
+            }
+        })
+        .into_iter()
+        .flatten()
+        .collect();
     data.push(Vec4::new(maps.len() as f32, 0.0, 0.0, 0.0));
     let v = |v: hair_sim::math::Vec3, w: f32| from_sim(v).extend(w);
     for map in &maps {
