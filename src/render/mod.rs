@@ -145,11 +145,11 @@ pub struct HairLook {
 
 /// How strands thinner than a pixel are drawn ([`HairLook::antialias`]).
 ///
-/// Measured on the procedural head at 2 m and 4 m in a 256-pixel view, strands a tenth of
-/// a pixel wide (`tests/render.rs`): a quarter-pixel camera move changes the hair's pixels
-/// by about 0.6 of what plain ribbons give with [`Coverage`](Self::Coverage), and by about
-/// a third with [`Blended`](Self::Blended), close to what the move changes in an ideally
-/// filtered picture.
+/// Measured on the procedural head at 2 m and 4 m in a 256-pixel view, strands a tenth and
+/// a twentieth of a pixel wide (`tests/render.rs`): a quarter-pixel camera move changes the
+/// hair's pixels by about 0.6 of what plain ribbons give with [`Coverage`](Self::Coverage),
+/// and by about a fifth with [`Blended`](Self::Blended), near what the move changes in a
+/// picture that only slides.
 #[derive(Reflect, Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum HairAntialias {
     /// Solid ribbons however thin: far hair breaks up and shimmers as it moves.
