@@ -454,34 +454,18 @@ fn find_shadow_casting_lights(
     found.0.extend(directional.chain(positioned).take(MAX_OPACITY_MAPS));
 }
 
-/// Appends the opacity maps of `positions` (world space, strand-major) toward `lights` to
-/// `data` in `slots` slots: each particle stands for the fibres of its guide's strands
-/// along the segment to its parent.
+/// Appends the opacity maps of `samples` (the points and fibre areas of
+/// [`opacity_samples`]) toward `lights` to `data` in `slots` slots.
 fn write_opacity_maps(
     data: &mut Vec<Vec4>,
     slots: usize,
     lights: &[LightSource],
-    positions: &[Vec3],
-    layout: &StrandLayout,
-    look: &HairLook,
+    (points, areas): (&[hair_sim::math::Vec3], &[f32]),
 ) {
     if slots == 0 {
         return;
     }
-    let n = layout.particles as usize;
-    let points: Vec<_> = positions.iter().map(|&p| to_sim(p)).collect();
-    let areas: Vec<f32> = (0..points.len())
-        .map(|i| {
-            let j = i % n;
-            if j == 0 {
-                return 0.0;
-            }
-            let width = look.root_width + (look.tip_width - look.root_width) * j as f32 / (n - 1) as f32;
-            layout.strands_per_guide as f32 * width.max(0.0) * (points[i] - points[i - 1]).length()
-        })
-        .collect();
     // One task per light; the maps come back in the lights' order.
-    let (points, areas) = (&points, &areas);
     let maps: Vec<OpacityMap> = ComputeTaskPool::get_or_init(TaskPool::default)
         .scope(|scope| {
             for &light in lights.iter().take(slots) {
@@ -513,6 +497,35 @@ fn write_opacity_maps(
     }
     // Unused slots keep the buffer its size.
     data.resize(data.len() + (slots - maps.len()) * (opacity_maps_len(1) - 1), Vec4::ZERO);
+}
+
+/// The points the opacity maps count, world space, and the fibre area each stands for:
+/// each particle stands for the fibres of its guide's strands along the segment to its
+/// parent. Only the guides for which `simulated` holds are counted, each for its share of
+/// the others: a far groom's level of detail spreads its simulated guides evenly over the
+/// scalp, so its maps cost what its simulation does.
+fn opacity_samples(
+    positions: &[Vec3],
+    layout: &StrandLayout,
+    look: &HairLook,
+    simulated: impl Fn(usize) -> bool,
+) -> (Vec<hair_sim::math::Vec3>, Vec<f32>) {
+    let n = layout.particles as usize;
+    let counted: Vec<&[Vec3]> =
+        positions.chunks_exact(n).enumerate().filter(|&(g, _)| simulated(g)).map(|(_, guide)| guide).collect();
+    let share = layout.guides as f32 / counted.len().max(1) as f32;
+    let points: Vec<_> = counted.iter().flat_map(|guide| guide.iter().map(|&p| to_sim(p))).collect();
+    let areas = (0..points.len())
+        .map(|i| {
+            let j = i % n;
+            if j == 0 {
+                return 0.0;
+            }
+            let width = look.root_width + (look.tip_width - look.root_width) * j as f32 / (n - 1) as f32;
+            share * layout.strands_per_guide as f32 * width.max(0.0) * (points[i] - points[i - 1]).length()
+        })
+        .collect();
+    (points, areas)
 }
 
 /// A groom's guide buffer contents for this frame, written on a task of its own.
@@ -571,7 +584,9 @@ fn upload_guides(
         data.push(from_sim(pose.transform_point(state.collider().centre())).extend(1.0));
         data.extend(StrandLayout::pack_order(&draw_order(&positions, &drawing.layout, drawing.blended_from)));
         if look.self_shadow > 0.0 {
-            write_opacity_maps(&mut data, drawing.opacity_maps, &lights.0, &positions, &drawing.layout, look);
+            let strands = state.strands();
+            let (points, areas) = opacity_samples(&positions, &drawing.layout, look, |g| strands.is_simulated(g));
+            write_opacity_maps(&mut data, drawing.opacity_maps, &lights.0, (&points, &areas));
         }
         // Children sit at most the spiral's outer radius plus the tip spread from their
         // guide, and ribbons add half their width; in the drawing's frame that length is
@@ -718,6 +733,24 @@ fn uniform(layout: &StrandLayout, groom: &HairGroom, look: &HairLook, blended: b
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn far_grooms_count_their_simulated_guides_for_the_rest() {
+        // Four straight guides of 3 particles, 1 cm segments, one strand each.
+        let layout = StrandLayout { guides: 4, particles: 3, strands_per_guide: 1, subdivisions: 1 };
+        let positions: Vec<Vec3> =
+            (0..12).map(|k| Vec3::new(0.01 * (k / 3) as f32, -0.01 * (k % 3) as f32, 0.0)).collect();
+        let look = HairLook { root_width: 0.001, tip_width: 0.001, ..default() };
+        let (all_points, all_areas) = opacity_samples(&positions, &layout, &look, |_| true);
+        let (points, areas) = opacity_samples(&positions, &layout, &look, |g| g % 2 == 0);
+        assert_eq!((all_points.len(), points.len()), (12, 6));
+        // Guides 0 and 2, each standing for two.
+        assert_eq!(points[3], to_sim(positions[6]));
+        let total = |areas: &[f32]| areas.iter().sum::<f32>();
+        assert!((total(&all_areas) - 8.0 * 0.001 * 0.01).abs() < 1e-9, "{all_areas:?}");
+        assert!((total(&areas) - total(&all_areas)).abs() < 1e-9, "{areas:?}");
+        assert_eq!(areas[..3], [0.0, 2.0 * all_areas[1], 2.0 * all_areas[2]]);
+    }
 
     #[test]
     fn blended_pieces_are_drawn_back_to_front() {
