@@ -31,7 +31,7 @@ use bevy::tasks::{ComputeTaskPool, TaskPool};
 use bevy::utils::Parallel;
 use hair_sim::draw_order::back_to_front;
 use hair_sim::groom::{ChildParams, MAX_CURVATURE, transport_frames};
-use hair_sim::shadow::{LightSource, MAP_LAYERS, MAP_SIZE, OpacityMap};
+use hair_sim::shadow::{Fibres, LightSource, MAP_LAYERS, MAP_SIZE, OpacityMap, fibre_samples};
 
 /// Draws every groom: added by [`HairPlugin`](crate::HairPlugin) when the `render`
 /// feature is on and the app renders.
@@ -455,7 +455,7 @@ fn find_shadow_casting_lights(
 }
 
 /// Appends the opacity maps of `samples` (the points and fibre areas of
-/// [`opacity_samples`]) toward `lights` to `data` in `slots` slots.
+/// [`fibre_samples`]) toward `lights` to `data` in `slots` slots.
 fn write_opacity_maps(
     data: &mut Vec<Vec4>,
     slots: usize,
@@ -497,35 +497,6 @@ fn write_opacity_maps(
     }
     // Unused slots keep the buffer its size.
     data.resize(data.len() + (slots - maps.len()) * (opacity_maps_len(1) - 1), Vec4::ZERO);
-}
-
-/// The points the opacity maps count, world space, and the fibre area each stands for:
-/// each particle stands for the fibres of its guide's strands along the segment to its
-/// parent. Only the guides for which `simulated` holds are counted, each for its share of
-/// the others: a far groom's level of detail spreads its simulated guides evenly over the
-/// scalp, so its maps cost what its simulation does.
-fn opacity_samples(
-    positions: &[Vec3],
-    layout: &StrandLayout,
-    look: &HairLook,
-    simulated: impl Fn(usize) -> bool,
-) -> (Vec<hair_sim::math::Vec3>, Vec<f32>) {
-    let n = layout.particles as usize;
-    let counted: Vec<&[Vec3]> =
-        positions.chunks_exact(n).enumerate().filter(|&(g, _)| simulated(g)).map(|(_, guide)| guide).collect();
-    let share = layout.guides as f32 / counted.len().max(1) as f32;
-    let points: Vec<_> = counted.iter().flat_map(|guide| guide.iter().map(|&p| to_sim(p))).collect();
-    let areas = (0..points.len())
-        .map(|i| {
-            let j = i % n;
-            if j == 0 {
-                return 0.0;
-            }
-            let width = look.root_width + (look.tip_width - look.root_width) * j as f32 / (n - 1) as f32;
-            share * layout.strands_per_guide as f32 * width.max(0.0) * (points[i] - points[i - 1]).length()
-        })
-        .collect();
-    (points, areas)
 }
 
 /// A groom's guide buffer contents for this frame, written on a task of its own.
@@ -584,8 +555,13 @@ fn upload_guides(
         data.push(from_sim(pose.transform_point(state.collider().centre())).extend(1.0));
         data.extend(StrandLayout::pack_order(&draw_order(&positions, &drawing.layout, drawing.blended_from)));
         if look.self_shadow > 0.0 {
-            let strands = state.strands();
-            let (points, areas) = opacity_samples(&positions, &drawing.layout, look, |g| strands.is_simulated(g));
+            let fibres = Fibres {
+                root_width: look.root_width,
+                tip_width: look.tip_width,
+                strands_per_guide: drawing.layout.strands_per_guide as f32,
+            };
+            let points: Vec<_> = positions.iter().map(|&p| to_sim(p)).collect();
+            let areas = fibre_samples(&points, n, fibres);
             write_opacity_maps(&mut data, drawing.opacity_maps, &lights.0, (&points, &areas));
         }
         // Children sit at most the spiral's outer radius plus the tip spread from their
@@ -733,24 +709,6 @@ fn uniform(layout: &StrandLayout, groom: &HairGroom, look: &HairLook, blended: b
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn far_grooms_count_their_simulated_guides_for_the_rest() {
-        // Four straight guides of 3 particles, 1 cm segments, one strand each.
-        let layout = StrandLayout { guides: 4, particles: 3, strands_per_guide: 1, subdivisions: 1 };
-        let positions: Vec<Vec3> =
-            (0..12).map(|k| Vec3::new(0.01 * (k / 3) as f32, -0.01 * (k % 3) as f32, 0.0)).collect();
-        let look = HairLook { root_width: 0.001, tip_width: 0.001, ..default() };
-        let (all_points, all_areas) = opacity_samples(&positions, &layout, &look, |_| true);
-        let (points, areas) = opacity_samples(&positions, &layout, &look, |g| g % 2 == 0);
-        assert_eq!((all_points.len(), points.len()), (12, 6));
-        // Guides 0 and 2, each standing for two.
-        assert_eq!(points[3], to_sim(positions[6]));
-        let total = |areas: &[f32]| areas.iter().sum::<f32>();
-        assert!((total(&all_areas) - 8.0 * 0.001 * 0.01).abs() < 1e-9, "{all_areas:?}");
-        assert!((total(&areas) - total(&all_areas)).abs() < 1e-9, "{areas:?}");
-        assert_eq!(areas[..3], [0.0, 2.0 * all_areas[1], 2.0 * all_areas[2]]);
-    }
 
     #[test]
     fn blended_pieces_are_drawn_back_to_front() {

@@ -144,13 +144,6 @@ fn opacity_map(c: &mut Criterion) {
     ] {
         group.bench_function(name, |b| b.iter(|| OpacityMap::build(light, black_box(&rest.positions), &areas)));
     }
-    // A far groom at level of detail 2 counts a quarter of its guides, each for four.
-    let quarter = &rest.positions[..rest.positions.len() / 4];
-    let areas = vec![4.0 * 9.0 * 0.0006 * 0.017; quarter.len()];
-    let light = LightSource::Direction(Vec3::new(0.3, 1.0, 0.2).normalize());
-    group.bench_function("directional, a quarter of the guides", |b| {
-        b.iter(|| OpacityMap::build(light, black_box(quarter), &areas))
-    });
     group.finish();
 }
 

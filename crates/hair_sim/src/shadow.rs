@@ -61,6 +61,35 @@ pub struct OpacityMap {
     pub coverage: Vec<f32>,
 }
 
+/// How wide a groom's strands are drawn and how many each guide stands for: what turns
+/// its guide particles into fibre areas for [`OpacityMap::build`] ([`fibre_samples`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Fibres {
+    /// Ribbon width at the root, metres.
+    pub root_width: f32,
+    /// Ribbon width at the tip, metres.
+    pub tip_width: f32,
+    /// Strands drawn per guide (the guide and its children).
+    pub strands_per_guide: f32,
+}
+
+/// The points an opacity map counts and the fibre area each stands for, from guide
+/// particles (`positions`, strand-major, `particles` per guide): each particle stands for
+/// its guide's strands along the segment to its parent.
+pub fn fibre_samples(positions: &[Vec3], particles: usize, fibres: Fibres) -> Vec<f32> {
+    let n = particles.max(2);
+    (0..positions.len())
+        .map(|i| {
+            let j = i % n;
+            if j == 0 {
+                return 0.0;
+            }
+            let width = fibres.root_width + (fibres.tip_width - fibres.root_width) * j as f32 / (n - 1) as f32;
+            fibres.strands_per_guide * width.max(0.0) * (positions[i] - positions[i - 1]).length()
+        })
+        .collect()
+}
+
 impl OpacityMap {
     /// The map of `points` (world space), each covering `areas[i]` square metres of fibre
     /// (its segment's length × ribbon width × the strands it stands for), toward `source`.
@@ -268,6 +297,20 @@ mod tests {
             }
         }
         (points, areas)
+    }
+
+    #[test]
+    fn each_particle_stands_for_its_segment_of_fibres() {
+        // Two straight guides of 3 particles, 1 cm segments, 3 strands each, 1 mm wide at
+        // the root and 0.5 mm at the tip.
+        let positions: Vec<Vec3> =
+            (0..6).map(|k| Vec3::new(0.01 * (k / 3) as f32, -0.01 * (k % 3) as f32, 0.0)).collect();
+        let fibres = Fibres { root_width: 0.001, tip_width: 0.0005, strands_per_guide: 3.0 };
+        let areas = fibre_samples(&positions, 3, fibres);
+        let expected = [0.0, 3.0 * 0.00075 * 0.01, 3.0 * 0.0005 * 0.01];
+        for (area, want) in areas.iter().zip(expected.iter().cycle()) {
+            assert!((area - want).abs() < 1e-10, "{areas:?}");
+        }
     }
 
     #[test]
