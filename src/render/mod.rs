@@ -31,7 +31,7 @@ use bevy::tasks::{ComputeTaskPool, TaskPool};
 use bevy::utils::Parallel;
 use hair_sim::draw_order::back_to_front;
 use hair_sim::groom::{ChildParams, MAX_CURVATURE, transport_frames};
-use hair_sim::shadow::{Fibres, LightSource, MAP_LAYERS, MAP_SIZE, OpacityMap, fibre_samples};
+use hair_sim::shadow::{Fibres, LightSource, MAP_LAYERS, MAP_SIZE, OpacityMap, fibre_areas};
 
 /// Draws every groom: added by [`HairPlugin`](crate::HairPlugin) when the `render`
 /// feature is on and the app renders.
@@ -454,8 +454,8 @@ fn find_shadow_casting_lights(
     found.0.extend(directional.chain(positioned).take(MAX_OPACITY_MAPS));
 }
 
-/// Appends the opacity maps of `samples` (the points and fibre areas of
-/// [`fibre_samples`]) toward `lights` to `data` in `slots` slots.
+/// Appends the opacity maps of `samples` (the guide particles, world space, and their
+/// [`fibre_areas`]) toward `lights` to `data` in `slots` slots.
 fn write_opacity_maps(
     data: &mut Vec<Vec4>,
     slots: usize,
@@ -561,7 +561,7 @@ fn upload_guides(
                 strands_per_guide: drawing.layout.strands_per_guide as f32,
             };
             let points: Vec<_> = positions.iter().map(|&p| to_sim(p)).collect();
-            let areas = fibre_samples(&points, n, fibres);
+            let areas = fibre_areas(&points, n, fibres);
             write_opacity_maps(&mut data, drawing.opacity_maps, &lights.0, (&points, &areas));
         }
         // Children sit at most the spiral's outer radius plus the tip spread from their

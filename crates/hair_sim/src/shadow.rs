@@ -62,7 +62,7 @@ pub struct OpacityMap {
 }
 
 /// How wide a groom's strands are drawn and how many each guide stands for: what turns
-/// its guide particles into fibre areas for [`OpacityMap::build`] ([`fibre_samples`]).
+/// its guide particles into fibre areas for [`OpacityMap::build`] ([`fibre_areas`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Fibres {
     /// Ribbon width at the root, metres.
@@ -73,10 +73,10 @@ pub struct Fibres {
     pub strands_per_guide: f32,
 }
 
-/// The points an opacity map counts and the fibre area each stands for, from guide
-/// particles (`positions`, strand-major, `particles` per guide): each particle stands for
-/// its guide's strands along the segment to its parent.
-pub fn fibre_samples(positions: &[Vec3], particles: usize, fibres: Fibres) -> Vec<f32> {
+/// The fibre area each guide particle stands for in an opacity map (`positions`,
+/// strand-major, `particles` per guide): its guide's strands along the segment to its
+/// parent (none at the root).
+pub fn fibre_areas(positions: &[Vec3], particles: usize, fibres: Fibres) -> Vec<f32> {
     let n = particles.max(2);
     (0..positions.len())
         .map(|i| {
@@ -306,7 +306,7 @@ mod tests {
         let positions: Vec<Vec3> =
             (0..6).map(|k| Vec3::new(0.01 * (k / 3) as f32, -0.01 * (k % 3) as f32, 0.0)).collect();
         let fibres = Fibres { root_width: 0.001, tip_width: 0.0005, strands_per_guide: 3.0 };
-        let areas = fibre_samples(&positions, 3, fibres);
+        let areas = fibre_areas(&positions, 3, fibres);
         let expected = [0.0, 3.0 * 0.00075 * 0.01, 3.0 * 0.0005 * 0.01];
         for (area, want) in areas.iter().zip(expected.iter().cycle()) {
             assert!((area - want).abs() < 1e-10, "{areas:?}");
