@@ -87,7 +87,7 @@ impl HairLod {
 
 /// The height of a viewport whose size is not known (a camera before its first frame, or
 /// in an app that does not render), pixels.
-const UNKNOWN_VIEWPORT_HEIGHT: f32 = 1080.0;
+pub(crate) const UNKNOWN_VIEWPORT_HEIGHT: f32 = 1080.0;
 
 /// How many pixels tall something `size` metres across at `centre` is drawn by a camera,
 /// if the camera draws it (in front of it).

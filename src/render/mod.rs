@@ -16,7 +16,7 @@ pub use layout::{ATTRIBUTE_HAIR_VERTEX, SEGMENTS_PER_PIECE, StrandLayout};
 pub use material::{HairMaterial, HairUniform, shader_path};
 
 use crate::convert::{from_sim, quat_from_sim, to_sim};
-use crate::detail::pixels_per_metre;
+use crate::detail::{UNKNOWN_VIEWPORT_HEIGHT, pixels_per_metre};
 use crate::diagnostics::HairDiagnostics;
 use crate::{Hair, HairGroom, HairState, HairSystems, HairTime};
 use bevy::asset::embedded_asset;
@@ -409,7 +409,7 @@ fn strand_pixels(
     projection: &Projection,
     at: &GlobalTransform,
 ) -> f32 {
-    let viewport = camera.physical_viewport_size().map_or(1080.0, |s| s.y as f32);
+    let viewport = camera.physical_viewport_size().map_or(UNKNOWN_VIEWPORT_HEIGHT, |s| s.y as f32);
     let depth = (centre - at.translation()).dot(*at.forward());
     match projection {
         Projection::Perspective(_) if depth + radius <= 0.0 => 0.0,
@@ -539,28 +539,27 @@ fn upload_guides(
             max = max.max(local);
             data.push(p.extend(1.0));
         }
+        // The solver's vectors of the same positions, for the frames, the draw order and
+        // the opacity maps.
+        let points: Vec<_> = positions.iter().map(|&p| to_sim(p)).collect();
         // The frames are one root → tip pass per guide here, instead of a walk from the
         // root in every vertex of every child.
         let n = state.particles_per_strand();
-        let mut guide = Vec::with_capacity(n);
-        for (points, root) in positions.chunks_exact(n).zip(&drawing.roots) {
-            guide.clear();
-            guide.extend(points.iter().map(|&p| to_sim(p)));
-            let frames = transport_frames(&guide, to_sim(rotation * root.u));
+        for (guide, root) in points.chunks_exact(n).zip(&drawing.roots) {
+            let frames = transport_frames(guide, to_sim(rotation * root.u));
             data.extend(frames.into_iter().map(|u| from_sim(u).extend(0.0)));
         }
         // The children's scalp: each root's normal and curvature, and the head's centre.
         data.extend(drawing.roots.iter().map(|root| (rotation * root.normal).extend(root.curvature)));
         let pose = state.drawn_head_pose();
         data.push(from_sim(pose.transform_point(state.collider().centre())).extend(1.0));
-        data.extend(StrandLayout::pack_order(&draw_order(&positions, &drawing.layout, drawing.blended_from)));
+        data.extend(StrandLayout::pack_order(&draw_order(&points, &drawing.layout, drawing.blended_from)));
         if look.self_shadow > 0.0 {
             let fibres = Fibres {
                 root_width: look.root_width,
                 tip_width: look.tip_width,
                 strands_per_guide: drawing.layout.strands_per_guide as f32,
             };
-            let points: Vec<_> = positions.iter().map(|&p| to_sim(p)).collect();
             let areas = fibre_areas(&points, n, fibres);
             write_opacity_maps(&mut data, drawing.opacity_maps, &lights.0, (&points, &areas));
         }
@@ -610,12 +609,9 @@ fn upload_guides(
 /// The order the strands' pieces are drawn in (`guide · pieces + piece`,
 /// [`StrandLayout::pieces`]): back to front from `camera` when the strands are blended
 /// ([`hair_sim::draw_order`]), else as grown. `positions` is strand-major.
-fn draw_order(positions: &[Vec3], layout: &StrandLayout, camera: Option<Vec3>) -> Vec<u32> {
+fn draw_order(positions: &[hair_sim::math::Vec3], layout: &StrandLayout, camera: Option<Vec3>) -> Vec<u32> {
     match camera {
-        Some(eye) => {
-            let points: Vec<_> = positions.iter().map(|&p| to_sim(p)).collect();
-            back_to_front(&points, layout.particles as usize, SEGMENTS_PER_PIECE as usize, to_sim(eye))
-        }
+        Some(eye) => back_to_front(positions, layout.particles as usize, SEGMENTS_PER_PIECE as usize, to_sim(eye)),
         None => layout.grown_order(),
     }
 }
@@ -715,8 +711,8 @@ mod tests {
         // Two guides of 4 particles (3 segments: pieces of 2 and 1) along the view axis, the
         // second farther: its pieces first, each guide's tip piece before its root piece.
         let layout = StrandLayout { guides: 2, particles: 4, strands_per_guide: 1, subdivisions: 1 };
-        let positions: Vec<Vec3> =
-            (0..8).map(|k| Vec3::new(0.0, 0.0, -1.0 - (k / 4) as f32 * 10.0 - (k % 4) as f32)).collect();
+        let positions: Vec<_> =
+            (0..8).map(|k| to_sim(Vec3::new(0.0, 0.0, -1.0 - (k / 4) as f32 * 10.0 - (k % 4) as f32))).collect();
         assert_eq!(draw_order(&positions, &layout, None), [0, 1, 2, 3], "as grown");
         assert_eq!(draw_order(&positions, &layout, Some(Vec3::ZERO)), [3, 2, 1, 0], "back to front");
     }
