@@ -130,13 +130,19 @@ impl DistanceGrid {
     }
 
     /// The grid's lowest corner.
-    pub(super) fn origin(&self) -> Vec3 {
+    pub fn origin(&self) -> Vec3 {
         self.origin.into()
     }
 
     /// Samples along each axis (one more than cells).
-    pub(super) fn dims(&self) -> [usize; 3] {
+    pub fn dims(&self) -> [usize; 3] {
         self.dims
+    }
+
+    /// The samples, x fastest, then y, then z: sample `[x, y, z]` lies at
+    /// `origin + [x, y, z] · cell_size` (for a copy on the GPU).
+    pub fn values(&self) -> &[f32] {
+        &self.values
     }
 
     /// The smallest and largest of the eight corner values of cell `[x, y, z]`: every

@@ -30,7 +30,7 @@ use glam::{Mat3A, Vec3A};
 
 /// Longest step the solver takes in one go; longer ones (a frame hitch) are shortened,
 /// because the head's motion over them is unknown anyway.
-const MAX_STEP: f32 = 1.0 / 15.0;
+pub const MAX_STEP: f32 = 1.0 / 15.0;
 
 /// Shortest step the solver takes. Shorter ones are skipped: nothing moves measurably in
 /// a microsecond, and dividing a push-out by such a step would make huge velocities (and
@@ -97,7 +97,7 @@ struct Constants<S: Simd> {
 
 /// The step `input` asks for, clamped to [`MAX_STEP`]; `None` when no step is taken (too
 /// short, not finite, or the head's pose is not valid).
-pub(super) fn step_length(input: &StepInput) -> Option<f32> {
+pub fn step_length(input: &StepInput) -> Option<f32> {
     (input.dt >= MIN_STEP && input.dt.is_finite() && input.head_to.is_valid()).then(|| input.dt.min(MAX_STEP))
 }
 

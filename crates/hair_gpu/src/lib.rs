@@ -1,0 +1,570 @@
+//! The strand solver on the GPU: [`hair_sim`]'s model stepped by a wgpu compute pass, one
+//! invocation per strand, the particles staying in GPU buffers between steps.
+//!
+//! [`GpuStrands`] mirrors [`hair_sim::solver::Strands`]: built from the same
+//! [`RestShape`] and head pose, stepped with the same [`StepInput`], read back on demand
+//! ([`GpuStrands::positions`]). Without collision it follows the CPU solver operation for
+//! operation (the same integration, shape keeping, Follow-The-Leader, wind and resets);
+//! with collision the head is the collider's baked distance grid
+//! ([`HeadCollider::grid`]), sampled trilinearly with its gradient as the normal, where
+//! the CPU solver queries the exact mesh and tests whole segments. The tests in
+//! `tests/against_cpu.rs` measure how far the two part.
+//!
+//! What it does not model yet is refused, not approximated ([`unsupported`]): the spring
+//! length model, the centre-ray collision response and the moving skin's surface patch.
+//!
+//! ```no_run
+//! # use hair_sim::prelude::*;
+//! # fn demo(rest: RestShape, collider: &HeadCollider, input: &StepInput) -> Result<(), hair_gpu::GpuError> {
+//! let gpu = hair_gpu::GpuContext::headless()?;
+//! let mut strands = hair_gpu::GpuStrands::new(&gpu, &rest, Pose::IDENTITY, Some(collider))?;
+//! strands.step(input)?;
+//! let positions: Vec<Vec3> = strands.positions()?;
+//! # Ok(()) }
+//! ```
+
+use bytemuck::{Pod, Zeroable};
+use hair_sim::collide::HeadCollider;
+use hair_sim::math::{Pose, Vec3};
+use hair_sim::solver::{CollisionResponse, LengthMode, RestShape, StepInput, step_length, stiffness_per_application};
+use wgpu::util::DeviceExt;
+
+pub use wgpu;
+
+/// The solver's WGSL source (`step.wgsl`, beside this file).
+pub const SHADER: &str = include_str!("step.wgsl");
+/// Strands per workgroup, as `step.wgsl` declares.
+const WORKGROUP_SIZE: u32 = 64;
+/// The most substeps a step takes ([`hair_sim::solver::SimParams`]'s own limit): the pose table holds one
+/// more pose than this.
+const MAX_SUBSTEPS: u32 = 64;
+
+/// What went wrong on the GPU path.
+#[derive(Debug, thiserror::Error)]
+pub enum GpuError {
+    /// No adapter could be found (no GPU, no driver, no Vulkan loader).
+    #[error("no GPU adapter ({0}); install mesa-vulkan-drivers and libvulkan1 for lavapipe")]
+    NoAdapter(String),
+    /// The adapter would not open a device.
+    #[error("the GPU adapter would not open a device: {0}")]
+    Device(String),
+    /// The adapter lacks compute shaders or storage buffers.
+    #[error("the GPU adapter {0:?} cannot run compute shaders over storage buffers")]
+    NoCompute(String),
+    /// The settings ask for something the GPU solver does not model yet.
+    #[error("the GPU solver does not model {0} yet: step this groom on the CPU")]
+    Unsupported(&'static str),
+    /// The step asks for head collision, but no collider was uploaded.
+    #[error("the step collides with a head, but the GPU strands were built without its collider")]
+    NoCollider,
+    /// The groom is too large for one buffer on this device.
+    #[error("{particles} particles need a {bytes}-byte buffer, above this device's limit of {limit}")]
+    TooLarge { particles: usize, bytes: u64, limit: u64 },
+    /// Reading the positions back failed.
+    #[error("reading the positions back from the GPU failed: {0}")]
+    ReadBack(String),
+}
+
+/// What of `params` and `input` the GPU solver does not model yet, if anything; such a
+/// groom steps on the CPU.
+pub fn unsupported(input: &StepInput) -> Option<&'static str> {
+    if input.params.length_mode == LengthMode::Springs {
+        return Some("the spring length model (LengthMode::Springs)");
+    }
+    if input.params.collision {
+        if matches!(input.params.collision_response, CollisionResponse::CentreRay { .. }) {
+            return Some("the centre-ray collision response (CollisionResponse::CentreRay)");
+        }
+        if input.surface_patch.is_some() {
+            return Some("the skin moving against the head (a surface patch)");
+        }
+    }
+    None
+}
+
+/// A wgpu device and queue to step on, and the adapter's description.
+pub struct GpuContext {
+    /// The device the buffers and pipeline live on.
+    pub device: wgpu::Device,
+    /// Its queue.
+    pub queue: wgpu::Queue,
+    /// The adapter (its name, driver and backend), for reports.
+    pub adapter: wgpu::AdapterInfo,
+    /// Whether the device can time passes with timestamp queries.
+    pub timestamps: bool,
+}
+
+impl GpuContext {
+    /// The default adapter without a window (lavapipe on a machine without a GPU), with
+    /// timestamp queries where it has them.
+    pub fn headless() -> Result<Self, GpuError> {
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        let adapter = futures_lite::future::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+            power_preference: wgpu::PowerPreference::HighPerformance,
+            ..Default::default()
+        }))
+        .map_err(|e| GpuError::NoAdapter(e.to_string()))?;
+        let info = adapter.get_info();
+        let limits = adapter.limits();
+        let downlevel = adapter.get_downlevel_capabilities();
+        if !downlevel.flags.contains(wgpu::DownlevelFlags::COMPUTE_SHADERS)
+            || limits.max_storage_buffers_per_shader_stage < 7
+        {
+            return Err(GpuError::NoCompute(info.name));
+        }
+        let timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
+        let (device, queue) = futures_lite::future::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("hair_gpu"),
+            required_features: if timestamps { wgpu::Features::TIMESTAMP_QUERY } else { wgpu::Features::empty() },
+            // All the adapter has: large grooms want large storage buffers.
+            required_limits: limits,
+            ..Default::default()
+        }))
+        .map_err(|e| GpuError::Device(e.to_string()))?;
+        Ok(GpuContext { device, queue, adapter: info, timestamps })
+    }
+}
+
+/// The per-step constants, laid out as `step.wgsl`'s `Step`.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct StepUniform {
+    counts: [u32; 4],
+    flags: [u32; 4],
+    gravity_h: [f32; 4],
+    motion: [f32; 4],
+    limits: [f32; 4],
+    wind: [f32; 4],
+    gusts: [f32; 4],
+    grid_origin: [f32; 4],
+    grid_dims: [u32; 4],
+    centre: [f32; 4],
+}
+
+/// The head's distance grid as the shader samples it.
+#[derive(Clone, Copy)]
+struct GridInfo {
+    origin: Vec3,
+    inverse_cell: f32,
+    dims: [u32; 3],
+    centre: Vec3,
+}
+
+/// Strands stepped on the GPU; see the crate docs.
+pub struct GpuStrands {
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    pipeline: wgpu::ComputePipeline,
+    layout: wgpu::BindGroupLayout,
+    bind_group: wgpu::BindGroup,
+    uniform: wgpu::Buffer,
+    tables: wgpu::Buffer,
+    positions: wgpu::Buffer,
+    motion: wgpu::Buffer,
+    rest: wgpu::Buffer,
+    root_frames: wgpu::Buffer,
+    extras: wgpu::Buffer,
+    grid: wgpu::Buffer,
+    grid_info: Option<GridInfo>,
+    strands: u32,
+    particles_per_strand: u32,
+    timestamps: Option<Timestamps>,
+}
+
+/// Bytes per particle in `motion`: velocity, substep start and FTL correction.
+const MOTION_BYTES: u64 = 3 * 16;
+
+impl GpuStrands {
+    /// Uploads `rest`, placed at rest under `pose` and motionless (as
+    /// [`hair_sim::solver::Strands::new`]), and `collider`'s distance grid if given.
+    pub fn new(
+        gpu: &GpuContext,
+        rest: &RestShape,
+        pose: Pose,
+        collider: Option<&HeadCollider>,
+    ) -> Result<Self, GpuError> {
+        let device = &gpu.device;
+        let particles = rest.positions.len();
+        let limit = device.limits().max_storage_buffer_binding_size;
+        let bytes = particles as u64 * MOTION_BYTES;
+        if bytes > limit {
+            return Err(GpuError::TooLarge { particles, bytes, limit });
+        }
+        let n = rest.particles_per_strand;
+        let storage = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage: wgpu::BufferUsages::STORAGE | usage,
+            })
+        };
+        let vec4 = |v: Vec3, w: f32| [v.x, v.y, v.z, w];
+        let placed: Vec<[f32; 4]> = rest.positions.iter().map(|&p| vec4(pose.transform_point(p), 0.0)).collect();
+        let positions = storage(
+            "hair_gpu positions",
+            bytemuck::cast_slice(&placed),
+            wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+        );
+        let motion = storage("hair_gpu motion", &vec![0u8; bytes as usize], wgpu::BufferUsages::COPY_DST);
+        let rest_data: Vec<[f32; 4]> = (0..particles)
+            .flat_map(|i| [vec4(rest.positions[i], rest.lengths[i]), vec4(rest.local_directions[i], 0.0)])
+            .collect();
+        let rest_buffer = storage("hair_gpu rest", bytemuck::cast_slice(&rest_data), wgpu::BufferUsages::empty());
+        let frames: Vec<[f32; 4]> = rest.root_frames.iter().map(|q| q.to_array()).collect();
+        let root_frames = storage("hair_gpu root frames", bytemuck::cast_slice(&frames), wgpu::BufferUsages::empty());
+        let table_vec4s = 4 * (MAX_SUBSTEPS as usize + 1) + n.div_ceil(4);
+        let tables = storage("hair_gpu tables", &vec![0u8; table_vec4s * 16], wgpu::BufferUsages::COPY_DST);
+        let extras = storage("hair_gpu extra colliders", &[0u8; 32], wgpu::BufferUsages::COPY_DST);
+        let (grid, grid_info) = match collider {
+            Some(collider) => {
+                let g = collider.grid();
+                let dims = g.dims().map(|d| d as u32);
+                let info =
+                    GridInfo { origin: g.origin(), inverse_cell: 1.0 / g.cell_size(), dims, centre: collider.centre() };
+                (
+                    storage("hair_gpu head grid", bytemuck::cast_slice(g.values()), wgpu::BufferUsages::empty()),
+                    Some(info),
+                )
+            }
+            None => (storage("hair_gpu head grid", &[0u8; 16], wgpu::BufferUsages::empty()), None),
+        };
+        let uniform = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("hair_gpu step"),
+            size: std::mem::size_of::<StepUniform>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("hair_gpu step.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(SHADER.into()),
+        });
+        let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer { ty, has_dynamic_offset: false, min_binding_size: None },
+            count: None,
+        };
+        let read = wgpu::BufferBindingType::Storage { read_only: true };
+        let write = wgpu::BufferBindingType::Storage { read_only: false };
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("hair_gpu"),
+            entries: &[
+                entry(0, wgpu::BufferBindingType::Uniform),
+                entry(1, read),
+                entry(2, write),
+                entry(3, write),
+                entry(4, read),
+                entry(5, read),
+                entry(6, read),
+                entry(7, read),
+            ],
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("hair_gpu"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("hair_gpu step"),
+            layout: Some(&pipeline_layout),
+            module: &module,
+            entry_point: Some("step_strands"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        let bind_group =
+            bind(device, &layout, [&uniform, &tables, &positions, &motion, &rest_buffer, &root_frames, &extras, &grid]);
+        let timestamps = gpu.timestamps.then(|| Timestamps::new(device));
+        Ok(GpuStrands {
+            device: device.clone(),
+            queue: gpu.queue.clone(),
+            pipeline,
+            layout,
+            bind_group,
+            uniform,
+            tables,
+            positions,
+            motion,
+            rest: rest_buffer,
+            root_frames,
+            extras,
+            grid,
+            grid_info,
+            strands: rest.strand_count() as u32,
+            particles_per_strand: n as u32,
+            timestamps,
+        })
+    }
+
+    /// Strands stepped.
+    pub fn strand_count(&self) -> usize {
+        self.strands as usize
+    }
+
+    /// Particles per strand.
+    pub fn particles_per_strand(&self) -> usize {
+        self.particles_per_strand as usize
+    }
+
+    /// The world positions, one `vec4<f32>` per particle (w unused), strand by strand: what
+    /// a renderer reads without a trip through the CPU.
+    pub fn positions_buffer(&self) -> &wgpu::Buffer {
+        &self.positions
+    }
+
+    /// Queues one step of `input` (the same input a CPU [`hair_sim::solver::Strands`] takes;
+    /// its collider must be the one these strands were built with). A step too short to
+    /// take, or with an invalid pose, changes nothing, as on the CPU.
+    pub fn step(&mut self, input: &StepInput) -> Result<(), GpuError> {
+        self.encode_step(input, None)
+    }
+
+    /// [`Self::step`], timed on the GPU with timestamp queries where the device has them:
+    /// the pass's duration in milliseconds, once it has run (this waits for it).
+    pub fn step_timed(&mut self, input: &StepInput) -> Result<Option<f64>, GpuError> {
+        let Some(timestamps) = self.timestamps.take() else {
+            self.step(input)?;
+            return Ok(None);
+        };
+        let result = self.encode_step(input, Some(&timestamps)).and_then(|()| timestamps.read(self));
+        self.timestamps = Some(timestamps);
+        result.map(Some)
+    }
+
+    fn encode_step(&mut self, input: &StepInput, timestamps: Option<&Timestamps>) -> Result<(), GpuError> {
+        if let Some(what) = unsupported(input) {
+            return Err(GpuError::Unsupported(what));
+        }
+        let p = input.params;
+        let collide_head = p.collision && input.collider.is_some();
+        if collide_head && self.grid_info.is_none() {
+            return Err(GpuError::NoCollider);
+        }
+        let Some(dt) = step_length(input) else { return Ok(()) };
+        let (uniform, tables) = self.constants(input, dt, collide_head);
+        self.queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&uniform));
+        self.queue.write_buffer(&self.tables, 0, bytemuck::cast_slice(&tables));
+        self.upload_extras(input)?;
+        let mut encoder =
+            self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("hair_gpu") });
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("hair_gpu step"),
+                timestamp_writes: timestamps.map(|t| wgpu::ComputePassTimestampWrites {
+                    query_set: &t.queries,
+                    beginning_of_pass_write_index: Some(0),
+                    end_of_pass_write_index: Some(1),
+                }),
+            });
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, &self.bind_group, &[]);
+            pass.dispatch_workgroups(self.strands.div_ceil(WORKGROUP_SIZE), 1, 1);
+        }
+        if let Some(t) = timestamps {
+            encoder.resolve_query_set(&t.queries, 0..2, &t.resolved, 0);
+            encoder.copy_buffer_to_buffer(&t.resolved, 0, &t.readback, 0, 16);
+        }
+        self.queue.submit([encoder.finish()]);
+        Ok(())
+    }
+
+    /// The uniform and the pose and alpha table for one step of length `dt`, as the CPU
+    /// solver's `Constants` computes them.
+    fn constants(&self, input: &StepInput, dt: f32, collide_head: bool) -> (StepUniform, Vec<[f32; 4]>) {
+        let p = input.params;
+        let n = self.particles_per_strand as usize;
+        let from = if input.head_from.is_valid() { input.head_from } else { input.head_to };
+        let substeps = p.substeps.clamp(1, MAX_SUBSTEPS);
+        let h = dt / substeps as f32;
+        let mut tables: Vec<[f32; 4]> = Vec::with_capacity(4 * (substeps as usize + 1) + n.div_ceil(4));
+        for s in 0..=substeps {
+            let pose = from.lerp(&input.head_to, s as f32 / substeps as f32);
+            // As the CPU solver turns a quaternion into a matrix (`PoseMatrix`).
+            let m = glam::Mat3A::from_quat(pose.rotation);
+            for column in [m.x_axis.into(), m.y_axis.into(), m.z_axis.into(), pose.translation] {
+                tables.push([column.x, column.y, column.z, 0.0]);
+            }
+        }
+        let alphas_at = tables.len() as u32;
+        let applications_per_second = p.iterations.max(1) as f32 / h;
+        let alphas: Vec<f32> = (0..n)
+            .map(|j| {
+                let t = j as f32 / (n - 1) as f32;
+                let s = p.global_stiffness_root + (p.global_stiffness_tip - p.global_stiffness_root) * t;
+                stiffness_per_application(s, applications_per_second)
+            })
+            .collect();
+        tables.extend(alphas.chunks(4).map(|a| std::array::from_fn(|i| a.get(i).copied().unwrap_or(0.0))));
+        let direction = Vec3::from_array(p.wind.direction).normalize_or_zero();
+        let strength = if direction == Vec3::ZERO { 0.0 } else { p.wind.strength };
+        let grid = self.grid_info.filter(|_| collide_head);
+        let uniform = StepUniform {
+            counts: [self.strands, self.particles_per_strand, substeps, p.iterations],
+            flags: [u32::from(p.collision), input.extra_colliders.len() as u32 * u32::from(p.collision), alphas_at, 0],
+            gravity_h: [p.gravity[0], p.gravity[1], p.gravity[2], h],
+            motion: [
+                (-p.drag * h).exp(),
+                p.max_speed * h,
+                stiffness_per_application(p.local_stiffness, applications_per_second),
+                p.ftl_damping / h,
+            ],
+            limits: [p.max_speed, p.collision_thickness, p.friction, p.teleport_distance],
+            wind: [direction.x, direction.y, direction.z, strength],
+            gusts: [p.wind.gust_strength, p.wind.gust_frequency, input.time, 0.0],
+            grid_origin: grid.map_or([0.0; 4], |g| [g.origin.x, g.origin.y, g.origin.z, g.inverse_cell]),
+            grid_dims: grid.map_or([0; 4], |g| [g.dims[0], g.dims[1], g.dims[2], 1]),
+            centre: grid.map_or([0.0; 4], |g| [g.centre.x, g.centre.y, g.centre.z, 0.0]),
+        };
+        (uniform, tables)
+    }
+
+    /// Writes the step's extra colliders, growing their buffer when there are more.
+    fn upload_extras(&mut self, input: &StepInput) -> Result<(), GpuError> {
+        use hair_sim::collide::ExtraCollider;
+        if input.extra_colliders.is_empty() {
+            return Ok(());
+        }
+        let data: Vec<[f32; 4]> = input
+            .extra_colliders
+            .iter()
+            .flat_map(|e| match *e {
+                ExtraCollider::Sphere { center, radius } => {
+                    [[center.x, center.y, center.z, radius], [center.x, center.y, center.z, 0.0]]
+                }
+                ExtraCollider::Capsule { a, b, radius } => [[a.x, a.y, a.z, radius], [b.x, b.y, b.z, 1.0]],
+            })
+            .collect();
+        let bytes: &[u8] = bytemuck::cast_slice(&data);
+        if bytes.len() as u64 > self.extras.size() {
+            self.extras = self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("hair_gpu extra colliders"),
+                contents: bytes,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            });
+            self.bind_group = bind(
+                &self.device,
+                &self.layout,
+                [
+                    &self.uniform,
+                    &self.tables,
+                    &self.positions,
+                    &self.motion,
+                    &self.rest,
+                    &self.root_frames,
+                    &self.extras,
+                    &self.grid,
+                ],
+            );
+        } else {
+            self.queue.write_buffer(&self.extras, 0, bytes);
+        }
+        Ok(())
+    }
+
+    /// Waits for the queued steps and reads the world positions back, strand by strand.
+    pub fn positions(&self) -> Result<Vec<Vec3>, GpuError> {
+        let bytes = read_buffer(&self.device, &self.queue, &self.positions)?;
+        let vec4s: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
+        Ok(vec4s.iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect())
+    }
+
+    /// Waits for every step queued so far.
+    pub fn finish(&self) -> Result<(), GpuError> {
+        self.device.poll(wgpu::PollType::wait_indefinitely()).map(|_| ()).map_err(|e| GpuError::ReadBack(e.to_string()))
+    }
+}
+
+/// The bind group over the solver's eight buffers, in binding order.
+fn bind(device: &wgpu::Device, layout: &wgpu::BindGroupLayout, buffers: [&wgpu::Buffer; 8]) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry> = buffers
+        .iter()
+        .enumerate()
+        .map(|(i, buffer)| wgpu::BindGroupEntry { binding: i as u32, resource: buffer.as_entire_binding() })
+        .collect();
+    device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("hair_gpu"), layout, entries: &entries })
+}
+
+/// Copies `buffer` into a mappable one and reads it, waiting for the GPU.
+fn read_buffer(device: &wgpu::Device, queue: &wgpu::Queue, buffer: &wgpu::Buffer) -> Result<Vec<u8>, GpuError> {
+    let staging = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("hair_gpu read-back"),
+        size: buffer.size(),
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut encoder =
+        device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("hair_gpu read-back") });
+    encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, buffer.size());
+    queue.submit([encoder.finish()]);
+    let (sender, receiver) = std::sync::mpsc::channel();
+    staging.slice(..).map_async(wgpu::MapMode::Read, move |result| {
+        let _ = sender.send(result);
+    });
+    device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| GpuError::ReadBack(e.to_string()))?;
+    receiver.recv().map_err(|e| GpuError::ReadBack(e.to_string()))?.map_err(|e| GpuError::ReadBack(e.to_string()))?;
+    let bytes = staging.slice(..).get_mapped_range().to_vec();
+    staging.unmap();
+    Ok(bytes)
+}
+
+/// A pass's start and end timestamps, resolved and read back.
+struct Timestamps {
+    queries: wgpu::QuerySet,
+    resolved: wgpu::Buffer,
+    readback: wgpu::Buffer,
+}
+
+impl Timestamps {
+    fn new(device: &wgpu::Device) -> Self {
+        let queries = device.create_query_set(&wgpu::QuerySetDescriptor {
+            label: Some("hair_gpu step time"),
+            ty: wgpu::QueryType::Timestamp,
+            count: 2,
+        });
+        let buffer = |label, usage| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: 16,
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        Timestamps {
+            queries,
+            resolved: buffer("hair_gpu timestamps", wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC),
+            readback: buffer(
+                "hair_gpu timestamps read-back",
+                wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+            ),
+        }
+    }
+
+    /// The last timed pass's duration, milliseconds.
+    fn read(&self, strands: &GpuStrands) -> Result<f64, GpuError> {
+        let bytes = read_buffer(&strands.device, &strands.queue, &self.readback)?;
+        let ticks: &[u64] = bytemuck::cast_slice(&bytes);
+        let period = strands.queue.get_timestamp_period() as f64;
+        Ok(ticks[1].saturating_sub(ticks[0]) as f64 * period * 1e-6)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_shader_validates() {
+        let module = naga::front::wgsl::parse_str(SHADER).expect("step.wgsl parses");
+        naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::empty())
+            .validate(&module)
+            .expect("step.wgsl validates");
+    }
+
+    #[test]
+    fn the_uniform_matches_the_shader_layout() {
+        let module = naga::front::wgsl::parse_str(SHADER).expect("step.wgsl parses");
+        let step = module.types.iter().find(|(_, t)| t.name.as_deref() == Some("Step")).expect("struct Step");
+        let naga::TypeInner::Struct { span, .. } = step.1.inner else { panic!("Step is a struct") };
+        assert_eq!(span as usize, std::mem::size_of::<StepUniform>());
+    }
+}

@@ -1,0 +1,419 @@
+// One step of the strand solver on the GPU: one invocation per strand, every substep of
+// the step in one dispatch (strands do not interact). It mirrors hair_sim's CPU solver
+// (`solver/step.rs`) for the inextensible length model, operation for operation where it
+// can, so that the two agree to rounding without collision. The head is the collider's
+// baked distance grid, sampled trilinearly, with its gradient as the normal; the CPU
+// solver's exact mesh queries and whole-segment test have no counterpart here.
+
+struct Step {
+    // Strands, particles per strand, substeps, shape iterations.
+    counts: vec4<u32>,
+    // Collision on (1/0), extra colliders, the first alpha's index in `tables`, the index of
+    // the groom's first strand (wind seeds are groom-wide).
+    flags: vec4<u32>,
+    // Gravity, substep length.
+    gravity_h: vec4<f32>,
+    // Drag factor per substep, largest move per substep, local shape per application,
+    // FTL's velocity factor (damping / h).
+    motion: vec4<f32>,
+    // Speed limit, collision thickness, friction, teleport distance.
+    limits: vec4<f32>,
+    // Wind: unit direction, strength (0: none).
+    wind: vec4<f32>,
+    // Gust strength, gust frequency, the step's start time.
+    gusts: vec4<f32>,
+    // The grid's lowest corner relative to the collider's centre; inverse cell size.
+    grid_origin: vec4<f32>,
+    // Samples along x, y and z; 1 when there is a grid.
+    grid_dims: vec4<u32>,
+    // The collider's centre, head-local.
+    centre: vec4<f32>,
+}
+
+@group(0) @binding(0) var<uniform> step: Step;
+// Head poses, four vec4 each (rotation columns, translation) for substep boundaries
+// 0..=substeps, then the global-shape alpha of each particle index, four per vec4.
+@group(0) @binding(1) var<storage, read> tables: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read_write> positions: array<vec4<f32>>;
+// Per particle: velocity, position at the substep's start, FTL correction.
+@group(0) @binding(3) var<storage, read_write> motion: array<vec4<f32>>;
+// Per particle: head-local rest position with the rest length of the segment ending there
+// in w, and the rest direction in the parent segment's frame.
+@group(0) @binding(4) var<storage, read> rest: array<vec4<f32>>;
+// Per strand: the head-local root frame, a quaternion.
+@group(0) @binding(5) var<storage, read> root_frames: array<vec4<f32>>;
+// Per extra collider: centre or first end and radius; second end and kind (0 sphere,
+// 1 capsule). World space.
+@group(0) @binding(6) var<storage, read> extras: array<vec4<f32>>;
+// The collider's signed distances, x fastest.
+@group(0) @binding(7) var<storage, read> grid: array<f32>;
+
+struct Pose {
+    rotation: mat3x3<f32>,
+    translation: vec3<f32>,
+}
+
+fn pose(k: u32) -> Pose {
+    let b = 4u * k;
+    return Pose(mat3x3<f32>(tables[b].xyz, tables[b + 1u].xyz, tables[b + 2u].xyz), tables[b + 3u].xyz);
+}
+
+fn world_point(p: Pose, x: vec3<f32>) -> vec3<f32> {
+    return p.rotation * x + p.translation;
+}
+
+fn local_point(p: Pose, x: vec3<f32>) -> vec3<f32> {
+    return transpose(p.rotation) * (x - p.translation);
+}
+
+fn alpha(j: u32) -> f32 {
+    return tables[step.flags.z + j / 4u][j % 4u];
+}
+
+fn velocity(i: u32) -> vec3<f32> { return motion[3u * i].xyz; }
+fn start(i: u32) -> vec3<f32> { return motion[3u * i + 1u].xyz; }
+fn correction(i: u32) -> vec3<f32> { return motion[3u * i + 2u].xyz; }
+fn rest_position(i: u32) -> vec3<f32> { return rest[2u * i].xyz; }
+fn rest_length(i: u32) -> f32 { return rest[2u * i].w; }
+fn rest_direction(i: u32) -> vec3<f32> { return rest[2u * i + 1u].xyz; }
+
+// Not infinite and not NaN, by the bits: a compiler may assume arithmetic never makes NaN.
+fn finite(v: vec3<f32>) -> bool {
+    let e = bitcast<vec3<u32>>(v) & vec3<u32>(0x7f800000u);
+    return all(e != vec3<u32>(0x7f800000u));
+}
+
+fn normalize_or(v: vec3<f32>, fallback: vec3<f32>) -> vec3<f32> {
+    let r = 1.0 / length(v);
+    if finite(vec3<f32>(r)) && r > 0.0 {
+        return v * r;
+    }
+    return fallback;
+}
+
+fn clamp_length_max(v: vec3<f32>, max_length: f32) -> vec3<f32> {
+    let squared = dot(v, v);
+    if squared > max_length * max_length {
+        return v * (max_length / sqrt(squared));
+    }
+    return v;
+}
+
+fn quat_mat(q: vec4<f32>) -> mat3x3<f32> {
+    let x2 = q.x + q.x;
+    let y2 = q.y + q.y;
+    let z2 = q.z + q.z;
+    let xx = q.x * x2;
+    let xy = q.x * y2;
+    let xz = q.x * z2;
+    let yy = q.y * y2;
+    let yz = q.y * z2;
+    let zz = q.z * z2;
+    let wx = q.w * x2;
+    let wy = q.w * y2;
+    let wz = q.w * z2;
+    return mat3x3<f32>(
+        vec3<f32>(1.0 - (yy + zz), xy + wz, xz - wy),
+        vec3<f32>(xy - wz, 1.0 - (xx + zz), yz + wx),
+        vec3<f32>(xz + wy, yz - wx, 1.0 - (xx + yy)),
+    );
+}
+
+// The rotation taking unit `from_` onto unit `to_`, as the CPU's `M3::rotation_arc`; nearly
+// opposite, half a turn about an axis across `from_` (glam's `any_orthonormal_vector`).
+fn rotation_arc(from_: vec3<f32>, to_: vec3<f32>) -> mat3x3<f32> {
+    let c = dot(from_, to_);
+    if c < -0.999 {
+        let sign = select(-1.0, 1.0, from_.z >= 0.0);
+        let a = -1.0 / (sign + from_.z);
+        let u = vec3<f32>(from_.x * from_.y * a, sign + from_.y * from_.y * a, -from_.y);
+        // Half a turn about unit `u`: 2 u uᵀ − I.
+        let identity = mat3x3<f32>(vec3(1.0, 0.0, 0.0), vec3(0.0, 1.0, 0.0), vec3(0.0, 0.0, 1.0));
+        return 2.0 * mat3x3<f32>(u * u.x, u * u.y, u * u.z) - identity;
+    }
+    let v = cross(from_, to_);
+    let kv = v * (1.0 / (1.0 + c));
+    return mat3x3<f32>(
+        vec3<f32>(c, v.z, -v.y) + kv * v.x,
+        vec3<f32>(-v.z, c, v.x) + kv * v.y,
+        vec3<f32>(v.y, -v.x, c) + kv * v.z,
+    );
+}
+
+// --- Wind: hair_sim's `wind_at`, bit for bit in integer hashing ---
+
+fn hash01(seed: u32) -> f32 {
+    var x = seed;
+    x ^= x >> 16u;
+    x *= 0x7feb352du;
+    x ^= x >> 15u;
+    x *= 0x846ca68bu;
+    x ^= x >> 16u;
+    return f32(x >> 8u) / 16777216.0;
+}
+
+fn value_noise(seed: u32, t: f32) -> f32 {
+    let i = floor(t);
+    let f = t - i;
+    let k = bitcast<u32>(i32(i));
+    let a = hash01(seed ^ (k * 0x9e3779b9u));
+    let b = hash01(seed ^ ((k + 1u) * 0x9e3779b9u));
+    let s = f * f * (3.0 - 2.0 * f);
+    return (a + (b - a) * s) * 2.0 - 1.0;
+}
+
+fn wind_at(strand: u32, time: f32) -> vec3<f32> {
+    if step.wind.w == 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let t = time * step.gusts.y;
+    let shared_gust = value_noise(0x5eedu, t);
+    let own = value_noise(strand * 0x2545f491u, t * 1.7 + hash01(strand) * 16.0);
+    let gust = 0.7 * shared_gust + 0.3 * own;
+    return step.wind.xyz * step.wind.w * max(1.0 + step.gusts.x * gust, 0.0);
+}
+
+// --- The head: the baked distance grid ---
+
+struct Surface {
+    distance: f32,
+    normal: vec3<f32>,
+}
+
+fn sample_index(x: u32, y: u32, z: u32) -> u32 {
+    return (z * step.grid_dims.y + y) * step.grid_dims.x + x;
+}
+
+// Signed distance and gradient at head-local `p` by trilinear interpolation; far beyond the
+// grid's margin outside it.
+fn head_surface(p: vec3<f32>) -> Surface {
+    let g = (p - step.centre.xyz - step.grid_origin.xyz) * step.grid_origin.w;
+    let upper = vec3<f32>(step.grid_dims.xyz - vec3<u32>(1u));
+    if step.grid_dims.w == 0u || !(all(g >= vec3<f32>(0.0)) && all(g < upper)) {
+        return Surface(1e30, vec3<f32>(0.0, 1.0, 0.0));
+    }
+    let c = vec3<u32>(g);
+    let t = g - vec3<f32>(c);
+    let v000 = grid[sample_index(c.x, c.y, c.z)];
+    let v100 = grid[sample_index(c.x + 1u, c.y, c.z)];
+    let v010 = grid[sample_index(c.x, c.y + 1u, c.z)];
+    let v110 = grid[sample_index(c.x + 1u, c.y + 1u, c.z)];
+    let v001 = grid[sample_index(c.x, c.y, c.z + 1u)];
+    let v101 = grid[sample_index(c.x + 1u, c.y, c.z + 1u)];
+    let v011 = grid[sample_index(c.x, c.y + 1u, c.z + 1u)];
+    let v111 = grid[sample_index(c.x + 1u, c.y + 1u, c.z + 1u)];
+    let y0 = mix(v000, v100, t.x);
+    let y1 = mix(v010, v110, t.x);
+    let y2 = mix(v001, v101, t.x);
+    let y3 = mix(v011, v111, t.x);
+    let z0 = mix(y0, y1, t.y);
+    let z1 = mix(y2, y3, t.y);
+    let distance = mix(z0, z1, t.z);
+    let gx = mix(mix(v100 - v000, v110 - v010, t.y), mix(v101 - v001, v111 - v011, t.y), t.z);
+    let gy = mix(y1 - y0, y3 - y2, t.z);
+    let gz = z1 - z0;
+    return Surface(distance, normalize_or(vec3<f32>(gx, gy, gz), vec3<f32>(0.0, 1.0, 0.0)));
+}
+
+// Friction takes back part of the slide along the surface since the substep's start.
+fn with_friction(position: vec3<f32>, normal: vec3<f32>, origin: vec3<f32>) -> vec3<f32> {
+    let slide = position - origin;
+    let tangential = slide - normal * dot(slide, normal);
+    return position - tangential * step.limits.z;
+}
+
+// Head-local `p` pushed out to the collision shell along the grid's normal, or `p`.
+fn out_of_head(p: vec3<f32>) -> vec3<f32> {
+    let surface = head_surface(p);
+    if surface.distance < step.limits.y {
+        return p + surface.normal * (step.limits.y - surface.distance);
+    }
+    return p;
+}
+
+// World `x` pushed out of the extra colliders, with friction against `origin`.
+fn out_of_extras(x_in: vec3<f32>, origin: vec3<f32>) -> vec3<f32> {
+    var x = x_in;
+    for (var e = 0u; e < step.flags.y; e++) {
+        let a = extras[2u * e];
+        let b = extras[2u * e + 1u];
+        var centre = a.xyz;
+        if b.w == 1.0 {
+            let ab = b.xyz - a.xyz;
+            let t = clamp(dot(x - a.xyz, ab) / max(dot(ab, ab), 1e-12), 0.0, 1.0);
+            centre = a.xyz + ab * t;
+        }
+        let offset = x - centre;
+        let distance = length(offset);
+        let reach = a.w + step.limits.y;
+        if distance < reach {
+            var normal = vec3<f32>(0.0, 1.0, 0.0);
+            if distance > 1e-7 {
+                normal = offset / distance;
+            }
+            x = with_friction(centre + normal * reach, normal, origin);
+        }
+    }
+    return x;
+}
+
+// Whether world `x` (head-local `local`) lies deeper than half the shell in the head.
+fn too_deep(local: vec3<f32>) -> bool {
+    return head_surface(local).distance < 0.5 * step.limits.y;
+}
+
+// --- The step ---
+
+fn reset_strand(first: u32, n: u32, to: Pose) {
+    for (var j = 0u; j < n; j++) {
+        let x = world_point(to, rest_position(first + j));
+        positions[first + j] = vec4<f32>(x, 0.0);
+        motion[3u * (first + j)] = vec4<f32>(0.0);
+    }
+}
+
+fn substep(strand: u32, first: u32, n: u32, k: u32) {
+    let h = step.gravity_h.w;
+    let time = step.gusts.z + h * f32(k);
+    let before = pose(k - 1u);
+    let now = pose(k);
+    let down = vec3<f32>(0.0, -1.0, 0.0);
+
+    // 1. Forces and integration; 2. the root follows the head.
+    for (var j = 0u; j < n; j++) {
+        let i = first + j;
+        motion[3u * i + 1u] = vec4<f32>(positions[i].xyz, 0.0);
+        motion[3u * i + 2u] = vec4<f32>(0.0);
+    }
+    let wind = wind_at(step.flags.w + strand, time);
+    positions[first] = vec4<f32>(world_point(now, rest_position(first)), 0.0);
+    for (var j = 1u; j < n; j++) {
+        let i = first + j;
+        var accel = step.gravity_h.xyz;
+        if any(wind != vec3<f32>(0.0)) {
+            let tangent = normalize_or(start(i) - start(i - 1u), vec3<f32>(0.0));
+            accel += wind - tangent * dot(wind, tangent);
+        }
+        let v = (velocity(i) + accel * h) * step.motion.x;
+        positions[i] = vec4<f32>(positions[i].xyz + clamp_length_max(v * h, step.motion.y), 0.0);
+    }
+
+    // 3. Shape and length.
+    let root_frame = now.rotation * quat_mat(root_frames[strand]);
+    for (var iteration = 0u; iteration < step.counts.w; iteration++) {
+        for (var j = 1u; j < n; j++) {
+            let a = alpha(j);
+            if a > 0.0 {
+                let i = first + j;
+                let x = positions[i].xyz;
+                positions[i] = vec4<f32>(x + (world_point(now, rest_position(i)) - x) * a, 0.0);
+            }
+        }
+        if step.motion.z > 0.0 {
+            var frame = root_frame;
+            for (var j = 1u; j < n; j++) {
+                let i = first + j;
+                let expected = normalize_or(frame * rest_direction(i), rest_direction(i));
+                let parent = positions[i - 1u].xyz;
+                let target_point = parent + expected * rest_length(i);
+                let x = positions[i].xyz + (target_point - positions[i].xyz) * step.motion.z;
+                positions[i] = vec4<f32>(x, 0.0);
+                let actual = normalize_or(x - parent, expected);
+                frame = rotation_arc(expected, actual) * frame;
+            }
+        }
+        follow_the_leader(first, n, down);
+    }
+
+    // 4. Collision, with friction, then the length pass once more, which turns a segment
+    //    about its parent where it would put the particle back inside.
+    if step.flags.x == 1u {
+        for (var j = 1u; j < n; j++) {
+            let i = first + j;
+            var x = positions[i].xyz;
+            if step.grid_dims.w == 1u {
+                let local = local_point(now, x);
+                let surface = head_surface(local);
+                if surface.distance < step.limits.y {
+                    let contact = local + surface.normal * (step.limits.y - surface.distance);
+                    let held = out_of_head(with_friction(contact, surface.normal, local_point(before, start(i))));
+                    x = world_point(now, held);
+                }
+            }
+            positions[i] = vec4<f32>(out_of_extras(x, start(i)), 0.0);
+        }
+        for (var j = 1u; j < n; j++) {
+            let i = first + j;
+            let parent = positions[i - 1u].xyz;
+            let length = rest_length(i);
+            var placed = parent + normalize_or(positions[i].xyz - parent, down) * length;
+            for (var turn = 0u; turn < 4u && step.grid_dims.w == 1u; turn++) {
+                let local = local_point(now, placed);
+                if !too_deep(local) {
+                    break;
+                }
+                let out = world_point(now, out_of_head(local));
+                placed = parent + normalize_or(out - parent, down) * length;
+            }
+            let local = local_point(now, placed);
+            if step.grid_dims.w == 1u && too_deep(local) {
+                placed = world_point(now, out_of_head(local)); // collision wins over length
+            }
+            motion[3u * i + 2u] = vec4<f32>(correction(i) + placed - positions[i].xyz, 0.0);
+            positions[i] = vec4<f32>(placed, 0.0);
+        }
+    }
+
+    // 5. Velocities from where the particles ended up, less FTL's correction.
+    let inverse_h = 1.0 / h;
+    let root_velocity = (positions[first].xyz - start(first)) * inverse_h;
+    motion[3u * first] = vec4<f32>(clamp_length_max(root_velocity, step.limits.x), 0.0);
+    for (var j = 1u; j < n; j++) {
+        let i = first + j;
+        var next = vec3<f32>(0.0);
+        if j + 1u < n {
+            next = correction(i + 1u);
+        }
+        let v = (positions[i].xyz - start(i)) * inverse_h - next * step.motion.w;
+        motion[3u * i] = vec4<f32>(clamp_length_max(v, step.limits.x), 0.0);
+    }
+}
+
+// Follow-The-Leader: each particle at rest length from its parent, root to tip, its
+// correction kept for the velocity term.
+fn follow_the_leader(first: u32, n: u32, down: vec3<f32>) {
+    for (var j = 1u; j < n; j++) {
+        let i = first + j;
+        let parent = positions[i - 1u].xyz;
+        let x = positions[i].xyz;
+        let placed = parent + normalize_or(x - parent, down) * rest_length(i);
+        motion[3u * i + 2u] = vec4<f32>(correction(i) + placed - x, 0.0);
+        positions[i] = vec4<f32>(placed, 0.0);
+    }
+}
+
+@compute @workgroup_size(64)
+fn step_strands(@builtin(global_invocation_id) id: vec3<u32>) {
+    let strand = id.x;
+    if strand >= step.counts.x {
+        return;
+    }
+    let n = step.counts.y;
+    let first = strand * n;
+    let last = pose(step.counts.z);
+    // A root that jumped (a teleport) or is not finite starts over at rest.
+    let jump = length(world_point(last, rest_position(first)) - positions[first].xyz);
+    if !(jump <= step.limits.w) {
+        reset_strand(first, n, last);
+        return;
+    }
+    for (var k = 1u; k <= step.counts.z; k++) {
+        substep(strand, first, n, k);
+    }
+    for (var j = 0u; j < n; j++) {
+        if !(finite(positions[first + j].xyz) && finite(velocity(first + j))) {
+            reset_strand(first, n, last);
+            return;
+        }
+    }
+}

@@ -1,0 +1,204 @@
+//! The GPU solver against the CPU solver on the same groom and head motion, on whatever
+//! adapter there is (lavapipe on a machine without a GPU). Without an adapter each test
+//! says why it skipped, or fails when `BEVY_HAIR_REQUIRE_ADAPTER` is set (as `.ci/run`
+//! sets it).
+
+use hair_gpu::{GpuContext, GpuError, GpuStrands};
+use hair_sim::prelude::*;
+
+/// Head keyframes: (time s, yaw rad, pitch rad); a turn, a nod and a fast shake, as the
+/// CPU bench moves its head.
+const KEYS: [(f32, f32, f32); 6] =
+    [(0.0, 0.0, 0.0), (0.5, 0.8, 0.0), (1.0, -0.8, 0.3), (1.25, 0.5, -0.2), (1.5, -0.5, 0.0), (2.0, 0.0, 0.0)];
+
+fn head_pose(time: f32) -> Pose {
+    let t = time.rem_euclid(KEYS[KEYS.len() - 1].0);
+    let k = KEYS.windows(2).position(|w| t < w[1].0).unwrap_or(KEYS.len() - 2);
+    let ((t0, yaw0, pitch0), (t1, yaw1, pitch1)) = (KEYS[k], KEYS[k + 1]);
+    let f = (t - t0) / (t1 - t0);
+    let s = f * f * (3.0 - 2.0 * f);
+    let rotation =
+        Quat::from_rotation_y(yaw0 + (yaw1 - yaw0) * s) * Quat::from_rotation_x(pitch0 + (pitch1 - pitch0) * s);
+    Pose::new(rotation, Vec3::new(0.0, 1.6, 0.0))
+}
+
+fn gpu() -> Option<GpuContext> {
+    match GpuContext::headless() {
+        Ok(gpu) => {
+            eprintln!("adapter: {} ({:?})", gpu.adapter.name, gpu.adapter.backend);
+            Some(gpu)
+        }
+        Err(e) if std::env::var_os("BEVY_HAIR_REQUIRE_ADAPTER").is_some() => {
+            panic!("BEVY_HAIR_REQUIRE_ADAPTER is set and there is {e}")
+        }
+        Err(e) => {
+            eprintln!("skipped: {e}");
+            None
+        }
+    }
+}
+
+/// `guides` strands of 16 particles grown on the procedural head's scalp and settled on it.
+fn groom(guides: usize) -> (HeadMesh, HeadCollider, RestShape) {
+    let head = test_head(4);
+    let collider = HeadCollider::new(&head, DEFAULT_GRID_RESOLUTION).expect("procedural head");
+    let scalp: Vec<f32> = head
+        .triangles
+        .iter()
+        .map(|t| {
+            let c = head.corners(t).iter().sum::<Vec3>() / 3.0;
+            if c.y > 0.01 && c.z < 0.06 { 1.0 } else { 0.0 }
+        })
+        .collect();
+    let roots = sample_roots(&head, &scalp, guides, 7).expect("scalp");
+    let params = GuideParams { segments: 15, length: 0.25, ..GuideParams::default() };
+    let rest = RestShape::new(grow_guides(&head, &roots, &params, 7).expect("roots"), 16).expect("guides");
+    let rest = settle(rest, Some(&collider), &SimParams::default(), 60, Vec3::ZERO).expect("settle");
+    (head, collider, rest)
+}
+
+/// Steps both solvers `steps` times at 60 Hz and returns both position sets.
+fn run_both(
+    gpu: &GpuContext,
+    rest: &RestShape,
+    collider: &HeadCollider,
+    params: &SimParams,
+    steps: usize,
+    pose_at: impl Fn(f32) -> Pose,
+) -> (Vec<Vec3>, Vec<Vec3>) {
+    let mut cpu = Strands::new(rest.clone(), pose_at(0.0));
+    let mut on_gpu = GpuStrands::new(gpu, rest, pose_at(0.0), Some(collider)).expect("GPU strands");
+    let dt = 1.0 / 60.0;
+    for k in 0..steps {
+        let time = k as f32 * dt;
+        let input = StepInput {
+            dt,
+            time,
+            head_from: pose_at(time),
+            head_to: pose_at(time + dt),
+            collider: Some(collider),
+            extra_colliders: &[],
+            surface_patch: None,
+            params,
+        };
+        cpu.step(&input);
+        on_gpu.step(&input).expect("GPU step");
+    }
+    (cpu.positions().to_vec(), on_gpu.positions().expect("read back"))
+}
+
+/// Mean and largest distance between matching particles, and the share farther apart
+/// than 5 mm.
+fn apart(a: &[Vec3], b: &[Vec3]) -> (f32, f32, f32) {
+    assert_eq!(a.len(), b.len());
+    let d: Vec<f32> = a.iter().zip(b).map(|(a, b)| a.distance(*b)).collect();
+    let far = d.iter().filter(|&&d| d > 5e-3).count() as f32 / d.len() as f32;
+    (d.iter().sum::<f32>() / d.len() as f32, d.iter().copied().fold(0.0, f32::max), far)
+}
+
+/// Largest |segment length / rest length − 1|.
+fn max_stretch(positions: &[Vec3], rest: &RestShape) -> f32 {
+    let n = rest.particles_per_strand;
+    (0..positions.len())
+        .filter(|i| i % n != 0)
+        .map(|i| ((positions[i] - positions[i - 1]).length() / rest.lengths[i] - 1.0).abs())
+        .fold(0.0, f32::max)
+}
+
+#[test]
+fn without_collision_the_gpu_follows_the_cpu_to_rounding() {
+    let Some(gpu) = gpu() else { return };
+    let (_, collider, rest) = groom(256);
+    // Wind too, so that the hashing of the gusts is compared.
+    let params = SimParams {
+        collision: false,
+        wind: Wind { direction: [1.0, 0.0, 0.3], strength: 4.0, gust_strength: 0.6, gust_frequency: 1.5 },
+        ..SimParams::default()
+    };
+    let (cpu, on_gpu) = run_both(&gpu, &rest, &collider, &params, 120, head_pose);
+    let (mean, max, _) = apart(&cpu, &on_gpu);
+    eprintln!("without collision, after 120 steps: mean {:.2e} m, max {:.2e} m apart", mean, max);
+    assert!(on_gpu.iter().all(|p| p.is_finite()));
+    // Rounding (the GPU may fuse a multiply and an add) grows along a whipping strand: on
+    // lavapipe 0.8 µm on average and 0.25 mm at the worst tip (2026-12-03).
+    assert!(mean < 1e-5 && max < 1e-3, "mean {mean} m, max {max} m");
+    assert!(max_stretch(&on_gpu, &rest) < 1e-4, "stretch {}", max_stretch(&on_gpu, &rest));
+}
+
+#[test]
+fn with_collision_the_gpu_stays_near_the_cpu_and_out_of_the_head() {
+    let Some(gpu) = gpu() else { return };
+    let (_, collider, rest) = groom(512);
+    let params = SimParams::default();
+    let steps = 120;
+    let (cpu, on_gpu) = run_both(&gpu, &rest, &collider, &params, steps, head_pose);
+    let (mean, max, far) = apart(&cpu, &on_gpu);
+    let pose = head_pose(steps as f32 / 60.0);
+    let n = rest.particles_per_strand;
+    // Depth below the exact mesh (not the grid the GPU collides with).
+    let deepest = on_gpu
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| i % n != 0)
+        .map(|(_, &p)| -collider.signed_distance(pose.inverse_transform_point(p)))
+        .fold(0.0f32, f32::max);
+    let stretch = max_stretch(&on_gpu, &rest);
+    eprintln!(
+        "with collision, after {steps} steps: mean {:.2} mm, max {:.2} mm apart, {:.2} % over 5 mm; \
+         deepest {:.3} mm; stretch {stretch:.1e}",
+        mean * 1e3,
+        max * 1e3,
+        far * 100.0,
+        deepest * 1e3
+    );
+    assert!(on_gpu.iter().all(|p| p.is_finite()));
+    // The grid is not the mesh, and a strand sliding over the scalp can take another way
+    // round an ear: a few strands part by more than the rest (lavapipe, 2026-12-03:
+    // mean 0.09 mm, max 16 mm, 3 of 8,192 particles over 5 mm, on two strands).
+    assert!(mean < 1e-3, "mean {mean} m apart");
+    assert!(far < 1e-3 && max < 0.025, "{} % over 5 mm, max {max} m", far * 100.0);
+    assert!(deepest <= 5e-4, "{deepest} m inside the head");
+    assert!(stretch <= 1e-4, "stretch {stretch}");
+}
+
+#[test]
+fn a_teleport_resets_the_strands_as_on_the_cpu() {
+    let Some(gpu) = gpu() else { return };
+    let (_, collider, rest) = groom(64);
+    let params = SimParams::default();
+    // Ten metres in one step.
+    let jump = |t: f32| {
+        let pose = head_pose(t);
+        if t >= 0.5 { Pose::new(pose.rotation, pose.translation + Vec3::new(10.0, 0.0, 0.0)) } else { pose }
+    };
+    // The 30th step ends at the jump: both put every strand back at rest there.
+    let (cpu, on_gpu) = run_both(&gpu, &rest, &collider, &params, 30, jump);
+    let (mean, max, _) = apart(&cpu, &on_gpu);
+    eprintln!("after a 10 m teleport: mean {:.2e} m, max {:.2e} m apart", mean, max);
+    assert!(max < 1e-5, "both reset to the rest pose: {max} m apart");
+    let rest_there: Vec<Vec3> = rest.positions.iter().map(|&p| jump(0.5).transform_point(p)).collect();
+    assert!(apart(&on_gpu, &rest_there).1 < 1e-5, "at rest under the new pose");
+}
+
+#[test]
+fn what_it_does_not_model_is_refused() {
+    let Some(gpu) = gpu() else { return };
+    let (_, collider, rest) = groom(16);
+    let mut strands = GpuStrands::new(&gpu, &rest, head_pose(0.0), None).expect("GPU strands");
+    let springs = SimParams { length_mode: LengthMode::Springs, ..SimParams::default() };
+    let input = |params| StepInput {
+        dt: 1.0 / 60.0,
+        time: 0.0,
+        head_from: head_pose(0.0),
+        head_to: head_pose(0.0),
+        collider: Some(&collider),
+        extra_colliders: &[],
+        surface_patch: None,
+        params,
+    };
+    assert!(matches!(strands.step(&input(&springs)), Err(GpuError::Unsupported(_))));
+    // Built without the collider, it cannot collide with it.
+    assert!(matches!(strands.step(&input(&SimParams::default())), Err(GpuError::NoCollider)));
+    let before = strands.positions().expect("read back");
+    assert_eq!(before, Strands::new(rest, head_pose(0.0)).positions());
+}
