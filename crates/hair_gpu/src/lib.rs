@@ -10,8 +10,9 @@
 //! the CPU solver queries the exact mesh and tests whole segments. The tests in
 //! `tests/against_cpu.rs` measure how far the two part.
 //!
-//! What it does not model yet is refused, not approximated ([`unsupported`]): the spring
-//! length model, the centre-ray collision response and the moving skin's surface patch.
+//! Both length models are modelled (Follow-The-Leader and the implicit mass-spring model).
+//! What it does not model yet is refused, not approximated ([`unsupported`]): the
+//! centre-ray collision response and the moving skin's surface patch.
 //!
 //! ```no_run
 //! # use hair_sim::prelude::*;
@@ -68,9 +69,6 @@ pub enum GpuError {
 /// What of `params` and `input` the GPU solver does not model yet, if anything; such a
 /// groom steps on the CPU.
 pub fn unsupported(input: &StepInput) -> Option<&'static str> {
-    if input.params.length_mode == LengthMode::Springs {
-        return Some("the spring length model (LengthMode::Springs)");
-    }
     if input.params.collision {
         if matches!(input.params.collision_response, CollisionResponse::CentreRay { .. }) {
             return Some("the centre-ray collision response (CollisionResponse::CentreRay)");
@@ -139,6 +137,8 @@ struct StepUniform {
     grid_origin: [f32; 4],
     grid_dims: [u32; 4],
     centre: [f32; 4],
+    springs: [f32; 4],
+    spring_flags: [u32; 4],
 }
 
 /// The head's distance grid as the shader samples it.
@@ -165,6 +165,10 @@ pub struct GpuStrands {
     root_frames: wgpu::Buffer,
     extras: wgpu::Buffer,
     grid: wgpu::Buffer,
+    /// The spring model's memory and scratch: a placeholder until a step asks for springs.
+    springs: wgpu::Buffer,
+    /// Whether the last step used the spring model, so its memory is current.
+    springs_remembered: bool,
     grid_info: Option<GridInfo>,
     strands: u32,
     particles_per_strand: u32,
@@ -173,6 +177,8 @@ pub struct GpuStrands {
 
 /// Bytes per particle in `motion`: velocity, substep start and FTL correction.
 const MOTION_BYTES: u64 = 3 * 16;
+/// Bytes per particle in `springs` (see `step.wgsl`).
+const SPRINGS_BYTES: u64 = 6 * 16;
 
 impl GpuStrands {
     /// Uploads `rest`, placed at rest under `pose` and motionless (as
@@ -257,6 +263,7 @@ impl GpuStrands {
                 entry(5, read),
                 entry(6, read),
                 entry(7, read),
+                entry(8, write),
             ],
         });
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -272,8 +279,12 @@ impl GpuStrands {
             compilation_options: Default::default(),
             cache: None,
         });
-        let bind_group =
-            bind(device, &layout, [&uniform, &tables, &positions, &motion, &rest_buffer, &root_frames, &extras, &grid]);
+        let springs = storage("hair_gpu springs", &[0u8; 16], wgpu::BufferUsages::empty());
+        let bind_group = bind(
+            device,
+            &layout,
+            [&uniform, &tables, &positions, &motion, &rest_buffer, &root_frames, &extras, &grid, &springs],
+        );
         let timestamps = gpu.timestamps.then(|| Timestamps::new(device));
         Ok(GpuStrands {
             device: device.clone(),
@@ -289,6 +300,8 @@ impl GpuStrands {
             root_frames,
             extras,
             grid,
+            springs,
+            springs_remembered: false,
             grid_info,
             strands: rest.strand_count() as u32,
             particles_per_strand: n as u32,
@@ -341,7 +354,13 @@ impl GpuStrands {
             return Err(GpuError::NoCollider);
         }
         let Some(dt) = step_length(input) else { return Ok(()) };
+        let springs = p.length_mode == LengthMode::Springs;
+        if springs {
+            self.prepare_springs()?;
+        }
         let (uniform, tables) = self.constants(input, dt, collide_head);
+        // What the next step may remember: this one's spring memory, or none.
+        self.springs_remembered = springs;
         self.queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&uniform));
         self.queue.write_buffer(&self.tables, 0, bytemuck::cast_slice(&tables));
         self.upload_extras(input)?;
@@ -414,6 +433,8 @@ impl GpuStrands {
             grid_origin: grid.map_or([0.0; 4], |g| [g.origin.x, g.origin.y, g.origin.z, g.inverse_cell]),
             grid_dims: grid.map_or([0; 4], |g| [g.dims[0], g.dims[1], g.dims[2], 1]),
             centre: grid.map_or([0.0; 4], |g| [g.centre.x, g.centre.y, g.centre.z, 0.0]),
+            springs: [p.spring_stiffness, p.spring_damping, 1.0 / p.particle_mass, p.length_tolerance],
+            spring_flags: [u32::from(p.length_mode == LengthMode::Springs), u32::from(self.springs_remembered), 0, 0],
         };
         (uniform, tables)
     }
@@ -441,24 +462,52 @@ impl GpuStrands {
                 contents: bytes,
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             });
-            self.bind_group = bind(
-                &self.device,
-                &self.layout,
-                [
-                    &self.uniform,
-                    &self.tables,
-                    &self.positions,
-                    &self.motion,
-                    &self.rest,
-                    &self.root_frames,
-                    &self.extras,
-                    &self.grid,
-                ],
-            );
+            self.rebind();
         } else {
             self.queue.write_buffer(&self.extras, 0, bytes);
         }
         Ok(())
+    }
+
+    /// Makes the spring model's buffer (six vec4 per particle) on its first step.
+    fn prepare_springs(&mut self) -> Result<(), GpuError> {
+        let particles = (self.strands * self.particles_per_strand) as usize;
+        let bytes = particles as u64 * SPRINGS_BYTES;
+        if self.springs.size() >= bytes {
+            return Ok(());
+        }
+        let limit = self.device.limits().max_storage_buffer_binding_size;
+        if bytes > limit {
+            return Err(GpuError::TooLarge { particles, bytes, limit });
+        }
+        self.springs = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("hair_gpu springs"),
+            size: bytes,
+            usage: wgpu::BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        });
+        self.springs_remembered = false;
+        self.rebind();
+        Ok(())
+    }
+
+    /// The bind group again, after a buffer was replaced.
+    fn rebind(&mut self) {
+        self.bind_group = bind(
+            &self.device,
+            &self.layout,
+            [
+                &self.uniform,
+                &self.tables,
+                &self.positions,
+                &self.motion,
+                &self.rest,
+                &self.root_frames,
+                &self.extras,
+                &self.grid,
+                &self.springs,
+            ],
+        );
     }
 
     /// Waits for the queued steps and reads the world positions back, strand by strand.
@@ -474,8 +523,8 @@ impl GpuStrands {
     }
 }
 
-/// The bind group over the solver's eight buffers, in binding order.
-fn bind(device: &wgpu::Device, layout: &wgpu::BindGroupLayout, buffers: [&wgpu::Buffer; 8]) -> wgpu::BindGroup {
+/// The bind group over the solver's nine buffers, in binding order.
+fn bind(device: &wgpu::Device, layout: &wgpu::BindGroupLayout, buffers: [&wgpu::Buffer; 9]) -> wgpu::BindGroup {
     let entries: Vec<wgpu::BindGroupEntry> = buffers
         .iter()
         .enumerate()

@@ -28,6 +28,10 @@ struct Step {
     grid_dims: vec4<u32>,
     // The collider's centre, head-local.
     centre: vec4<f32>,
+    // The spring model: stiffness, damping, 1 / particle mass, length tolerance.
+    springs: vec4<f32>,
+    // The spring model on (1/0); whether the strands remember the step before (1/0).
+    spring_flags: vec4<u32>,
 }
 
 @group(0) @binding(0) var<uniform> step: Step;
@@ -47,6 +51,9 @@ struct Step {
 @group(0) @binding(6) var<storage, read> extras: array<vec4<f32>>;
 // The collider's signed distances, x fastest.
 @group(0) @binding(7) var<storage, read> grid: array<f32>;
+// The spring model's memory and scratch, six vec4 per particle (see `springs_*` below);
+// the root's first holds, in w, the substep length the memory was taken at (0: none).
+@group(0) @binding(8) var<storage, read_write> springs: array<vec4<f32>>;
 
 struct Pose {
     rotation: mat3x3<f32>,
@@ -269,6 +276,11 @@ fn reset_strand(first: u32, n: u32, to: Pose) {
         let x = world_point(to, rest_position(first + j));
         positions[first + j] = vec4<f32>(x, 0.0);
         motion[3u * (first + j)] = vec4<f32>(0.0);
+        // The spring model forgets the substep before (the root's w: no history).
+        if step.spring_flags.x == 1u {
+            springs[6u * (first + j)] = vec4<f32>(x, 0.0);
+            springs[6u * (first + j) + 1u] = vec4<f32>(0.0);
+        }
     }
 }
 
@@ -287,15 +299,16 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
     }
     let wind = wind_at(step.flags.w + strand, time);
     positions[first] = vec4<f32>(world_point(now, rest_position(first)), 0.0);
-    for (var j = 1u; j < n; j++) {
-        let i = first + j;
-        var accel = step.gravity_h.xyz;
-        if any(wind != vec3<f32>(0.0)) {
-            let tangent = normalize_or(start(i) - start(i - 1u), vec3<f32>(0.0));
-            accel += wind - tangent * dot(wind, tangent);
+    // The integrator's step: the particles end at `base + step_length · velocity`.
+    var step_length = h;
+    if step.spring_flags.x == 1u {
+        step_length = implicit_springs(first, n, h, wind);
+    } else {
+        for (var j = 1u; j < n; j++) {
+            let i = first + j;
+            let v = (velocity(i) + acceleration(i, wind) * h) * step.motion.x;
+            positions[i] = vec4<f32>(positions[i].xyz + clamp_length_max(v * h, step.motion.y), 0.0);
         }
-        let v = (velocity(i) + accel * h) * step.motion.x;
-        positions[i] = vec4<f32>(positions[i].xyz + clamp_length_max(v * h, step.motion.y), 0.0);
     }
 
     // 3. Shape and length.
@@ -322,7 +335,11 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
                 frame = rotation_arc(expected, actual) * frame;
             }
         }
-        follow_the_leader(first, n, down);
+        if step.spring_flags.x == 1u {
+            clamp_lengths(first, n, down);
+        } else {
+            follow_the_leader(first, n, down);
+        }
     }
 
     // 4. Collision, with friction, then the length pass once more, which turns a segment
@@ -345,8 +362,9 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
         for (var j = 1u; j < n; j++) {
             let i = first + j;
             let parent = positions[i - 1u].xyz;
-            let length = rest_length(i);
-            var placed = parent + normalize_or(positions[i].xyz - parent, down) * length;
+            let towards = positions[i].xyz - parent;
+            let length = final_length(i, towards);
+            var placed = parent + normalize_or(towards, down) * length;
             for (var turn = 0u; turn < 4u && step.grid_dims.w == 1u; turn++) {
                 let local = local_point(now, placed);
                 if !too_deep(local) {
@@ -359,23 +377,213 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
             if step.grid_dims.w == 1u && too_deep(local) {
                 placed = world_point(now, out_of_head(local)); // collision wins over length
             }
-            motion[3u * i + 2u] = vec4<f32>(correction(i) + placed - positions[i].xyz, 0.0);
+            if step.spring_flags.x == 0u {
+                motion[3u * i + 2u] = vec4<f32>(correction(i) + placed - positions[i].xyz, 0.0);
+            }
             positions[i] = vec4<f32>(placed, 0.0);
         }
     }
 
     // 5. Velocities from where the particles ended up, less FTL's correction.
-    let inverse_h = 1.0 / h;
-    let root_velocity = (positions[first].xyz - start(first)) * inverse_h;
+    let root_velocity = (positions[first].xyz - start(first)) * (1.0 / h);
     motion[3u * first] = vec4<f32>(clamp_length_max(root_velocity, step.limits.x), 0.0);
+    let inverse_step = 1.0 / step_length;
     for (var j = 1u; j < n; j++) {
         let i = first + j;
         var next = vec3<f32>(0.0);
         if j + 1u < n {
             next = correction(i + 1u);
         }
-        let v = (positions[i].xyz - start(i)) * inverse_h - next * step.motion.w;
+        var base = start(i);
+        if step.spring_flags.x == 1u {
+            base = springs_base(i);
+        }
+        let v = (positions[i].xyz - base) * inverse_step - next * step.motion.w;
         motion[3u * i] = vec4<f32>(clamp_length_max(v, step.limits.x), 0.0);
+    }
+}
+
+// Gravity and the wind across particle `i`'s segment as the substep started.
+fn acceleration(i: u32, wind: vec3<f32>) -> vec3<f32> {
+    var accel = step.gravity_h.xyz;
+    if any(wind != vec3<f32>(0.0)) {
+        let tangent = normalize_or(start(i) - start(i - 1u), vec3<f32>(0.0));
+        accel += wind - tangent * dot(wind, tangent);
+    }
+    return accel;
+}
+
+// The length the final pass gives particle `i`'s segment, pointing `towards`: its rest
+// length, or with springs, its length held within the tolerance.
+fn final_length(i: u32, towards: vec3<f32>) -> f32 {
+    let rest_l = rest_length(i);
+    if step.spring_flags.x == 1u {
+        let tolerance = step.springs.w;
+        return clamp(length(towards), rest_l * (1.0 - tolerance), rest_l * (1.0 + tolerance));
+    }
+    return rest_l;
+}
+
+// --- The spring model: hair_sim's `implicit_springs`, one strand at a time ---
+
+fn springs_previous_position(i: u32) -> vec3<f32> { return springs[6u * i].xyz; }
+fn springs_previous_velocity(i: u32) -> vec3<f32> { return springs[6u * i + 1u].xyz; }
+fn springs_base(i: u32) -> vec3<f32> { return springs[6u * i + 2u].xyz; }
+fn springs_direction(i: u32) -> vec3<f32> { return springs[6u * i + 3u].xyz; }
+// Per segment: stretch at the predicted positions, spring row's right side, tension, the
+// forward sweep's coefficient.
+fn springs_stretch(i: u32) -> f32 { return springs[6u * i + 4u].x; }
+fn springs_rhs(i: u32) -> f32 { return springs[6u * i + 4u].y; }
+fn springs_tension(i: u32) -> f32 { return springs[6u * i + 4u].z; }
+fn springs_sweep(i: u32) -> f32 { return springs[6u * i + 4u].w; }
+// Per segment: the bound it is held at, and whether it is held (1/0).
+fn springs_bound(i: u32) -> f32 { return springs[6u * i + 5u].x; }
+fn springs_rigid(i: u32) -> bool { return springs[6u * i + 5u].y == 1.0; }
+
+// How far inside its bound, as a share of the bound, a segment counts as resting on it.
+const BOUND_SLACK: f32 = 1e-3;
+// Most solves that add segments held at their bound, per substep.
+const MAX_ACTIVE_SET_PASSES: u32 = 4u;
+
+// The mass-spring model integrated implicitly (BDF2 where the strand remembers a substep
+// of the same length, else backward Euler), segments beyond the tolerance held at their
+// bound. Returns the integrator's step.
+fn implicit_springs(first: u32, n: u32, h: f32, wind: vec3<f32>) -> f32 {
+    let remembered = springs[6u * first].w == h;
+    let current = select(1.0, 4.0 / 3.0, remembered);
+    let previous = select(0.0, 1.0 / 3.0, remembered);
+    let step_length = select(h, h * (2.0 / 3.0), remembered);
+    let drag = step.motion.x;
+    for (var j = 1u; j < n; j++) {
+        let i = first + j;
+        let x = start(i);
+        let v = velocity(i);
+        let base = x * current - springs_previous_position(i) * previous;
+        let new_v = (v * current - springs_previous_velocity(i) * previous + acceleration(i, wind) * step_length) * drag;
+        springs[6u * i] = vec4<f32>(x, 0.0);
+        springs[6u * i + 1u] = vec4<f32>(v, 0.0);
+        springs[6u * i + 2u] = vec4<f32>(base, 0.0);
+        motion[3u * i] = vec4<f32>(new_v, 0.0);
+        positions[i] = vec4<f32>(base + new_v * step_length, 0.0);
+    }
+    springs[6u * first] = vec4<f32>(springs[6u * first].xyz, h);
+    springs[6u * first + 2u] = vec4<f32>(start(first), 0.0);
+
+    // The segments at the predicted positions; the pinned root's velocity damps the first.
+    let root_velocity = (positions[first].xyz - start(first)) * (1.0 / h);
+    let k = step.springs.x;
+    let d = step.springs.y;
+    let tolerance = step.springs.w;
+    for (var j = 1u; j < n; j++) {
+        let i = first + j;
+        let segment = positions[i].xyz - positions[i - 1u].xyz;
+        let l = length(segment);
+        var direction = vec3<f32>(0.0);
+        if l > 1e-9 {
+            direction = segment * (1.0 / l);
+        }
+        let stretch = l - rest_length(i);
+        var parent_velocity = root_velocity;
+        if j > 1u {
+            parent_velocity = velocity(i - 1u);
+        }
+        let rhs = -(k * stretch + d * dot(direction, velocity(i) - parent_velocity));
+        springs[6u * i + 3u] = vec4<f32>(direction, 0.0);
+        springs[6u * i + 4u] = vec4<f32>(stretch, rhs, 0.0, 0.0);
+        springs[6u * i + 5u] = vec4<f32>(0.0);
+    }
+    let w = step.springs.z;
+    let coupling = (k * step_length + d) * step_length * w;
+    let displacement = step_length * step_length * w;
+    solve_tensions(first, n, coupling, displacement);
+    for (var solve = 0u; solve < MAX_ACTIVE_SET_PASSES; solve++) {
+        var added = false;
+        var parent = positions[first].xyz;
+        for (var j = 1u; j < n; j++) {
+            let i = first + j;
+            let x = positions[i].xyz + pull(i, j, n) * displacement;
+            let stretch = length(x - parent) - rest_length(i);
+            parent = x;
+            let beyond = abs(stretch) > rest_length(i) * tolerance * (1.0 - BOUND_SLACK);
+            if beyond && !springs_rigid(i) {
+                let bound = select(-(rest_length(i) * tolerance), rest_length(i) * tolerance, stretch > 0.0);
+                springs[6u * i + 5u] = vec4<f32>(bound, 1.0, 0.0, 0.0);
+                added = true;
+            }
+        }
+        if !added {
+            break;
+        }
+        solve_tensions(first, n, coupling, displacement);
+    }
+    for (var j = 1u; j < n; j++) {
+        let i = first + j;
+        let v = clamp_length_max(velocity(i) + pull(i, j, n) * (step_length * w), step.limits.x);
+        motion[3u * i] = vec4<f32>(v, 0.0);
+        positions[i] = vec4<f32>(springs_base(i) + v * step_length, 0.0);
+    }
+    return step_length;
+}
+
+// The net force of the tensions on particle `i` (index `j` in its strand of `n`).
+fn pull(i: u32, j: u32, n: u32) -> vec3<f32> {
+    var child = vec3<f32>(0.0);
+    if j + 1u < n {
+        child = springs_direction(i + 1u) * springs_tension(i + 1u);
+    }
+    return springs_direction(i) * springs_tension(i) - child;
+}
+
+// The segment tensions by Thomas' algorithm, as the CPU's `solve_tensions`.
+fn solve_tensions(first: u32, n: u32, coupling: f32, displacement: f32) {
+    var upper_before = 0.0;
+    for (var j = 1u; j < n; j++) {
+        let i = first + j;
+        let own = select(2.0, 1.0, j == 1u);
+        var lower = 0.0;
+        if j > 1u {
+            lower = -dot(springs_direction(i), springs_direction(i - 1u));
+        }
+        var upper = 0.0;
+        if j + 1u < n {
+            upper = -dot(springs_direction(i), springs_direction(i + 1u));
+        }
+        let rigid = springs_rigid(i);
+        let to_bound = springs_bound(i) - springs_stretch(i);
+        let scale = select(coupling, 1.0, rigid);
+        let diagonal = select(1.0 + coupling * own, own, rigid);
+        let rhs = select(springs_rhs(i), to_bound / displacement, rigid);
+        lower *= scale;
+        upper *= scale;
+        let pivot = 1.0 / (diagonal - lower * upper_before);
+        let sweep = upper * pivot;
+        var carried = 0.0;
+        if j > 1u {
+            carried = lower * springs_tension(i - 1u);
+        }
+        let tension = (rhs - carried) * pivot;
+        springs[6u * i + 4u] = vec4<f32>(springs_stretch(i), springs_rhs(i), tension, sweep);
+        upper_before = sweep;
+    }
+    for (var j = n - 2u; j >= 1u; j--) {
+        let i = first + j;
+        let tension = springs_tension(i) - springs_sweep(i) * springs_tension(i + 1u);
+        springs[6u * i + 4u] = vec4<f32>(springs_stretch(i), springs_rhs(i), tension, springs_sweep(i));
+    }
+}
+
+// The reference's length constraint: no segment longer or shorter than the tolerance.
+fn clamp_lengths(first: u32, n: u32, down: vec3<f32>) {
+    let tolerance = step.springs.w;
+    for (var j = 1u; j < n; j++) {
+        let i = first + j;
+        let parent = positions[i - 1u].xyz;
+        let d = positions[i].xyz - parent;
+        let l = length(d);
+        let clamped = clamp(l, rest_length(i) * (1.0 - tolerance), rest_length(i) * (1.0 + tolerance));
+        if clamped != l {
+            positions[i] = vec4<f32>(parent + normalize_or(d, down) * clamped, 0.0);
+        }
     }
 }
 
@@ -406,6 +614,10 @@ fn step_strands(@builtin(global_invocation_id) id: vec3<u32>) {
     if !(jump <= step.limits.w) {
         reset_strand(first, n, last);
         return;
+    }
+    // The spring model's memory is stale after a step without it.
+    if step.spring_flags.x == 1u && step.spring_flags.y == 0u {
+        springs[6u * first] = vec4<f32>(0.0);
     }
     for (var k = 1u; k <= step.counts.z; k++) {
         substep(strand, first, n, k);

@@ -1,0 +1,110 @@
+//! GPU benchmark: grooms of 2,048 × 16, 16,384 × 16 and 65,536 × 32 guides on the
+//! procedural head, stepped on the GPU while keyframes turn and nod it; one JSON line per
+//! size with the adapter's name and the median milliseconds per step, from timestamp
+//! queries where the adapter has them, else wall time with a wait for each step.
+//!
+//! ```text
+//! cargo run --release -p hair_gpu --example gpu_bench
+//! # also: --steps N (default 60), --sizes 2048x16,16384x16 (guides × particles)
+//! ```
+
+use hair_gpu::{GpuContext, GpuStrands};
+use hair_sim::prelude::*;
+use std::time::Instant;
+
+fn head_pose(time: f32) -> Pose {
+    let yaw = 0.8 * (time * 2.0).sin();
+    let pitch = 0.3 * (time * 3.1).sin();
+    Pose::new(Quat::from_rotation_y(yaw) * Quat::from_rotation_x(pitch), Vec3::new(0.0, 1.6, 0.0))
+}
+
+fn arg(name: &str) -> Option<String> {
+    let args: Vec<String> = std::env::args().collect();
+    args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).cloned()
+}
+
+fn main() {
+    let steps: usize = arg("--steps").map_or(60, |s| s.parse().expect("--steps takes a whole number"));
+    let sizes: Vec<(usize, usize)> = arg("--sizes")
+        .unwrap_or_else(|| "2048x16,16384x16,65536x32".into())
+        .split(',')
+        .map(|size| {
+            let (g, p) = size.split_once('x').expect("--sizes takes guides x particles, e.g. 2048x16");
+            (g.parse().expect("guides"), p.parse().expect("particles"))
+        })
+        .collect();
+    let gpu = match GpuContext::headless() {
+        Ok(gpu) => gpu,
+        Err(e) => {
+            eprintln!("{e}");
+            std::process::exit(1);
+        }
+    };
+    let head = test_head(4);
+    let collider = HeadCollider::new(&head, DEFAULT_GRID_RESOLUTION).expect("procedural head");
+    let scalp: Vec<f32> = head
+        .triangles
+        .iter()
+        .map(|t| {
+            let c = head.corners(t).iter().sum::<Vec3>() / 3.0;
+            if c.y > 0.01 && c.z < 0.06 { 1.0 } else { 0.0 }
+        })
+        .collect();
+    let params = SimParams::default();
+    for (guides, particles) in sizes {
+        let roots = sample_roots(&head, &scalp, guides, 1).expect("scalp");
+        let guide_params = GuideParams { segments: particles - 1, length: 0.25, ..GuideParams::default() };
+        let grown = grow_guides(&head, &roots, &guide_params, 1).expect("roots on the head");
+        let rest = RestShape::new(grown, particles).expect("guides");
+        let mut strands = GpuStrands::new(&gpu, &rest, head_pose(0.0), Some(&collider)).expect("GPU strands");
+        let dt = 1.0 / 60.0;
+        let mut times = Vec::with_capacity(steps);
+        let mut timed_on_gpu = true;
+        for k in 0..steps {
+            let time = k as f32 * dt;
+            let input = StepInput {
+                dt,
+                time,
+                head_from: head_pose(time),
+                head_to: head_pose(time + dt),
+                collider: Some(&collider),
+                extra_colliders: &[],
+                surface_patch: None,
+                params: &params,
+            };
+            let start = Instant::now();
+            match strands.step_timed(&input).expect("GPU step") {
+                Some(ms) => times.push(ms),
+                None => {
+                    strands.finish().expect("GPU wait");
+                    times.push(start.elapsed().as_secs_f64() * 1e3);
+                    timed_on_gpu = false;
+                }
+            }
+        }
+        let positions = strands.positions().expect("read back");
+        let pose = head_pose(steps as f32 * dt);
+        let deepest = positions
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| i % particles != 0)
+            .map(|(_, &p)| -collider.signed_distance(pose.inverse_transform_point(p)))
+            .fold(0.0f32, f32::max);
+        let stretch = (0..positions.len())
+            .filter(|i| i % particles != 0)
+            .map(|i| ((positions[i] - positions[i - 1]).length() / rest.lengths[i] - 1.0).abs())
+            .fold(0.0f32, f32::max);
+        times.sort_by(f64::total_cmp);
+        println!(
+            "{{\"guides\":{guides},\"particles_per_strand\":{particles},\"steps\":{steps},\"adapter\":\"{}\",\
+             \"backend\":\"{:?}\",\"timing\":\"{}\",\"ms_per_step\":{:.4},\"finite\":{},\"max_stretch\":{stretch:.6},\
+             \"max_penetration_m\":{:.6}}}",
+            gpu.adapter.name.replace('"', "'"),
+            gpu.adapter.backend,
+            if timed_on_gpu { "timestamp queries" } else { "wall time, waiting for each step" },
+            times[times.len() / 2],
+            positions.iter().all(|p| p.is_finite()),
+            deepest.max(0.0)
+        );
+    }
+}
