@@ -10,9 +10,11 @@
 //! the CPU solver queries the exact mesh and tests whole segments. The tests in
 //! `tests/against_cpu.rs` measure how far the two part.
 //!
-//! Both length models are modelled (Follow-The-Leader and the implicit mass-spring model).
-//! What it does not model yet is refused, not approximated ([`unsupported`]): the
-//! centre-ray collision response and the moving skin's surface patch.
+//! Both length models (Follow-The-Leader and the implicit mass-spring model) and both
+//! collision responses (along the surface normal, or along the ray from the head's centre)
+//! are modelled. What it does not model yet is refused, not approximated
+//! ([`unsupported`]): the skin that moves against the head's frame (a skinned scalp's
+//! surface patch).
 //!
 //! ```no_run
 //! # use hair_sim::prelude::*;
@@ -69,13 +71,8 @@ pub enum GpuError {
 /// What of `params` and `input` the GPU solver does not model yet, if anything; such a
 /// groom steps on the CPU.
 pub fn unsupported(input: &StepInput) -> Option<&'static str> {
-    if input.params.collision {
-        if matches!(input.params.collision_response, CollisionResponse::CentreRay { .. }) {
-            return Some("the centre-ray collision response (CollisionResponse::CentreRay)");
-        }
-        if input.surface_patch.is_some() {
-            return Some("the skin moving against the head (a surface patch)");
-        }
+    if input.params.collision && input.surface_patch.is_some() {
+        return Some("the skin moving against the head (a surface patch)");
     }
     None
 }
@@ -139,6 +136,7 @@ struct StepUniform {
     centre: [f32; 4],
     springs: [f32; 4],
     spring_flags: [u32; 4],
+    ray_from: [f32; 4],
 }
 
 /// The head's distance grid as the shader samples it.
@@ -435,6 +433,7 @@ impl GpuStrands {
             centre: grid.map_or([0.0; 4], |g| [g.centre.x, g.centre.y, g.centre.z, 0.0]),
             springs: [p.spring_stiffness, p.spring_damping, 1.0 / p.particle_mass, p.length_tolerance],
             spring_flags: [u32::from(p.length_mode == LengthMode::Springs), u32::from(self.springs_remembered), 0, 0],
+            ray_from: ray_from(input).map_or([0.0; 4], |c| [c.x, c.y, c.z, 1.0]),
         };
         (uniform, tables)
     }
@@ -520,6 +519,18 @@ impl GpuStrands {
     /// Waits for every step queued so far.
     pub fn finish(&self) -> Result<(), GpuError> {
         self.device.poll(wgpu::PollType::wait_indefinitely()).map(|_| ()).map_err(|e| GpuError::ReadBack(e.to_string()))
+    }
+}
+
+/// Where [`CollisionResponse::CentreRay`] pushes from, head-local, as the CPU solver decides
+/// it: the collider's centre plus the offset, if that lies inside the head (no ray from
+/// outside leads out).
+fn ray_from(input: &StepInput) -> Option<Vec3> {
+    match (input.params.collision_response, input.collider) {
+        (CollisionResponse::CentreRay { offset }, Some(collider)) => {
+            Some(collider.centre() + Vec3::from_array(offset)).filter(|&c| collider.signed_distance(c) < 0.0)
+        }
+        _ => None,
     }
 }
 

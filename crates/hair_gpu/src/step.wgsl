@@ -32,6 +32,9 @@ struct Step {
     springs: vec4<f32>,
     // The spring model on (1/0); whether the strands remember the step before (1/0).
     spring_flags: vec4<u32>,
+    // Where the centre-ray response pushes from (head-local), and 1 in w for that
+    // response (0: along the surface normal).
+    ray_from: vec4<f32>,
 }
 
 @group(0) @binding(0) var<uniform> step: Step;
@@ -238,6 +241,44 @@ fn out_of_head(p: vec3<f32>) -> vec3<f32> {
     return p;
 }
 
+// Where the head pushes head-local `p` (if `hit`), and the direction it pushes along.
+struct Contact {
+    hit: bool,
+    position: vec3<f32>,
+    normal: vec3<f32>,
+}
+
+// The head's contact for head-local `p`, by the response asked for: out along the grid's
+// normal to the shell, or along the ray from `step.ray_from` (inside, to where the ray
+// leaves the surface, plus the thickness; in the shell, by the shell's depth).
+fn head_contact(p: vec3<f32>) -> Contact {
+    let thickness = step.limits.y;
+    let surface = head_surface(p);
+    let depth = thickness - surface.distance;
+    if !(depth > 0.0) {
+        return Contact(false, p, surface.normal);
+    }
+    let normal_contact = Contact(true, p + surface.normal * depth, surface.normal);
+    let direction = normalize_or(p - step.ray_from.xyz, vec3<f32>(0.0));
+    if step.ray_from.w == 0.0 || all(direction == vec3<f32>(0.0)) {
+        return normal_contact;
+    }
+    if depth <= thickness {
+        return Contact(true, p + direction * depth, direction);
+    }
+    // Inside: march out along the ray. Inside the head the distance to the surface is at
+    // least the grid's value less its error, so steps of that size cannot cross it.
+    var t = 0.0;
+    for (var march = 0u; march < 64u; march++) {
+        let d = head_surface(p + direction * t).distance;
+        if d >= 0.0 {
+            return Contact(true, p + direction * (t + thickness), direction);
+        }
+        t += max(-d, 1e-4);
+    }
+    return normal_contact; // never left (a ray along a sliver): along the normal
+}
+
 // World `x` pushed out of the extra colliders, with friction against `origin`.
 fn out_of_extras(x_in: vec3<f32>, origin: vec3<f32>) -> vec3<f32> {
     var x = x_in;
@@ -349,11 +390,18 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
             let i = first + j;
             var x = positions[i].xyz;
             if step.grid_dims.w == 1u {
-                let local = local_point(now, x);
-                let surface = head_surface(local);
-                if surface.distance < step.limits.y {
-                    let contact = local + surface.normal * (step.limits.y - surface.distance);
-                    let held = out_of_head(with_friction(contact, surface.normal, local_point(before, start(i))));
+                let contact = head_contact(local_point(now, x));
+                if contact.hit {
+                    // Friction slides back along the tangent plane, which in a hollow dips
+                    // under the surface: out again from there, unless the slide is too
+                    // short to reach the surface (a quarter of the shell, as on the CPU).
+                    var held = with_friction(contact.position, contact.normal, local_point(before, start(i)));
+                    if length(held - contact.position) > 0.25 * step.limits.y {
+                        let again = head_contact(held);
+                        if again.hit {
+                            held = again.position;
+                        }
+                    }
                     x = world_point(now, held);
                 }
             }

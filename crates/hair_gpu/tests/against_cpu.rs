@@ -4,6 +4,7 @@
 //! sets it).
 
 use hair_gpu::{GpuContext, GpuError, GpuStrands};
+use hair_sim::collide::SurfacePatch;
 use hair_sim::prelude::*;
 
 /// Head keyframes: (time s, yaw rad, pitch rad); a turn, a nod and a fast shake, as the
@@ -66,6 +67,19 @@ fn run_both(
     steps: usize,
     pose_at: impl Fn(f32) -> Pose,
 ) -> (Vec<Vec3>, Vec<Vec3>) {
+    run_both_with(gpu, rest, collider, params, &[], steps, pose_at)
+}
+
+/// [`run_both`] with extra colliders.
+fn run_both_with(
+    gpu: &GpuContext,
+    rest: &RestShape,
+    collider: &HeadCollider,
+    params: &SimParams,
+    extra_colliders: &[ExtraCollider],
+    steps: usize,
+    pose_at: impl Fn(f32) -> Pose,
+) -> (Vec<Vec3>, Vec<Vec3>) {
     let mut cpu = Strands::new(rest.clone(), pose_at(0.0));
     let mut on_gpu = GpuStrands::new(gpu, rest, pose_at(0.0), Some(collider)).expect("GPU strands");
     let dt = 1.0 / 60.0;
@@ -77,7 +91,7 @@ fn run_both(
             head_from: pose_at(time),
             head_to: pose_at(time + dt),
             collider: Some(collider),
-            extra_colliders: &[],
+            extra_colliders,
             surface_patch: None,
             params,
         };
@@ -129,36 +143,56 @@ fn without_collision_the_gpu_follows_the_cpu_to_rounding() {
 fn with_collision_the_gpu_stays_near_the_cpu_and_out_of_the_head() {
     let Some(gpu) = gpu() else { return };
     let (_, collider, rest) = groom(512);
-    let params = SimParams::default();
-    let steps = 120;
-    let (cpu, on_gpu) = run_both(&gpu, &rest, &collider, &params, steps, head_pose);
-    let (mean, max, far) = apart(&cpu, &on_gpu);
-    let pose = head_pose(steps as f32 / 60.0);
     let n = rest.particles_per_strand;
-    // Depth below the exact mesh (not the grid the GPU collides with).
-    let deepest = on_gpu
-        .iter()
-        .enumerate()
-        .filter(|(i, _)| i % n != 0)
-        .map(|(_, &p)| -collider.signed_distance(pose.inverse_transform_point(p)))
-        .fold(0.0f32, f32::max);
-    let stretch = max_stretch(&on_gpu, &rest);
-    eprintln!(
-        "with collision, after {steps} steps: mean {:.2} mm, max {:.2} mm apart, {:.2} % over 5 mm; \
-         deepest {:.3} mm; stretch {stretch:.1e}",
-        mean * 1e3,
-        max * 1e3,
-        far * 100.0,
-        deepest * 1e3
-    );
-    assert!(on_gpu.iter().all(|p| p.is_finite()));
-    // The grid is not the mesh, and a strand sliding over the scalp can take another way
-    // round an ear: a few strands part by more than the rest (lavapipe, 2026-12-03:
-    // mean 0.09 mm, max 16 mm, 3 of 8,192 particles over 5 mm, on two strands).
-    assert!(mean < 1e-3, "mean {mean} m apart");
-    assert!(far < 1e-3 && max < 0.025, "{} % over 5 mm, max {max} m", far * 100.0);
-    assert!(deepest <= 5e-4, "{deepest} m inside the head");
-    assert!(stretch <= 1e-4, "stretch {stretch}");
+    let steps = 120;
+    // A shoulder and the neck, where the longest strands reach them (world space).
+    let extras = [
+        ExtraCollider::Sphere { center: Vec3::new(0.12, 1.28, 0.0), radius: 0.08 },
+        ExtraCollider::Capsule { a: Vec3::new(0.0, 1.3, 0.0), b: Vec3::new(0.0, 1.48, 0.0), radius: 0.055 },
+    ];
+    // With the share of particles allowed more than 5 mm from the CPU's.
+    let responses = [
+        ("normal", CollisionResponse::SurfaceNormal, 1e-3),
+        ("centre ray", CollisionResponse::CentreRay { offset: [0.0, 0.0, 0.0] }, 1e-2),
+    ];
+    for (name, collision_response, far_share) in responses {
+        let params = SimParams { collision_response, ..SimParams::default() };
+        let (cpu, on_gpu) = run_both_with(&gpu, &rest, &collider, &params, &extras, steps, head_pose);
+        let (mean, max, far) = apart(&cpu, &on_gpu);
+        let pose = head_pose(steps as f32 / 60.0);
+        // Depth below the exact mesh (not the grid the GPU collides with).
+        let deepest = on_gpu
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| i % n != 0)
+            .map(|(_, &p)| -collider.signed_distance(pose.inverse_transform_point(p)))
+            .fold(0.0f32, f32::max);
+        let in_extras = on_gpu
+            .iter()
+            .flat_map(|&p| extras.iter().filter_map(move |e| e.resolve(p, 0.0)))
+            .fold(0.0f32, |deepest, contact| deepest.max(contact.depth));
+        let stretch = max_stretch(&on_gpu, &rest);
+        eprintln!(
+            "{name} response, after {steps} steps: mean {:.2} mm, max {:.2} mm apart, {:.2} % over 5 mm; \
+             deepest {:.3} mm in the head, {:.3} mm in the extras; stretch {stretch:.1e}",
+            mean * 1e3,
+            max * 1e3,
+            far * 100.0,
+            deepest * 1e3,
+            in_extras * 1e3
+        );
+        assert!(on_gpu.iter().all(|p| p.is_finite()));
+        // The grid is not the mesh, and a strand sliding over the scalp can take another
+        // way round an ear: a few strands part by more than the rest (lavapipe,
+        // 2026-12-03: normal response mean 0.09 mm, max 15 mm, 0.02 % of the particles
+        // over 5 mm; centre ray 0.11 mm, 13 mm, 0.44 %). The CPU alone is not chaotic
+        // here: a 0.17 µm nudge of every particle ends at most 0.012 mm apart.
+        assert!(mean < 1e-3, "mean {mean} m apart");
+        assert!(far < far_share && max < 0.025, "{} % over 5 mm, max {max} m", far * 100.0);
+        assert!(deepest <= 5e-4, "{deepest} m inside the head");
+        assert!(in_extras <= 5e-4, "{in_extras} m inside a shoulder or the neck");
+        assert!(stretch <= 1e-4, "stretch {stretch}");
+    }
 }
 
 /// The mean drop of the tips below their roots, metres: how far the hair hangs.
@@ -205,7 +239,7 @@ fn the_spring_model_follows_the_cpu() {
             .fold(0.0f32, f32::max);
         eprintln!(
             "springs, collision {collision}, after {steps} steps: stretch {stretch:.4}, tips {:.1} mm (CPU {:.1} mm) \
-             below the roots, deepest {:.3} mm",
+             below the roots, deepest in the head {:.3} mm",
             drop_gpu * 1e3,
             drop_cpu * 1e3,
             deepest * 1e3
@@ -243,23 +277,21 @@ fn what_it_does_not_model_is_refused() {
     let Some(gpu) = gpu() else { return };
     let (_, collider, rest) = groom(16);
     let mut strands = GpuStrands::new(&gpu, &rest, head_pose(0.0), None).expect("GPU strands");
-    let ray = SimParams {
-        collision_response: CollisionResponse::CentreRay { offset: [0.0, 0.0, 0.0] },
-        ..SimParams::default()
-    };
-    let input = |params| StepInput {
+    let skin = SurfacePatch::new(vec![[0, 1, 2]], vec![Vec3::ZERO, Vec3::X, Vec3::Y], 0.01);
+    let params = SimParams::default();
+    let input = |surface_patch| StepInput {
         dt: 1.0 / 60.0,
         time: 0.0,
         head_from: head_pose(0.0),
         head_to: head_pose(0.0),
         collider: Some(&collider),
         extra_colliders: &[],
-        surface_patch: None,
-        params,
+        surface_patch,
+        params: &params,
     };
-    assert!(matches!(strands.step(&input(&ray)), Err(GpuError::Unsupported(_))));
+    assert!(matches!(strands.step(&input(Some(&skin))), Err(GpuError::Unsupported(_))));
     // Built without the collider, it cannot collide with it.
-    assert!(matches!(strands.step(&input(&SimParams::default())), Err(GpuError::NoCollider)));
+    assert!(matches!(strands.step(&input(None)), Err(GpuError::NoCollider)));
     let before = strands.positions().expect("read back");
     assert_eq!(before, Strands::new(rest, head_pose(0.0)).positions());
 }
