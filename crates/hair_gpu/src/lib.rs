@@ -137,6 +137,7 @@ struct StepUniform {
     springs: [f32; 4],
     spring_flags: [u32; 4],
     ray_from: [f32; 4],
+    offset: [f32; 4],
 }
 
 /// The head's distance grid as the shader samples it.
@@ -168,6 +169,10 @@ pub struct GpuStrands {
     /// Whether the last step used the spring model, so its memory is current.
     springs_remembered: bool,
     grid_info: Option<GridInfo>,
+    /// The translation pass (`translate_particles`).
+    translate: wgpu::ComputePipeline,
+    /// Head-local rest positions, as uploaded (roots moved by [`Self::set_rest_root`]).
+    rest_positions: Vec<Vec3>,
     strands: u32,
     particles_per_strand: u32,
     timestamps: Option<Timestamps>,
@@ -213,7 +218,7 @@ impl GpuStrands {
         let rest_data: Vec<[f32; 4]> = (0..particles)
             .flat_map(|i| [vec4(rest.positions[i], rest.lengths[i]), vec4(rest.local_directions[i], 0.0)])
             .collect();
-        let rest_buffer = storage("hair_gpu rest", bytemuck::cast_slice(&rest_data), wgpu::BufferUsages::empty());
+        let rest_buffer = storage("hair_gpu rest", bytemuck::cast_slice(&rest_data), wgpu::BufferUsages::COPY_DST);
         let frames: Vec<[f32; 4]> = rest.root_frames.iter().map(|q| q.to_array()).collect();
         let root_frames = storage("hair_gpu root frames", bytemuck::cast_slice(&frames), wgpu::BufferUsages::empty());
         let table_vec4s = 4 * (MAX_SUBSTEPS as usize + 1) + n.div_ceil(4);
@@ -269,15 +274,19 @@ impl GpuStrands {
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("hair_gpu step"),
-            layout: Some(&pipeline_layout),
-            module: &module,
-            entry_point: Some("step_strands"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
-        let springs = storage("hair_gpu springs", &[0u8; 16], wgpu::BufferUsages::empty());
+        let entry_point = |label, entry_point| {
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(label),
+                layout: Some(&pipeline_layout),
+                module: &module,
+                entry_point: Some(entry_point),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        };
+        let pipeline = entry_point("hair_gpu step", "step_strands");
+        let translate = entry_point("hair_gpu translate", "translate_particles");
+        let springs = storage("hair_gpu springs", &[0u8; 16], wgpu::BufferUsages::COPY_DST);
         let bind_group = bind(
             device,
             &layout,
@@ -301,6 +310,8 @@ impl GpuStrands {
             springs,
             springs_remembered: false,
             grid_info,
+            translate,
+            rest_positions: rest.positions.clone(),
             strands: rest.strand_count() as u32,
             particles_per_strand: n as u32,
             timestamps,
@@ -321,6 +332,67 @@ impl GpuStrands {
     /// a renderer reads without a trip through the CPU.
     pub fn positions_buffer(&self) -> &wgpu::Buffer {
         &self.positions
+    }
+
+    /// Puts every strand back at rest under `pose`, motionless, forgetting the spring
+    /// model's memory (as [`hair_sim::solver::Strands::reset`]).
+    pub fn reset(&mut self, pose: Pose) {
+        let placed: Vec<[f32; 4]> = self
+            .rest_positions
+            .iter()
+            .map(|&p| {
+                let x = pose.transform_point(p);
+                [x.x, x.y, x.z, 0.0]
+            })
+            .collect();
+        self.queue.write_buffer(&self.positions, 0, bytemuck::cast_slice(&placed));
+        let mut encoder =
+            self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("hair_gpu reset") });
+        encoder.clear_buffer(&self.motion, 0, None);
+        encoder.clear_buffer(&self.springs, 0, None);
+        self.queue.submit([encoder.finish()]);
+        self.springs_remembered = false;
+    }
+
+    /// Moves every particle by `offset` (the solver's origin moved; see
+    /// [`hair_sim::solver::Strands::translate`]). A zero or non-finite offset does nothing.
+    pub fn translate(&mut self, offset: Vec3) {
+        if offset == Vec3::ZERO || !offset.is_finite() {
+            return;
+        }
+        let uniform = StepUniform {
+            counts: [self.strands, self.particles_per_strand, 0, 0],
+            spring_flags: [u32::from(self.springs_remembered), 0, 0, 0],
+            offset: [offset.x, offset.y, offset.z, 0.0],
+            ..StepUniform::zeroed()
+        };
+        self.queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&uniform));
+        let mut encoder =
+            self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("hair_gpu translate") });
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("hair_gpu translate"),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(&self.translate);
+            pass.set_bind_group(0, &self.bind_group, &[]);
+            pass.dispatch_workgroups((self.strands * self.particles_per_strand).div_ceil(WORKGROUP_SIZE), 1, 1);
+        }
+        self.queue.submit([encoder.finish()]);
+    }
+
+    /// Moves strand `strand`'s root within the rest shape (head-local), for a root riding
+    /// a surface that deforms against the head's frame (see
+    /// [`hair_sim::solver::Strands::set_rest_root`]). A non-finite position or a strand
+    /// out of range is ignored.
+    pub fn set_rest_root(&mut self, strand: usize, root: Vec3) {
+        if !root.is_finite() || strand >= self.strands as usize {
+            return;
+        }
+        let i = strand * self.particles_per_strand as usize;
+        self.rest_positions[i] = root;
+        // The root's vec4 holds its segment's rest length in w: zero at a root.
+        self.queue.write_buffer(&self.rest, (2 * i * 16) as u64, bytemuck::cast_slice(&[root.x, root.y, root.z, 0.0]));
     }
 
     /// Queues one step of `input` (the same input a CPU [`hair_sim::solver::Strands`] takes;
@@ -434,6 +506,7 @@ impl GpuStrands {
             springs: [p.spring_stiffness, p.spring_damping, 1.0 / p.particle_mass, p.length_tolerance],
             spring_flags: [u32::from(p.length_mode == LengthMode::Springs), u32::from(self.springs_remembered), 0, 0],
             ray_from: ray_from(input).map_or([0.0; 4], |c| [c.x, c.y, c.z, 1.0]),
+            offset: [0.0; 4],
         };
         (uniform, tables)
     }
@@ -482,7 +555,7 @@ impl GpuStrands {
         self.springs = self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("hair_gpu springs"),
             size: bytes,
-            usage: wgpu::BufferUsages::STORAGE,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
         self.springs_remembered = false;

@@ -35,6 +35,8 @@ struct Step {
     // Where the centre-ray response pushes from (head-local), and 1 in w for that
     // response (0: along the surface normal).
     ray_from: vec4<f32>,
+    // What `translate_particles` adds to every particle (xyz).
+    offset: vec4<f32>,
 }
 
 @group(0) @binding(0) var<uniform> step: Step;
@@ -675,5 +677,19 @@ fn step_strands(@builtin(global_invocation_id) id: vec3<u32>) {
             reset_strand(first, n, last);
             return;
         }
+    }
+}
+
+// Moves every particle, and the spring model's memory of where it was, by `step.offset`:
+// the solver's origin moved (one invocation per particle).
+@compute @workgroup_size(64)
+fn translate_particles(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x;
+    if i >= step.counts.x * step.counts.y {
+        return;
+    }
+    positions[i] = vec4<f32>(positions[i].xyz + step.offset.xyz, 0.0);
+    if step.spring_flags.x == 1u {
+        springs[6u * i] = vec4<f32>(springs[6u * i].xyz + step.offset.xyz, springs[6u * i].w);
     }
 }

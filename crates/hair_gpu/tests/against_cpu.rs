@@ -273,6 +273,61 @@ fn a_teleport_resets_the_strands_as_on_the_cpu() {
 }
 
 #[test]
+fn moving_the_origin_the_roots_and_resetting_match_the_cpu() {
+    let Some(gpu) = gpu() else { return };
+    let (_, collider, rest) = groom(64);
+    let n = rest.particles_per_strand;
+    let params = SimParams { collision: false, ..SimParams::default() };
+    let mut cpu = Strands::new(rest.clone(), head_pose(0.0));
+    let mut on_gpu = GpuStrands::new(&gpu, &rest, head_pose(0.0), Some(&collider)).expect("GPU strands");
+    let dt = 1.0 / 60.0;
+    let step_both = |k: usize, pose_at: &dyn Fn(f32) -> Pose, cpu: &mut Strands, on_gpu: &mut GpuStrands| {
+        let time = k as f32 * dt;
+        let input = StepInput {
+            dt,
+            time,
+            head_from: pose_at(time),
+            head_to: pose_at(time + dt),
+            collider: Some(&collider),
+            extra_colliders: &[],
+            surface_patch: None,
+            params: &params,
+        };
+        cpu.step(&input);
+        on_gpu.step(&input).expect("GPU step");
+    };
+    for k in 0..10 {
+        step_both(k, &head_pose, &mut cpu, &mut on_gpu);
+    }
+    // The origin moves; two roots slide over the scalp (a skinned scalp's blend).
+    let offset = Vec3::new(0.5, -0.25, 2.0);
+    cpu.translate(offset);
+    on_gpu.translate(offset);
+    for strand in [3, 40] {
+        let root = rest.positions[strand * n] + Vec3::new(0.004, 0.0, -0.003);
+        cpu.set_rest_root(strand, root);
+        on_gpu.set_rest_root(strand, root);
+    }
+    // The head is where the shifted strands expect it from here on.
+    let shifted = |t: f32| {
+        let pose = head_pose(t);
+        Pose::new(pose.rotation, pose.translation + offset)
+    };
+    for k in 10..20 {
+        step_both(k, &shifted, &mut cpu, &mut on_gpu);
+    }
+    let (mean, max, _) = apart(cpu.positions(), &on_gpu.positions().expect("read back"));
+    eprintln!("moved and re-rooted: mean {mean:.2e} m, max {max:.2e} m apart");
+    assert!(mean < 1e-6 && max < 1e-4, "mean {mean} m, max {max} m");
+    let moved_root = on_gpu.positions().expect("read back")[40 * n];
+    assert!(moved_root.distance(shifted(20.0 * dt).transform_point(rest.positions[40 * n])) > 0.004);
+    cpu.reset(head_pose(1.0));
+    on_gpu.reset(head_pose(1.0));
+    let (_, max, _) = apart(cpu.positions(), &on_gpu.positions().expect("read back"));
+    assert!(max < 1e-6, "both at rest: {max} m apart");
+}
+
+#[test]
 fn what_it_does_not_model_is_refused() {
     let Some(gpu) = gpu() else { return };
     let (_, collider, rest) = groom(16);
