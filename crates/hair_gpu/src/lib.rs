@@ -26,6 +26,8 @@
 //! # Ok(()) }
 //! ```
 
+#![warn(missing_docs)]
+
 use bytemuck::{Pod, Zeroable};
 use hair_sim::collide::HeadCollider;
 use hair_sim::math::{Pose, Vec3};
@@ -62,7 +64,14 @@ pub enum GpuError {
     NoCollider,
     /// The groom is too large for one buffer on this device.
     #[error("{particles} particles need a {bytes}-byte buffer, above this device's limit of {limit}")]
-    TooLarge { particles: usize, bytes: u64, limit: u64 },
+    TooLarge {
+        /// Particles in the groom.
+        particles: usize,
+        /// The buffer it needs, bytes.
+        bytes: u64,
+        /// The largest storage buffer the device binds, bytes.
+        limit: u64,
+    },
     /// Reading the positions back failed.
     #[error("reading the positions back from the GPU failed: {0}")]
     ReadBack(String),
