@@ -28,7 +28,8 @@ pub(crate) fn pose_and_scale(transform: &GlobalTransform) -> (sim::Pose, Vec3) {
     (sim::Pose::new(quat_to_sim(rotation.normalize()), to_sim(translation)), scale)
 }
 
-/// Solver rotation → Bevy rotation.
+/// Solver rotation → Bevy rotation (for drawing).
+#[cfg(feature = "render")]
 #[inline]
 pub(crate) fn quat_from_sim(q: sim::Quat) -> Quat {
     Quat::from_array(q.to_array())

@@ -83,6 +83,10 @@ pub enum HairErrorKind {
     /// Settings that had to be replaced to simulate (the groom runs with the replacements).
     #[error("invalid hair settings: {}", settings_list(.0))]
     Settings(Vec<ParamIssue>),
+    /// The groom asks for [`HairBackend::Gpu`](crate::HairBackend) and the GPU cannot step
+    /// it: it steps on the CPU.
+    #[error("the GPU solver cannot step this groom ({0}); it steps on the CPU")]
+    GpuFallback(String),
     /// Fields of the groom's `HairLod` that had to be replaced (the groom runs with the
     /// replacements).
     #[error("invalid level-of-detail settings: {0}")]

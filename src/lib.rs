@@ -46,6 +46,7 @@ mod convert;
 mod description;
 mod detail;
 mod diagnostics;
+mod gpu_solver;
 mod groom;
 mod hair_asset;
 mod head_mesh;
@@ -72,7 +73,7 @@ pub use head_mesh::{ATTRIBUTE_SCALP, is_procedural_scalp, procedural_head_mesh};
 pub use preset::{HairPreset, PresetError};
 #[cfg(feature = "render")]
 pub use render::{HairAntialias, HairLook, HairRenderStats, HairShading, SpecularLobe};
-pub use settings::{HairSettings, HairSettingsOverride};
+pub use settings::{HairBackend, HairSettings, HairSettingsOverride};
 pub use simulation::SimulationPlugin;
 pub use simulation::{HairState, step_on_pool};
 pub use skinning::ScalpJoint;
@@ -86,10 +87,10 @@ use std::time::Duration;
 /// Everything needed to add hair to an app.
 pub mod prelude {
     pub use crate::{
-        ChildParams, CollisionResponse, GroomStatus, Hair, HairCollider, HairDiagnostics, HairError, HairErrorKind,
-        HairGroom, HairLod, HairPlugin, HairPreset, HairSchedule, HairSettings, HairSettingsOverride, HairState,
-        HairSystems, HairTime, LengthMode, RootDistribution, ScalpPredicate, ScalpSource, SimParams, SimdPath, Spiral,
-        Wind,
+        ChildParams, CollisionResponse, GroomStatus, Hair, HairBackend, HairCollider, HairDiagnostics, HairError,
+        HairErrorKind, HairGroom, HairLod, HairPlugin, HairPreset, HairSchedule, HairSettings, HairSettingsOverride,
+        HairState, HairSystems, HairTime, LengthMode, RootDistribution, ScalpPredicate, ScalpSource, SimParams,
+        SimdPath, Spiral, Wind,
     };
     #[cfg(feature = "render")]
     pub use crate::{HairAntialias, HairLook, HairRenderStats, HairShading, SpecularLobe};

@@ -17,6 +17,27 @@ pub struct HairSettings(pub SimParams);
 #[reflect(Component, Default)]
 pub struct HairSettingsOverride(pub SimParams);
 
+/// Which solver steps a groom: put it on the head entity (without it, the CPU).
+#[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[reflect(Component, Default, PartialEq)]
+pub enum HairBackend {
+    /// `hair_sim`'s solver on Bevy's [`ComputeTaskPool`](bevy::tasks::ComputeTaskPool): the
+    /// reference, with every feature.
+    #[default]
+    Cpu,
+    /// `hair_gpu`'s compute pass on the app's render device (feature `render`): the same
+    /// model, colliding with the head's distance grid instead of its mesh. Each step waits
+    /// for the GPU and reads the positions back, so everything that reads [`HairState`]
+    /// (drawing, self-shadows, `.hair` files) works unchanged; drawing straight from the
+    /// GPU's buffers is not built yet. Every guide is simulated (levels of detail do not
+    /// apply). Where the GPU cannot step the groom (no render device, an adapter without
+    /// compute, a skinned scalp's moving skin), it steps on the CPU and a
+    /// [`HairError`](crate::HairError) says why, once.
+    ///
+    /// [`HairState`]: crate::HairState
+    Gpu,
+}
+
 /// The settings that apply to a groom: its override, or the global ones.
 pub(crate) fn effective<'a>(global: &'a HairSettings, local: Option<&'a HairSettingsOverride>) -> &'a SimParams {
     local.map_or(&global.0, |o| &o.0)

@@ -11,7 +11,8 @@ use crate::colliders::HairCollider;
 use crate::convert::{from_sim, pose_and_scale, to_sim};
 use crate::description::{GroomStatus, HairError, HairErrorKind, HairGroom};
 use crate::diagnostics::HairDiagnostics;
-use crate::settings::{HairSettings, HairSettingsOverride, effective};
+use crate::gpu_solver::{GpuDevice, GpuSolver};
+use crate::settings::{HairBackend, HairSettings, HairSettingsOverride, effective};
 use crate::skinning::{RootSkin, ScalpJoint, SkinPatch, head_frame};
 use crate::{HairSchedule, HairSystems};
 use bevy::diagnostic::Diagnostics;
@@ -88,6 +89,8 @@ pub struct HairState {
     pub(crate) detail_issue: Option<String>,
     /// The head's size, metres: the height of its mesh's bounding box (scale baked in).
     head_size: f32,
+    /// The GPU's copy of the strands, while the groom steps there ([`HairBackend::Gpu`]).
+    gpu: GpuSolver,
 }
 
 impl HairState {
@@ -127,6 +130,7 @@ impl HairState {
             reported_issues: Vec::new(),
             detail_issue: None,
             head_size,
+            gpu: GpuSolver::default(),
         }
     }
 
@@ -290,6 +294,7 @@ impl HairState {
     /// Puts every strand back at rest on the head, motionless.
     pub fn reset(&mut self) {
         self.strands.reset(relative_to(self.pose_to, self.origin));
+        self.gpu.reset(relative_to(self.pose_to, self.origin));
         self.publish(ComputeTaskPool::get_or_init(TaskPool::default));
         self.previous_local.clone_from(&self.current_local);
     }
@@ -325,6 +330,7 @@ impl HairState {
         let origin = self.pose_to.transform_point(self.collider.centre());
         if origin.is_finite() && origin != self.origin {
             self.strands.translate(self.origin - origin);
+            self.gpu.translate(self.origin - origin);
             self.origin = origin;
         }
     }
@@ -359,6 +365,7 @@ impl Plugin for SimulationPlugin {
             .register_type::<HairSettings>()
             .register_type::<HairSettingsOverride>()
             .register_type::<HairCollider>()
+            .register_type::<HairBackend>()
             .configure_sets(
                 HairSchedule,
                 (HairSystems::SyncRoots, HairSystems::Simulate, HairSystems::Writeback).chain(),
@@ -376,6 +383,11 @@ impl Plugin for SimulationPlugin {
                 PostUpdate,
                 track_heads.in_set(HairSystems::Step).after(advance_clock).before(run_hair_schedule),
             );
+        #[cfg(feature = "render")]
+        app.add_systems(
+            PostUpdate,
+            crate::gpu_solver::prepare_gpu_device.in_set(HairSystems::Step).before(run_hair_schedule),
+        );
     }
 }
 
@@ -406,7 +418,9 @@ pub(crate) fn track_heads(
             let matrices = joint.skinning_matrices(&joints);
             let state = &mut *state;
             for (strand, world) in state.root_skin.skinned_roots(&matrices).enumerate() {
-                state.strands.set_rest_root(strand, pose.inverse_transform_point(to_sim(world)));
+                let root = pose.inverse_transform_point(to_sim(world));
+                state.strands.set_rest_root(strand, root);
+                state.gpu.set_rest_root(strand, root);
             }
             if let Some(patch) = &mut state.skin_patch {
                 patch.update(&matrices, pose);
@@ -435,12 +449,14 @@ pub(crate) fn sync_roots(time: Res<Time>, mut grooms: Query<&mut HairState>) {
 /// [`HairSystems::Simulate`](crate::HairSystems): one solver step per groom, over the
 /// hair clock's timestep (the generic `Time` inside [`HairSchedule`](crate::HairSchedule)),
 /// its strands split into chunks on the [`ComputeTaskPool`].
+#[expect(clippy::too_many_arguments, reason = "a system's parameters, each a different kind")]
 pub(crate) fn simulate(
     time: Res<Time>,
     settings: Res<HairSettings>,
     colliders: Query<(Entity, &HairCollider, &GlobalTransform)>,
     parents: Query<&ChildOf>,
-    mut grooms: Query<(Entity, &mut HairState, Option<&HairSettingsOverride>)>,
+    mut grooms: Query<(Entity, &mut HairState, Option<&HairSettingsOverride>, Option<&HairBackend>)>,
+    gpu_device: Option<Res<GpuDevice>>,
     mut errors: MessageWriter<HairError>,
     mut diagnostics: Diagnostics,
 ) {
@@ -454,7 +470,7 @@ pub(crate) fn simulate(
         .collect();
     let mut extra = Vec::with_capacity(scoped.len());
     let pool = ComputeTaskPool::get_or_init(TaskPool::default);
-    for (entity, mut state, local) in &mut grooms {
+    for (entity, mut state, local, backend) in &mut grooms {
         let groom_started = Instant::now();
         let character = parents.root_ancestor(entity);
         extra.clear();
@@ -483,9 +499,29 @@ pub(crate) fn simulate(
             surface_patch: state.skin_patch.as_ref().map(SkinPatch::patch),
             params: &params,
         };
-        // What the solver steps: a level of detail leaves the followers out.
-        let simulated = state.strands.simulated_strands();
-        let report = step_on_pool(&mut state.strands, &input, pool);
+        // On the GPU if the groom asks for it and the GPU can step it, else on the CPU.
+        let on_gpu = match backend.copied().unwrap_or_default() {
+            HairBackend::Gpu => Some(state.gpu.step(&mut state.strands, &input, gpu_device.as_deref())),
+            HairBackend::Cpu => {
+                state.gpu.release();
+                None
+            }
+        };
+        let gpu_issue = on_gpu.clone().and_then(Result::err);
+        if gpu_issue != state.gpu.issue {
+            if let Some(why) = &gpu_issue {
+                let kind = HairErrorKind::GpuFallback(why.clone());
+                warn!("hair on {entity}: {kind}");
+                errors.write(HairError { entity, kind });
+            }
+            state.gpu.issue = gpu_issue;
+        }
+        // What the solver steps: a level of detail leaves the followers out (on the CPU).
+        let (simulated, report) = if on_gpu == Some(Ok(())) {
+            (state.strands.strand_count(), StepReport::default())
+        } else {
+            (state.strands.simulated_strands(), step_on_pool(&mut state.strands, &input, pool))
+        };
         if report.nan_resets > 0 {
             warn!("hair on {entity}: {} strands produced non-finite values and were reset", report.nan_resets);
         }

@@ -411,3 +411,93 @@ fn a_far_head_simulates_a_fraction_of_its_guides() {
     assert_eq!(state(&app, head).strands().detail_level(), 7, "the deepest level, for 99");
     assert!(all_finite(&app, head));
 }
+
+/// A headless app whose main world holds a render device, as Bevy's `RenderPlugin` leaves
+/// one there for main-world systems: what the GPU backend steps on, without a renderer.
+/// `Err` says why there is none.
+fn app_with_render_device() -> Result<App, String> {
+    use bevy::render::renderer::{RenderAdapterInfo, RenderDevice, RenderQueue, WgpuWrapper};
+    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+    let adapter = bevy::tasks::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions::default()))
+        .map_err(|e| format!("no GPU adapter ({e}); install mesa-vulkan-drivers and libvulkan1 for lavapipe"))?;
+    let (device, queue) = bevy::tasks::block_on(adapter.request_device(&wgpu::DeviceDescriptor::default()))
+        .map_err(|e| format!("the adapter opened no device ({e})"))?;
+    let mut app = app();
+    app.insert_resource(RenderDevice::from(device))
+        .insert_resource(RenderQueue(std::sync::Arc::new(WgpuWrapper::new(queue))))
+        .insert_resource(RenderAdapterInfo(WgpuWrapper::new(adapter.get_info())));
+    Ok(app)
+}
+
+/// The head's yaw at update `k`: a turn one way and back, 1.5 rad at 3 rad/s peaks.
+fn turning(k: usize) -> Transform {
+    Transform::from_rotation(Quat::from_rotation_y(1.5 * (k as f32 / 30.0).sin()))
+}
+
+/// Every `GpuFallback` reason reported so far.
+#[derive(Resource, Default)]
+struct GpuFallbacks(Vec<String>);
+
+fn collect_gpu_fallbacks(mut errors: MessageReader<HairError>, mut seen: ResMut<GpuFallbacks>) {
+    seen.0.extend(errors.read().filter_map(|e| match &e.kind {
+        HairErrorKind::GpuFallback(why) => Some(why.clone()),
+        _ => None,
+    }));
+}
+
+/// Grows `groom()` in `app` (with `backend`) and in a plain app on the CPU, turns both
+/// heads alike for `frames` updates, and returns both position sets and the fallbacks the
+/// first app reported.
+fn beside_the_cpu(mut app: App, backend: HairBackend, frames: usize) -> (Vec<Vec3>, Vec<Vec3>, Vec<String>) {
+    app.init_resource::<GpuFallbacks>().add_systems(Last, collect_gpu_fallbacks);
+    let head = spawn_head(&mut app, groom(), Transform::default());
+    app.world_mut().entity_mut(head).insert(backend);
+    let (mut cpu, cpu_head) = grown(groom());
+    wait_until_ready(&mut app, head);
+    for k in 0..frames {
+        for (app, head) in [(&mut app, head), (&mut cpu, cpu_head)] {
+            *app.world_mut().get_mut::<Transform>(head).unwrap() = turning(k);
+            app.update();
+        }
+    }
+    let positions = |app: &App, head| state(app, head).current_positions().to_vec();
+    let fallbacks = std::mem::take(&mut app.world_mut().resource_mut::<GpuFallbacks>().0);
+    (positions(&app, head), positions(&cpu, cpu_head), fallbacks)
+}
+
+#[test]
+fn the_gpu_backend_steps_a_groom_as_the_cpu_does() {
+    let app = match app_with_render_device() {
+        Ok(app) => app,
+        Err(reason) if std::env::var_os("BEVY_HAIR_REQUIRE_ADAPTER").is_some() => {
+            panic!("BEVY_HAIR_REQUIRE_ADAPTER is set and there is {reason}")
+        }
+        Err(reason) => return eprintln!("SKIPPED: {reason}"),
+    };
+    let (on_gpu, on_cpu, fallbacks) = beside_the_cpu(app, HairBackend::Gpu, 60);
+    assert!(fallbacks.is_empty(), "stepped on the GPU: {fallbacks:?}");
+    let apart: Vec<f32> = on_gpu.iter().zip(&on_cpu).map(|(a, b)| a.distance(*b)).collect();
+    let mean = apart.iter().sum::<f32>() / apart.len() as f32;
+    let max = apart.iter().copied().fold(0.0, f32::max);
+    eprintln!(
+        "GPU backend beside the CPU after a 1.5 rad turn (60 steps): mean {:.3} mm, max {:.2} mm",
+        mean * 1e3,
+        max * 1e3
+    );
+    assert!(on_gpu.iter().all(|p| p.is_finite()));
+    // The GPU collides with the distance grid, the CPU with the mesh (see hair_gpu's tests).
+    assert!(mean < 1e-3 && max < 0.025, "mean {mean} m, max {max} m apart");
+    // And it moved: the turn swings the tips by centimetres.
+    let still = beside_the_cpu(app_with_render_device().unwrap(), HairBackend::Gpu, 1).0;
+    let swing = on_gpu.iter().zip(&still).map(|(a, b)| a.distance(*b)).fold(0.0, f32::max);
+    assert!(swing > 0.05, "the GPU groom moved {swing} m");
+}
+
+#[test]
+fn without_a_render_device_the_gpu_backend_says_why_once_and_steps_on_the_cpu() {
+    let (fell_back, on_cpu, fallbacks) = beside_the_cpu(app(), HairBackend::Gpu, 30);
+    assert_eq!(fallbacks.len(), 1, "reported once: {fallbacks:?}");
+    assert!(fallbacks[0].contains("no render device"), "{}", fallbacks[0]);
+    // The CPU solver stepped it: the same bits as a groom that asked for the CPU.
+    assert_eq!(fell_back, on_cpu);
+}

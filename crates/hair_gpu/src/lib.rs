@@ -111,9 +111,7 @@ impl GpuContext {
         let info = adapter.get_info();
         let limits = adapter.limits();
         let downlevel = adapter.get_downlevel_capabilities();
-        if !downlevel.flags.contains(wgpu::DownlevelFlags::COMPUTE_SHADERS)
-            || limits.max_storage_buffers_per_shader_stage < 7
-        {
+        if !downlevel.flags.contains(wgpu::DownlevelFlags::COMPUTE_SHADERS) || !can_step(&limits) {
             return Err(GpuError::NoCompute(info.name));
         }
         let timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
@@ -127,6 +125,23 @@ impl GpuContext {
         .map_err(|e| GpuError::Device(e.to_string()))?;
         Ok(GpuContext { device, queue, adapter: info, timestamps })
     }
+
+    /// A device someone else opened (an engine's render device), if its limits let the
+    /// solver run: compute workgroups of 64 and eight storage buffers per stage.
+    pub fn new(device: wgpu::Device, queue: wgpu::Queue, adapter: wgpu::AdapterInfo) -> Result<Self, GpuError> {
+        if !can_step(&device.limits()) {
+            return Err(GpuError::NoCompute(adapter.name));
+        }
+        Ok(GpuContext { device, queue, adapter, timestamps: false })
+    }
+}
+
+/// Whether `limits` let `step.wgsl` run: 64 invocations per workgroup and its eight
+/// storage buffers (a device without compute reports zero invocations).
+fn can_step(limits: &wgpu::Limits) -> bool {
+    limits.max_compute_invocations_per_workgroup >= WORKGROUP_SIZE
+        && limits.max_compute_workgroup_size_x >= WORKGROUP_SIZE
+        && limits.max_storage_buffers_per_shader_stage >= 8
 }
 
 /// The per-step constants, laid out as `step.wgsl`'s `Step`.
@@ -346,14 +361,24 @@ impl GpuStrands {
     /// Puts every strand back at rest under `pose`, motionless, forgetting the spring
     /// model's memory (as [`hair_sim::solver::Strands::reset`]).
     pub fn reset(&mut self, pose: Pose) {
-        let placed: Vec<[f32; 4]> = self
-            .rest_positions
-            .iter()
-            .map(|&p| {
-                let x = pose.transform_point(p);
-                [x.x, x.y, x.z, 0.0]
-            })
-            .collect();
+        let placed: Vec<Vec3> = self.rest_positions.iter().map(|&p| pose.transform_point(p)).collect();
+        self.place(&placed);
+    }
+
+    /// Places every particle at `positions` (strand-major), motionless, forgetting the
+    /// spring model's memory (as [`hair_sim::solver::Strands::set_positions`]): to carry
+    /// on from a CPU solver's state. A wrong count or a non-finite position changes nothing
+    /// and returns `false`.
+    pub fn set_positions(&mut self, positions: &[Vec3]) -> bool {
+        if positions.len() != self.rest_positions.len() || !positions.iter().all(|p| p.is_finite()) {
+            return false;
+        }
+        self.place(positions);
+        true
+    }
+
+    fn place(&mut self, positions: &[Vec3]) {
+        let placed: Vec<[f32; 4]> = positions.iter().map(|x| [x.x, x.y, x.z, 0.0]).collect();
         self.queue.write_buffer(&self.positions, 0, bytemuck::cast_slice(&placed));
         let mut encoder =
             self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("hair_gpu reset") });
