@@ -37,9 +37,6 @@ impl GpuSolver {
                 Some(Err(why)) => return Err(why.clone()),
                 None => return Err("the app has no render device".into()),
             };
-            if let Some(what) = hair_gpu::unsupported(input) {
-                return Err(format!("it does not model {what} yet"));
-            }
             let gpu = match &mut self.strands {
                 Some(gpu) => gpu,
                 empty => {

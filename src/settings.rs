@@ -26,15 +26,17 @@ pub enum HairBackend {
     #[default]
     Cpu,
     /// `hair_gpu`'s compute pass on the app's render device (feature `render`): the same
-    /// model, colliding with the head's distance grid instead of its mesh. Each step waits
+    /// model, its particles colliding with the head's distance grid instead of its mesh (and
+    /// no whole-segment test, [`SimParams::segment_collision`]). Each step waits
     /// for the GPU and reads the positions back, so everything that reads [`HairState`]
     /// (drawing, self-shadows, `.hair` files) works unchanged; drawing straight from the
     /// GPU's buffers is not built yet. Every guide is simulated (levels of detail do not
-    /// apply). Where the GPU cannot step the groom (no render device, an adapter without
-    /// compute, a skinned scalp's moving skin), it steps on the CPU and a
+    /// apply), and [`HairState::last_report`] counts nothing. Where the GPU cannot step
+    /// the groom (no render device, an adapter without compute), it steps on the CPU and a
     /// [`HairError`](crate::HairError) says why, once.
     ///
     /// [`HairState`]: crate::HairState
+    /// [`HairState::last_report`]: crate::HairState::last_report
     Gpu,
 }
 

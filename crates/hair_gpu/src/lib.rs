@@ -10,11 +10,12 @@
 //! the CPU solver queries the exact mesh and tests whole segments. The tests in
 //! `tests/against_cpu.rs` measure how far the two part.
 //!
-//! Both length models (Follow-The-Leader and the implicit mass-spring model) and both
-//! collision responses (along the surface normal, or along the ray from the head's centre)
-//! are modelled. What it does not model yet is refused, not approximated
-//! ([`unsupported`]): the skin that moves against the head's frame (a skinned scalp's
-//! surface patch).
+//! Both length models (Follow-The-Leader and the implicit mass-spring model), both
+//! collision responses (along the surface normal, or along the ray from the head's centre),
+//! the extra colliders and the skin that moves against the head's frame (a skinned scalp's
+//! surface patch) are modelled. What differs is collision with the head: particles against
+//! the distance grid, where the CPU solver queries the exact mesh and also keeps whole
+//! segments out of thin parts (`SimParams::segment_collision`, which the GPU ignores).
 //!
 //! ```no_run
 //! # use hair_sim::prelude::*;
@@ -56,9 +57,6 @@ pub enum GpuError {
     /// The adapter lacks compute shaders or storage buffers.
     #[error("the GPU adapter {0:?} cannot run compute shaders over storage buffers")]
     NoCompute(String),
-    /// The settings ask for something the GPU solver does not model yet.
-    #[error("the GPU solver does not model {0} yet: step this groom on the CPU")]
-    Unsupported(&'static str),
     /// The step asks for head collision, but no collider was uploaded.
     #[error("the step collides with a head, but the GPU strands were built without its collider")]
     NoCollider,
@@ -75,15 +73,6 @@ pub enum GpuError {
     /// Reading the positions back failed.
     #[error("reading the positions back from the GPU failed: {0}")]
     ReadBack(String),
-}
-
-/// What of `params` and `input` the GPU solver does not model yet, if anything; such a
-/// groom steps on the CPU.
-pub fn unsupported(input: &StepInput) -> Option<&'static str> {
-    if input.params.collision && input.surface_patch.is_some() {
-        return Some("the skin moving against the head (a surface patch)");
-    }
-    None
 }
 
 /// A wgpu device and queue to step on, and the adapter's description.
@@ -162,6 +151,7 @@ struct StepUniform {
     spring_flags: [u32; 4],
     ray_from: [f32; 4],
     offset: [f32; 4],
+    skin: [u32; 4],
 }
 
 /// The head's distance grid as the shader samples it.
@@ -186,7 +176,8 @@ pub struct GpuStrands {
     motion: wgpu::Buffer,
     rest: wgpu::Buffer,
     root_frames: wgpu::Buffer,
-    extras: wgpu::Buffer,
+    /// Extra colliders and the moving skin (see `step.wgsl`).
+    colliders: wgpu::Buffer,
     grid: wgpu::Buffer,
     /// The spring model's memory and scratch: a placeholder until a step asks for springs.
     springs: wgpu::Buffer,
@@ -247,7 +238,7 @@ impl GpuStrands {
         let root_frames = storage("hair_gpu root frames", bytemuck::cast_slice(&frames), wgpu::BufferUsages::empty());
         let table_vec4s = 4 * (MAX_SUBSTEPS as usize + 1) + n.div_ceil(4);
         let tables = storage("hair_gpu tables", &vec![0u8; table_vec4s * 16], wgpu::BufferUsages::COPY_DST);
-        let extras = storage("hair_gpu extra colliders", &[0u8; 32], wgpu::BufferUsages::COPY_DST);
+        let colliders = storage("hair_gpu colliders", &[0u8; 32], wgpu::BufferUsages::COPY_DST);
         let (grid, grid_info) = match collider {
             Some(collider) => {
                 let g = collider.grid();
@@ -314,7 +305,7 @@ impl GpuStrands {
         let bind_group = bind(
             device,
             &layout,
-            [&uniform, &tables, &positions, &motion, &rest_buffer, &root_frames, &extras, &grid, &springs],
+            [&uniform, &tables, &positions, &motion, &rest_buffer, &root_frames, &colliders, &grid, &springs],
         );
         let timestamps = gpu.timestamps.then(|| Timestamps::new(device));
         Ok(GpuStrands {
@@ -329,7 +320,7 @@ impl GpuStrands {
             motion,
             rest: rest_buffer,
             root_frames,
-            extras,
+            colliders,
             grid,
             springs,
             springs_remembered: false,
@@ -449,9 +440,6 @@ impl GpuStrands {
     }
 
     fn encode_step(&mut self, input: &StepInput, timestamps: Option<&Timestamps>) -> Result<(), GpuError> {
-        if let Some(what) = unsupported(input) {
-            return Err(GpuError::Unsupported(what));
-        }
         let p = input.params;
         let collide_head = p.collision && input.collider.is_some();
         if collide_head && self.grid_info.is_none() {
@@ -462,12 +450,13 @@ impl GpuStrands {
         if springs {
             self.prepare_springs()?;
         }
-        let (uniform, tables) = self.constants(input, dt, collide_head);
+        let patch = self.upload_colliders(input);
+        let (mut uniform, tables) = self.constants(input, dt, collide_head);
+        uniform.skin = patch;
         // What the next step may remember: this one's spring memory, or none.
         self.springs_remembered = springs;
         self.queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&uniform));
         self.queue.write_buffer(&self.tables, 0, bytemuck::cast_slice(&tables));
-        self.upload_extras(input)?;
         let mut encoder =
             self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("hair_gpu") });
         {
@@ -541,38 +530,46 @@ impl GpuStrands {
             spring_flags: [u32::from(p.length_mode == LengthMode::Springs), u32::from(self.springs_remembered), 0, 0],
             ray_from: ray_from(input).map_or([0.0; 4], |c| [c.x, c.y, c.z, 1.0]),
             offset: [0.0; 4],
+            skin: [0; 4],
         };
         (uniform, tables)
     }
 
-    /// Writes the step's extra colliders, growing their buffer when there are more.
-    fn upload_extras(&mut self, input: &StepInput) -> Result<(), GpuError> {
+    /// Writes the step's extra colliders and the moving skin into `colliders` (growing it
+    /// when they need more room), and returns the skin's place there for the uniform's
+    /// `patch`: header + 1 (0: no skin), triangles, bin starts, bin lists (vec4 indices).
+    fn upload_colliders(&mut self, input: &StepInput) -> [u32; 4] {
         use hair_sim::collide::ExtraCollider;
-        if input.extra_colliders.is_empty() {
-            return Ok(());
-        }
-        let data: Vec<[f32; 4]> = input
-            .extra_colliders
+        let collide = input.params.collision;
+        let extras = if collide { input.extra_colliders } else { &[] };
+        let mut data: Vec<[u32; 4]> = extras
             .iter()
             .flat_map(|e| match *e {
                 ExtraCollider::Sphere { center, radius } => {
-                    [[center.x, center.y, center.z, radius], [center.x, center.y, center.z, 0.0]]
+                    [bits([center.x, center.y, center.z, radius]), bits([center.x, center.y, center.z, 0.0])]
                 }
-                ExtraCollider::Capsule { a, b, radius } => [[a.x, a.y, a.z, radius], [b.x, b.y, b.z, 1.0]],
+                ExtraCollider::Capsule { a, b, radius } => [bits([a.x, a.y, a.z, radius]), bits([b.x, b.y, b.z, 1.0])],
             })
             .collect();
+        let patch = match input.surface_patch.filter(|_| collide && self.grid_info.is_some()) {
+            Some(patch) => pack_patch(&mut data, patch.parts()),
+            None => [0; 4],
+        };
+        if data.is_empty() {
+            return patch;
+        }
         let bytes: &[u8] = bytemuck::cast_slice(&data);
-        if bytes.len() as u64 > self.extras.size() {
-            self.extras = self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("hair_gpu extra colliders"),
+        if bytes.len() as u64 > self.colliders.size() {
+            self.colliders = self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("hair_gpu colliders"),
                 contents: bytes,
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             });
             self.rebind();
         } else {
-            self.queue.write_buffer(&self.extras, 0, bytes);
+            self.queue.write_buffer(&self.colliders, 0, bytes);
         }
-        Ok(())
+        patch
     }
 
     /// Makes the spring model's buffer (six vec4 per particle) on its first step.
@@ -609,7 +606,7 @@ impl GpuStrands {
                 &self.motion,
                 &self.rest,
                 &self.root_frames,
-                &self.extras,
+                &self.colliders,
                 &self.grid,
                 &self.springs,
             ],
@@ -627,6 +624,41 @@ impl GpuStrands {
     pub fn finish(&self) -> Result<(), GpuError> {
         self.device.poll(wgpu::PollType::wait_indefinitely()).map(|_| ()).map_err(|e| GpuError::ReadBack(e.to_string()))
     }
+}
+
+/// A vec4 of floats as `step.wgsl`'s `colliders` holds them: their bits.
+fn bits(v: [f32; 4]) -> [u32; 4] {
+    v.map(f32::to_bits)
+}
+
+/// Appends `patch` to `data` as `step.wgsl` reads it (after the extra colliders) and
+/// returns its place: header + 1, triangles, bin starts, bin lists (vec4 indices).
+fn pack_patch(data: &mut Vec<[u32; 4]>, patch: hair_sim::collide::PatchParts) -> [u32; 4] {
+    let vec4 = |v: Vec3| bits([v.x, v.y, v.z, 0.0]);
+    let header = data.len() as u32;
+    data.push(bits([patch.origin.x, patch.origin.y, patch.origin.z, patch.reach]));
+    let [nx, ny, nz] = patch.dims.map(|d| d as u32);
+    data.push([nx, ny, nz, patch.cell.to_bits()]);
+    let triangles = data.len() as u32;
+    for (t, corners) in patch.triangles.iter().enumerate() {
+        let face = patch.face_normals[t];
+        data.extend(corners.map(|v| vec4(patch.positions[v as usize])));
+        data.push(vec4(face));
+        // An edge's normal is its two faces' (as `SurfacePatch::resolve`'s).
+        data.extend(
+            patch.across[t]
+                .map(|other| vec4(other.map_or(face, |o| (face + patch.face_normals[o as usize]).normalize_or(face)))),
+        );
+        data.extend(corners.map(|v| vec4(patch.corner_normals[v as usize])));
+    }
+    let mut words = |list: &[u32]| {
+        let at = data.len() as u32;
+        data.extend(list.chunks(4).map(|w| std::array::from_fn(|i| w.get(i).copied().unwrap_or(0))));
+        at
+    };
+    let starts = words(patch.starts);
+    let bins = words(patch.bins);
+    [header + 1, triangles, starts, bins]
 }
 
 /// Where [`CollisionResponse::CentreRay`] pushes from, head-local, as the CPU solver decides

@@ -37,6 +37,9 @@ struct Step {
     ray_from: vec4<f32>,
     // What `translate_particles` adds to every particle (xyz).
     offset: vec4<f32>,
+    // The moving skin (`colliders` after the extras), vec4 indices: its header plus one
+    // (0: no skin), its triangles, its bins' starts and lists.
+    skin: vec4<u32>,
 }
 
 @group(0) @binding(0) var<uniform> step: Step;
@@ -52,8 +55,16 @@ struct Step {
 // Per strand: the head-local root frame, a quaternion.
 @group(0) @binding(5) var<storage, read> root_frames: array<vec4<f32>>;
 // Per extra collider: centre or first end and radius; second end and kind (0 sphere,
-// 1 capsule). World space.
-@group(0) @binding(6) var<storage, read> extras: array<vec4<f32>>;
+// 1 capsule), world space. Then the skin that moves against the head (a surface patch),
+// head-local: a header (bins' origin and reach; bins along x, y, z and their side), ten
+// vec4 per triangle (corners, face normal, edge normals, corner normals), and the bins'
+// starts and lists, four per vec4. Held as u32 and read as floats by `collider`: small
+// integers as float bits are denormals, which a GPU may flush to zero.
+@group(0) @binding(6) var<storage, read> colliders: array<vec4<u32>>;
+
+fn collider(i: u32) -> vec4<f32> {
+    return bitcast<vec4<f32>>(colliders[i]);
+}
 // The collider's signed distances, x fastest.
 @group(0) @binding(7) var<storage, read> grid: array<f32>;
 // The spring model's memory and scratch, six vec4 per particle (see `springs_*` below);
@@ -234,11 +245,17 @@ fn with_friction(position: vec3<f32>, normal: vec3<f32>, origin: vec3<f32>) -> v
     return position - tangential * step.limits.z;
 }
 
-// Head-local `p` pushed out to the collision shell along the grid's normal, or `p`.
+// Head-local `p` pushed out to the collision shell along the grid's normal or out of the
+// moving skin, whichever is deeper, or `p`.
 fn out_of_head(p: vec3<f32>) -> vec3<f32> {
     let surface = head_surface(p);
-    if surface.distance < step.limits.y {
-        return p + surface.normal * (step.limits.y - surface.distance);
+    let skin = patch_contact(p);
+    let head_depth = step.limits.y - surface.distance;
+    if skin.hit && skin.depth > head_depth {
+        return skin.position;
+    }
+    if head_depth > 0.0 {
+        return p + surface.normal * head_depth;
     }
     return p;
 }
@@ -285,8 +302,8 @@ fn head_contact(p: vec3<f32>) -> Contact {
 fn out_of_extras(x_in: vec3<f32>, origin: vec3<f32>) -> vec3<f32> {
     var x = x_in;
     for (var e = 0u; e < step.flags.y; e++) {
-        let a = extras[2u * e];
-        let b = extras[2u * e + 1u];
+        let a = collider(2u * e);
+        let b = collider(2u * e + 1u);
         var centre = a.xyz;
         if b.w == 1.0 {
             let ab = b.xyz - a.xyz;
@@ -307,9 +324,134 @@ fn out_of_extras(x_in: vec3<f32>, origin: vec3<f32>) -> vec3<f32> {
     return x;
 }
 
-// Whether world `x` (head-local `local`) lies deeper than half the shell in the head.
+// Whether head-local `local` lies deeper than half the shell in the head or the skin
+// that moves against it.
 fn too_deep(local: vec3<f32>) -> bool {
-    return head_surface(local).distance < 0.5 * step.limits.y;
+    let skin = patch_contact(local);
+    return head_surface(local).distance < 0.5 * step.limits.y || (skin.hit && skin.depth > 0.5 * step.limits.y);
+}
+
+// --- The skin that moves against the head: hair_sim's `SurfacePatch::resolve` ---
+
+struct PatchContact {
+    hit: bool,
+    position: vec3<f32>,
+    normal: vec3<f32>,
+    depth: f32,
+}
+
+fn patch_u32(start: u32, k: u32) -> u32 {
+    return colliders[start + k / 4u][k % 4u];
+}
+
+// The point of triangle `a b c` closest to `p` (Ericson, Real-Time Collision Detection
+// 5.1.5), and where it lies: 0 the face, 1–3 corner a, b, c, 4–6 edge ab, bc, ca.
+struct OnTriangle {
+    point: vec3<f32>,
+    feature: u32,
+}
+
+fn closest_on_triangle(p: vec3<f32>, a: vec3<f32>, b: vec3<f32>, c: vec3<f32>) -> OnTriangle {
+    let ab = b - a;
+    let ac = c - a;
+    let ap = p - a;
+    let d1 = dot(ab, ap);
+    let d2 = dot(ac, ap);
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return OnTriangle(a, 1u);
+    }
+    let bp = p - b;
+    let d3 = dot(ab, bp);
+    let d4 = dot(ac, bp);
+    if d3 >= 0.0 && d4 <= d3 {
+        return OnTriangle(b, 2u);
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return OnTriangle(a + ab * (d1 / (d1 - d3)), 4u);
+    }
+    let cp = p - c;
+    let d5 = dot(ab, cp);
+    let d6 = dot(ac, cp);
+    if d6 >= 0.0 && d5 <= d6 {
+        return OnTriangle(c, 3u);
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return OnTriangle(a + ac * (d2 / (d2 - d6)), 6u);
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0 {
+        return OnTriangle(b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6))), 5u);
+    }
+    let denominator = 1.0 / (va + vb + vc);
+    return OnTriangle(a + ab * (vb * denominator) + ac * (vc * denominator), 0u);
+}
+
+// Where the moving skin pushes head-local `p`: out to the shell along the normal at its
+// closest point, if `p` is behind that normal or within the shell, within the patch's
+// reach.
+fn patch_contact(p: vec3<f32>) -> PatchContact {
+    let none = PatchContact(false, p, vec3<f32>(0.0), 0.0);
+    let thickness = step.limits.y;
+    if step.skin.x == 0u {
+        return none;
+    }
+    let header = step.skin.x - 1u;
+    let origin = collider(header).xyz;
+    let reach = collider(header).w;
+    let dims = colliders[header + 1u].xyz;
+    let cell = collider(header + 1u).w;
+    if thickness > reach {
+        return none;
+    }
+    let c = (p - origin) / cell;
+    if !(all(c >= vec3<f32>(0.0)) && all(c < vec3<f32>(dims))) {
+        return none;
+    }
+    let bin = vec3<u32>(c);
+    let index = (bin.z * dims.y + bin.y) * dims.x + bin.x;
+    var best_distance = 3.4e38;
+    var best = OnTriangle(p, 0u);
+    var best_triangle = 0u;
+    for (var k = patch_u32(step.skin.z, index); k < patch_u32(step.skin.z, index + 1u); k++) {
+        let t = patch_u32(step.skin.w, k);
+        let base = step.skin.y + 10u * t;
+        let on = closest_on_triangle(p, collider(base).xyz, collider(base + 1u).xyz, collider(base + 2u).xyz);
+        let d = dot(p - on.point, p - on.point);
+        if d < best_distance {
+            best_distance = d;
+            best = on;
+            best_triangle = base;
+        }
+    }
+    if best_distance > 3.0e38 {
+        return none;
+    }
+    let distance = sqrt(best_distance);
+    if distance > reach {
+        return none;
+    }
+    // The face's normal, an edge's (the two faces'), or a corner's: the feature's.
+    var normal = collider(best_triangle + 3u).xyz;
+    if best.feature >= 4u {
+        normal = collider(best_triangle + best.feature).xyz;
+    } else if best.feature >= 1u {
+        normal = collider(best_triangle + 6u + best.feature).xyz;
+    }
+    let offset = p - best.point;
+    var signed = distance;
+    if dot(offset, normal) < 0.0 {
+        signed = -distance;
+    }
+    if signed >= thickness || all(normal == vec3<f32>(0.0)) {
+        return none;
+    }
+    var out = normal;
+    if distance > 1e-7 {
+        out = offset / signed;
+    }
+    return PatchContact(true, best.point + out * thickness, out, thickness - signed);
 }
 
 // --- The step ---
@@ -405,6 +547,12 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
                         }
                     }
                     x = world_point(now, held);
+                }
+                // The skin that moved against the head's frame, as it is now.
+                let local = local_point(now, x);
+                let skin = patch_contact(local);
+                if skin.hit {
+                    x = world_point(now, with_friction(skin.position, skin.normal, local_point(before, start(i))));
                 }
             }
             positions[i] = vec4<f32>(out_of_extras(x, start(i)), 0.0);

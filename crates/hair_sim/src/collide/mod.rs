@@ -17,7 +17,7 @@ mod shapes;
 mod triangles;
 
 pub use distance_grid::DistanceGrid;
-pub use patch::SurfacePatch;
+pub use patch::{PatchParts, SurfacePatch};
 pub use shapes::ExtraCollider;
 
 use crate::math::Vec3;

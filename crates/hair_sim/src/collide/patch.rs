@@ -36,6 +36,33 @@ pub struct SurfacePatch {
     bins: Vec<u32>,
 }
 
+/// A [`SurfacePatch`]'s data as [`SurfacePatch::resolve`] reads it.
+#[derive(Clone, Copy, Debug)]
+pub struct PatchParts<'a> {
+    /// Corner indices per triangle.
+    pub triangles: &'a [[u32; 3]],
+    /// Corner positions, head-local.
+    pub positions: &'a [Vec3],
+    /// Per triangle, the triangle across each edge (AB, BC, CA), if any.
+    pub across: &'a [[Option<u32>; 3]],
+    /// Unit face normals (zero for a triangle without area).
+    pub face_normals: &'a [Vec3],
+    /// Angle-weighted unit corner normals.
+    pub corner_normals: &'a [Vec3],
+    /// How far from the surface the patch answers, metres.
+    pub reach: f32,
+    /// Side of a bin, metres.
+    pub cell: f32,
+    /// The lowest corner of the bins.
+    pub origin: Vec3,
+    /// Bins along x, y and z.
+    pub dims: [usize; 3],
+    /// Where each bin's list starts in `bins` (one more than there are bins), x fastest.
+    pub starts: &'a [u32],
+    /// The bins' triangle lists, one after another.
+    pub bins: &'a [u32],
+}
+
 impl SurfacePatch {
     /// A patch of `triangles` over `positions`, answering queries up to `reach` metres from
     /// its surface (a collision thickness larger than that skips the patch).
@@ -58,6 +85,23 @@ impl SurfacePatch {
     /// The corners' positions now (head-local).
     pub fn positions(&self) -> &[Vec3] {
         &self.positions
+    }
+
+    /// Everything [`Self::resolve`] reads, for a copy elsewhere (the GPU solver's).
+    pub fn parts(&self) -> PatchParts<'_> {
+        PatchParts {
+            triangles: &self.triangles,
+            positions: &self.positions,
+            across: &self.across,
+            face_normals: &self.face_normals,
+            corner_normals: &self.corner_normals,
+            reach: self.reach,
+            cell: CELL,
+            origin: self.origin,
+            dims: self.dims,
+            starts: &self.starts,
+            bins: &self.bins,
+        }
     }
 
     /// Moves the corners to `positions` (head-local, as many as before; otherwise, or if
