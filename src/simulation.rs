@@ -291,6 +291,13 @@ impl HairState {
         self.last_step_time
     }
 
+    /// Why the last step ran on the CPU although the groom asks for
+    /// [`HairBackend::Gpu`] (as reported in a [`HairError`]); `None` when it ran where it
+    /// asked to.
+    pub fn gpu_fallback(&self) -> Option<&str> {
+        self.gpu.issue.as_deref()
+    }
+
     /// Puts every strand back at rest on the head, motionless.
     pub fn reset(&mut self) {
         self.strands.reset(relative_to(self.pose_to, self.origin));

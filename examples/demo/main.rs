@@ -5,7 +5,8 @@
 //! ```text
 //! cargo run --release --example demo
 //! cargo run --example demo -- [--preset NAME] [--lights KIND] [--shading MODEL] [--self-shadow X]
-//!     [--antialias MODE] [--camera Y,P,D] [--screenshot FILE [--frames N] [--no-panel] [--size WxH]]
+//!     [--antialias MODE] [--solver cpu|gpu] [--camera Y,P,D] [--screenshot FILE [--frames N] [--no-panel]
+//!     [--size WxH]]
 //! ```
 //!
 //! Mouse: drag to orbit, wheel to zoom; in "drag the head" mode the left button moves the
@@ -33,7 +34,7 @@ use bevy_hair::prelude::*;
 use std::path::PathBuf;
 
 const USAGE: &str = "usage: demo [--preset NAME] [--lights KIND] [--shading MODEL] [--self-shadow X] [--antialias MODE]
-            [--camera Y,P,D] [--screenshot FILE [--frames N] [--no-panel] [--size WxH]]
+            [--solver cpu|gpu] [--camera Y,P,D] [--screenshot FILE [--frames N] [--no-panel] [--size WxH]]
   --preset NAME      start with this hairstyle: Shoulder (default), Short, Long, Curly, Windy, Reference
   --lights KIND      studio (default: key, fill and rim lights), lamps (a point and a spot light),
                      above (one light from above), behind (one light from behind)
@@ -41,6 +42,7 @@ const USAGE: &str = "usage: demo [--preset NAME] [--lights KIND] [--shading MODE
   --self-shadow X    how much light a layer of hair stops, 0 to 1 (0: no self-shadowing)
   --antialias MODE   how strands thinner than a pixel are drawn: auto (default: blended when the
                      whole groom is that thin), coverage (MSAA alpha-to-coverage), blended, off
+  --solver cpu|gpu   step the hair on the CPU (default) or with the GPU solver (each step read back)
   --camera Y,P,D     start the orbit camera at yaw Y and pitch P (radians), D metres away
   --screenshot FILE  render N frames once the hair is grown, save the last as FILE (PNG), check it, exit
   --frames N         frames of animation before the screenshot (default 60)
@@ -84,6 +86,11 @@ fn parse_args() -> Result<Options, String> {
                 let mode = scene::ANTIALIAS_MODES.iter().find_map(|&(mode, n)| (n == name).then_some(mode));
                 options.stage.antialias =
                     Some(mode.ok_or(format!("--antialias is auto, coverage, blended or off, not {name:?}"))?);
+            }
+            "--solver" => {
+                let name = args.next().ok_or("--solver needs cpu or gpu")?;
+                let backend = scene::BACKENDS.iter().find_map(|&(backend, n)| (n == name).then_some(backend));
+                options.stage.backend = backend.ok_or(format!("--solver is cpu or gpu, not {name:?}"))?;
             }
             "--lights" => {
                 let name = args.next().ok_or("--lights needs a kind")?;

@@ -6,7 +6,7 @@
 
 use crate::motion::Motion;
 use crate::presets::{self, Preset};
-use crate::scene::{ANTIALIAS_MODES, Head};
+use crate::scene::{ANTIALIAS_MODES, BACKENDS, Head};
 use bevy::diagnostic::{DiagnosticPath, DiagnosticsStore, FrameTimeDiagnosticsPlugin};
 use bevy::prelude::*;
 use bevy_egui::{EguiContexts, EguiPrimaryContextPass, egui};
@@ -25,6 +25,7 @@ type HeadQuery = (
     &'static GroomStatus,
     Option<&'static mut HairState>,
     Option<&'static mut HairLod>,
+    &'static mut HairBackend,
 );
 
 #[allow(clippy::too_many_arguments)] // one system that draws the whole panel
@@ -40,7 +41,7 @@ fn panel(
     // The groom being edited: applied to the head (which regrows) when an edit is finished.
     mut draft: Local<Option<HairGroom>>,
 ) -> Result {
-    let (entity, groom, look, status, state, lod) = &mut *head;
+    let (entity, groom, look, status, state, lod, backend) = &mut *head;
     let ctx = contexts.ctx_mut()?;
     egui::Window::new("Hair").default_width(300.0).default_pos([12.0, 12.0]).show(ctx, |ui| {
         egui::ScrollArea::vertical().max_height(680.0).show(ui, |ui| {
@@ -56,6 +57,12 @@ fn panel(
             });
             ui.separator();
             egui::CollapsingHeader::new("Simulation").default_open(true).show(ui, |ui| {
+                ui.horizontal(|ui| {
+                    ui.label("solver");
+                    for (choice, name) in BACKENDS {
+                        ui.selectable_value(&mut **backend, choice, name);
+                    }
+                });
                 simulation_section(ui, &mut settings.0);
                 clock_section(ui, &mut clock);
                 if ui.button("Reset hair to rest (R)").clicked()
@@ -139,6 +146,9 @@ fn stats_section(
         row("fps", format!("{:.0}", smoothed(&FrameTimeDiagnosticsPlugin::FPS)));
         row("simulation", format!("{:.2} ms / step", smoothed(&HairDiagnostics::STEP_TIME)));
         row("particles", format!("{:.0}", smoothed(&HairDiagnostics::PARTICLES)));
+        if let Some(why) = state.and_then(HairState::gpu_fallback) {
+            row("solver", format!("CPU: {why}"));
+        }
         if let Some(strands) = state.map(HairState::strands) {
             let (simulated, all, level) = (strands.simulated_strands(), strands.strand_count(), strands.detail_level());
             row("simulated guides", format!("{simulated} of {all} (level of detail {level})"));

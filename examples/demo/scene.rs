@@ -70,6 +70,9 @@ pub const ANTIALIAS_MODES: [(HairAntialias, &str); 4] = [
     (HairAntialias::Off, "off"),
 ];
 
+/// The solver backends, as `--solver` and the panel name them.
+pub const BACKENDS: [(HairBackend, &str); 2] = [(HairBackend::Cpu, "cpu"), (HairBackend::Gpu, "gpu")];
+
 /// How the stage is set up from the command line: the lights, and changes to the preset's
 /// look (`None`: the preset's own).
 #[derive(Resource, Clone, Copy, Debug, Default)]
@@ -82,6 +85,8 @@ pub struct Stage {
     pub self_shadow: Option<f32>,
     /// `--antialias`.
     pub antialias: Option<HairAntialias>,
+    /// `--solver`.
+    pub backend: HairBackend,
     /// `--camera`: where the orbit camera starts.
     pub camera: Option<OrbitCamera>,
 }
@@ -240,7 +245,7 @@ fn dress_the_head(
     look.self_shadow = stage.self_shadow.unwrap_or(look.self_shadow);
     look.antialias = stage.antialias.unwrap_or(look.antialias);
     let skin = materials.add(StandardMaterial { base_color: Color::WHITE, perceptual_roughness: 0.55, ..default() });
-    commands.entity(mesh).insert((Head, MeshMaterial3d(skin), start.groom, look));
+    commands.entity(mesh).insert((Head, MeshMaterial3d(skin), start.groom, look, stage.backend));
 }
 
 /// Left drag (or right drag, which also works while the left button drags the head) orbits,
