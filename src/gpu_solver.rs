@@ -25,79 +25,77 @@ pub(crate) struct GpuSolver {
     pub issue: Option<String>,
 }
 
+#[cfg(feature = "render")]
 impl GpuSolver {
     /// Steps `strands` on the GPU (made from them on the first step) and copies the
     /// positions back. `Err` says why the GPU cannot step them; the caller steps them on
     /// the CPU instead.
     pub fn step(&mut self, strands: &mut Strands, input: &StepInput, device: Option<&GpuDevice>) -> Result<(), String> {
-        #[cfg(feature = "render")]
-        {
-            let context = match device.map(|d| &d.0) {
-                Some(Ok(context)) => context,
-                Some(Err(why)) => return Err(why.clone()),
-                None => return Err("the app has no render device".into()),
-            };
-            let gpu = match &mut self.strands {
-                Some(gpu) => gpu,
-                empty => {
-                    let mut gpu = hair_gpu::GpuStrands::new(context, strands.rest(), input.head_from, input.collider)
-                        .map_err(|e| e.to_string())?;
-                    gpu.set_positions(strands.positions());
-                    empty.insert(gpu)
-                }
-            };
-            let positions = gpu.step(input).and_then(|()| gpu.positions()).map_err(|e| {
-                self.strands = None;
-                e.to_string()
-            })?;
-            // The GPU resets a strand that goes non-finite, so this holds.
-            strands.set_positions(&positions).map_err(|e| e.to_string())
-        }
-        #[cfg(not(feature = "render"))]
-        {
-            let _ = (strands, input, device);
-            Err("bevy_hair was built without its `render` feature".into())
-        }
+        let context = match device.map(|d| &d.0) {
+            Some(Ok(context)) => context,
+            Some(Err(why)) => return Err(why.clone()),
+            None => return Err("the app has no render device".into()),
+        };
+        let gpu = match &mut self.strands {
+            Some(gpu) => gpu,
+            empty => {
+                let mut gpu = hair_gpu::GpuStrands::new(context, strands.rest(), input.head_from, input.collider)
+                    .map_err(|e| e.to_string())?;
+                gpu.set_positions(strands.positions());
+                empty.insert(gpu)
+            }
+        };
+        let positions = gpu.step(input).and_then(|()| gpu.positions()).map_err(|e| {
+            self.strands = None;
+            e.to_string()
+        })?;
+        // The GPU resets a strand that goes non-finite, so this holds.
+        strands.set_positions(&positions).map_err(|e| e.to_string())
     }
 
     /// Forgets the GPU strands: the groom steps on the CPU from here (and starts on the GPU
     /// again from the CPU's positions).
     pub fn release(&mut self) {
-        #[cfg(feature = "render")]
-        {
-            self.strands = None;
-        }
+        self.strands = None;
     }
 
     /// The solver's origin moved by `-offset`: see [`Strands::translate`].
     pub fn translate(&mut self, offset: SimVec3) {
-        #[cfg(feature = "render")]
         if let Some(gpu) = &mut self.strands {
             gpu.translate(offset);
         }
-        #[cfg(not(feature = "render"))]
-        let _ = offset;
     }
 
     /// See [`Strands::set_rest_root`].
     pub fn set_rest_root(&mut self, strand: usize, root: SimVec3) {
-        #[cfg(feature = "render")]
         if let Some(gpu) = &mut self.strands {
             gpu.set_rest_root(strand, root);
         }
-        #[cfg(not(feature = "render"))]
-        let _ = (strand, root);
     }
 
     /// See [`Strands::reset`].
     pub fn reset(&mut self, pose: Pose) {
-        #[cfg(feature = "render")]
         if let Some(gpu) = &mut self.strands {
             gpu.reset(pose);
         }
-        #[cfg(not(feature = "render"))]
-        let _ = pose;
     }
+}
+
+/// Without the `render` feature there is no GPU: every step is the CPU's, and nothing
+/// holds GPU strands to keep in step.
+#[cfg(not(feature = "render"))]
+impl GpuSolver {
+    pub fn step(&mut self, _: &mut Strands, _: &StepInput, _: Option<&GpuDevice>) -> Result<(), String> {
+        Err("bevy_hair was built without its `render` feature".into())
+    }
+
+    pub fn release(&mut self) {}
+
+    pub fn translate(&mut self, _: SimVec3) {}
+
+    pub fn set_rest_root(&mut self, _: usize, _: SimVec3) {}
+
+    pub fn reset(&mut self, _: Pose) {}
 }
 
 /// Opens the GPU solver on the render device the first time a groom asks for it.

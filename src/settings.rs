@@ -30,7 +30,10 @@ pub enum HairBackend {
     /// no whole-segment test, [`SimParams::segment_collision`]). Each step waits
     /// for the GPU and reads the positions back, so everything that reads [`HairState`]
     /// (drawing, self-shadows, `.hair` files) works unchanged; drawing straight from the
-    /// GPU's buffers is not built yet. Every guide is simulated (levels of detail do not
+    /// GPU's buffers is not built yet. The wait covers all the queue holds before the step,
+    /// the last frame's drawing included, so the CPU and the GPU take turns: experimental,
+    /// for measuring and for machines whose CPU is the bottleneck. Every guide is simulated
+    /// (levels of detail do not
     /// apply), and [`HairState::last_report`] counts nothing. Where the GPU cannot step
     /// the groom (no render device, an adapter without compute), it steps on the CPU and a
     /// [`HairError`](crate::HairError) says why, once.

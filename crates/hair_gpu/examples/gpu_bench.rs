@@ -42,14 +42,7 @@ fn main() {
     };
     let head = test_head(4);
     let collider = HeadCollider::new(&head, DEFAULT_GRID_RESOLUTION).expect("procedural head");
-    let scalp: Vec<f32> = head
-        .triangles
-        .iter()
-        .map(|t| {
-            let c = head.corners(t).iter().sum::<Vec3>() / 3.0;
-            if c.y > 0.01 && c.z < 0.06 { 1.0 } else { 0.0 }
-        })
-        .collect();
+    let scalp = test_scalp(&head);
     let params = SimParams::default();
     for (guides, particles) in sizes {
         let roots = sample_roots(&head, &scalp, guides, 1).expect("scalp");

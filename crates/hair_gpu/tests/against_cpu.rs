@@ -43,14 +43,7 @@ fn gpu() -> Option<GpuContext> {
 fn groom(guides: usize) -> (HeadMesh, HeadCollider, RestShape) {
     let head = test_head(4);
     let collider = HeadCollider::new(&head, DEFAULT_GRID_RESOLUTION).expect("procedural head");
-    let scalp: Vec<f32> = head
-        .triangles
-        .iter()
-        .map(|t| {
-            let c = head.corners(t).iter().sum::<Vec3>() / 3.0;
-            if c.y > 0.01 && c.z < 0.06 { 1.0 } else { 0.0 }
-        })
-        .collect();
+    let scalp = test_scalp(&head);
     let roots = sample_roots(&head, &scalp, guides, 7).expect("scalp");
     let params = GuideParams { segments: 15, length: 0.25, ..GuideParams::default() };
     let rest = RestShape::new(grow_guides(&head, &roots, &params, 7).expect("roots"), 16).expect("guides");
@@ -110,6 +103,13 @@ fn apart(a: &[Vec3], b: &[Vec3]) -> (f32, f32, f32) {
     (d.iter().sum::<f32>() / d.len() as f32, d.iter().copied().fold(0.0, f32::max), far)
 }
 
+/// How deep the deepest particle (roots aside) lies inside the head posed at `pose`, by
+/// the exact mesh (not the grid the GPU collides with); 0 when none is inside.
+fn deepest_in_head(positions: &[Vec3], n: usize, collider: &HeadCollider, pose: Pose) -> f32 {
+    let depths = positions.iter().enumerate().filter(|(i, _)| i % n != 0);
+    depths.map(|(_, &p)| -collider.signed_distance(pose.inverse_transform_point(p))).fold(0.0, f32::max)
+}
+
 /// Largest |segment length / rest length − 1|.
 fn max_stretch(positions: &[Vec3], rest: &RestShape) -> f32 {
     let n = rest.particles_per_strand;
@@ -160,13 +160,7 @@ fn with_collision_the_gpu_stays_near_the_cpu_and_out_of_the_head() {
         let (cpu, on_gpu) = run_both_with(&gpu, &rest, &collider, &params, &extras, steps, head_pose);
         let (mean, max, far) = apart(&cpu, &on_gpu);
         let pose = head_pose(steps as f32 / 60.0);
-        // Depth below the exact mesh (not the grid the GPU collides with).
-        let deepest = on_gpu
-            .iter()
-            .enumerate()
-            .filter(|(i, _)| i % n != 0)
-            .map(|(_, &p)| -collider.signed_distance(pose.inverse_transform_point(p)))
-            .fold(0.0f32, f32::max);
+        let deepest = deepest_in_head(&on_gpu, n, &collider, pose);
         let in_extras = on_gpu
             .iter()
             .flat_map(|&p| extras.iter().filter_map(move |e| e.resolve(p, 0.0)))
@@ -231,12 +225,7 @@ fn the_spring_model_follows_the_cpu() {
         let stretch = max_stretch(&on_gpu, &rest);
         let (drop_cpu, drop_gpu) = (mean_tip_drop(&cpu, n), mean_tip_drop(&on_gpu, n));
         let pose = head_pose(steps as f32 / 60.0);
-        let deepest = on_gpu
-            .iter()
-            .enumerate()
-            .filter(|(i, _)| i % n != 0)
-            .map(|(_, &p)| -collider.signed_distance(pose.inverse_transform_point(p)))
-            .fold(0.0f32, f32::max);
+        let deepest = deepest_in_head(&on_gpu, n, &collider, pose);
         eprintln!(
             "springs, collision {collision}, after {steps} steps: stretch {stretch:.4}, tips {:.1} mm (CPU {:.1} mm) \
              below the roots, deepest in the head {:.3} mm",

@@ -15,17 +15,6 @@ fn head() -> HeadMesh {
     test_head(4)
 }
 
-/// Scalp weights: the top and back of the head, as in `examples/bench.rs`.
-fn scalp(head: &HeadMesh) -> Vec<f32> {
-    head.triangles
-        .iter()
-        .map(|t| {
-            let c = head.corners(t).iter().sum::<Vec3>() / 3.0;
-            if c.y > 0.01 && c.z < 0.06 { 1.0 } else { 0.0 }
-        })
-        .collect()
-}
-
 /// A head turning and nodding, one pose per frame.
 fn head_pose(frame: u64) -> Pose {
     let t = frame as f32 * DT;
@@ -81,7 +70,7 @@ fn collider_resolve(c: &mut Criterion) {
 fn settled_groom(guides: usize, settle_steps: usize) -> (HeadCollider, RestShape) {
     let head = head();
     let collider = HeadCollider::new(&head, DEFAULT_GRID_RESOLUTION).unwrap();
-    let roots = sample_roots(&head, &scalp(&head), guides, 1).unwrap();
+    let roots = sample_roots(&head, &test_scalp(&head), guides, 1).unwrap();
     let guide = GuideParams { segments: 15, length: 0.25, ..GuideParams::default() };
     let rest = RestShape::new(grow_guides(&head, &roots, &guide, 1).unwrap(), 16).unwrap();
     let rest = settle(rest, Some(&collider), &SimParams::default(), settle_steps, Vec3::ZERO).unwrap();
@@ -119,7 +108,7 @@ fn strand_step(c: &mut Criterion) {
 
 fn groom(c: &mut Criterion) {
     let head = head();
-    let weights = scalp(&head);
+    let weights = test_scalp(&head);
     let params = GuideParams::default();
     c.bench_function("sample_roots + grow_guides 2048", |b| {
         b.iter(|| {

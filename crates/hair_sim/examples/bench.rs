@@ -85,14 +85,7 @@ fn main() {
 
     let head = test_head(4);
     let collider = HeadCollider::new(&head, DEFAULT_GRID_RESOLUTION).expect("procedural head");
-    let scalp: Vec<f32> = head
-        .triangles
-        .iter()
-        .map(|t| {
-            let c = head.corners(t).iter().sum::<Vec3>() / 3.0;
-            if c.y > 0.01 && c.z < 0.06 { 1.0 } else { 0.0 }
-        })
-        .collect();
+    let scalp = test_scalp(&head);
     let roots = sample_roots(&head, &scalp, guides, 1).expect("scalp");
     let guide_params = GuideParams { segments: particles - 1, length: 0.25, ..GuideParams::default() };
     let rest = RestShape::new(grow_guides(&head, &roots, &guide_params, 1).expect("roots on the head"), particles)

@@ -56,7 +56,7 @@ pub mod prelude {
         transport_frames,
     };
     pub use crate::math::{Pose, Quat, Vec3};
-    pub use crate::mesh::{HeadMesh, MeshError, test_head};
+    pub use crate::mesh::{HeadMesh, MeshError, test_head, test_scalp};
     pub use crate::solver::{
         CollisionResponse, LengthMode, RestShape, SimParams, SimdPath, StepInput, StepReport, Strands, Wind,
     };

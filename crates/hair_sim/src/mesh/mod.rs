@@ -11,7 +11,7 @@ pub(crate) use inside::closest_barycentric;
 mod procedural;
 
 pub use inside::{InsideTest, StrandsInside};
-pub use procedural::test_head;
+pub use procedural::{test_head, test_scalp};
 
 use crate::math::Vec3;
 use std::fmt;

@@ -27,6 +27,18 @@ pub fn test_head(subdivisions: u32) -> HeadMesh {
     HeadMesh::from_triangles(positions, triangles).expect("the procedural head is a valid closed mesh")
 }
 
+/// The scalp the benchmarks and tests paint on [`test_head`]: per triangle, 1 where its
+/// centre lies above the ears' level (y > 1 cm) and behind the hairline (z < 6 cm), else 0.
+pub fn test_scalp(head: &HeadMesh) -> Vec<f32> {
+    head.triangles
+        .iter()
+        .map(|t| {
+            let c = head.corners(t).iter().sum::<Vec3>() / 3.0;
+            if c.y > 0.01 && c.z < 0.06 { 1.0 } else { 0.0 }
+        })
+        .collect()
+}
+
 /// Distance from the centre to the surface along the unit direction `d`.
 fn head_radius(d: Vec3) -> f32 {
     let skull = 1.0 / (d / SKULL_RADII).length();
