@@ -32,7 +32,7 @@
 use bytemuck::{Pod, Zeroable};
 use hair_sim::collide::HeadCollider;
 use hair_sim::math::{Pose, Vec3};
-use hair_sim::solver::{CollisionResponse, LengthMode, RestShape, StepInput, step_length, stiffness_per_application};
+use hair_sim::solver::{LengthMode, RestShape, StepConstants, StepInput};
 use wgpu::util::DeviceExt;
 
 pub use wgpu;
@@ -41,8 +41,8 @@ pub use wgpu;
 pub const SHADER: &str = include_str!("step.wgsl");
 /// Strands per workgroup, as `step.wgsl` declares.
 const WORKGROUP_SIZE: u32 = 64;
-/// The most substeps a step takes ([`hair_sim::solver::SimParams`]'s own limit): the pose table holds one
-/// more pose than this.
+/// Substeps the pose table holds room for at first ([`hair_sim::solver::SimParams`]'s own
+/// limit); a step with more grows it.
 const MAX_SUBSTEPS: u32 = 64;
 
 /// What went wrong on the GPU path.
@@ -445,18 +445,18 @@ impl GpuStrands {
         if collide_head && self.grid_info.is_none() {
             return Err(GpuError::NoCollider);
         }
-        let Some(dt) = step_length(input) else { return Ok(()) };
+        let Some(constants) = StepConstants::new(input, self.particles_per_strand as usize) else { return Ok(()) };
         let springs = p.length_mode == LengthMode::Springs;
         if springs {
             self.prepare_springs()?;
         }
         let patch = self.upload_colliders(input);
-        let (mut uniform, tables) = self.constants(input, dt, collide_head);
+        let (mut uniform, tables) = self.constants(input, &constants, collide_head);
         uniform.skin = patch;
+        self.upload_tables(&tables);
         // What the next step may remember: this one's spring memory, or none.
         self.springs_remembered = springs;
         self.queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&uniform));
-        self.queue.write_buffer(&self.tables, 0, bytemuck::cast_slice(&tables));
         let mut encoder =
             self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("hair_gpu") });
         {
@@ -480,17 +480,13 @@ impl GpuStrands {
         Ok(())
     }
 
-    /// The uniform and the pose and alpha table for one step of length `dt`, as the CPU
-    /// solver's `Constants` computes them.
-    fn constants(&self, input: &StepInput, dt: f32, collide_head: bool) -> (StepUniform, Vec<[f32; 4]>) {
+    /// The uniform and the pose and alpha table for one step with `c`'s constants (the
+    /// CPU solver's own).
+    fn constants(&self, input: &StepInput, c: &StepConstants, collide_head: bool) -> (StepUniform, Vec<[f32; 4]>) {
         let p = input.params;
-        let n = self.particles_per_strand as usize;
-        let from = if input.head_from.is_valid() { input.head_from } else { input.head_to };
-        let substeps = p.substeps.clamp(1, MAX_SUBSTEPS);
-        let h = dt / substeps as f32;
-        let mut tables: Vec<[f32; 4]> = Vec::with_capacity(4 * (substeps as usize + 1) + n.div_ceil(4));
-        for s in 0..=substeps {
-            let pose = from.lerp(&input.head_to, s as f32 / substeps as f32);
+        let substeps = (c.poses.len() - 1) as u32;
+        let mut tables: Vec<[f32; 4]> = Vec::with_capacity(4 * c.poses.len() + c.global_alpha.len().div_ceil(4));
+        for pose in &c.poses {
             // As the CPU solver turns a quaternion into a matrix (`PoseMatrix`).
             let m = glam::Mat3A::from_quat(pose.rotation);
             for column in [m.x_axis.into(), m.y_axis.into(), m.z_axis.into(), pose.translation] {
@@ -498,28 +494,15 @@ impl GpuStrands {
             }
         }
         let alphas_at = tables.len() as u32;
-        let applications_per_second = p.iterations.max(1) as f32 / h;
-        let alphas: Vec<f32> = (0..n)
-            .map(|j| {
-                let t = j as f32 / (n - 1) as f32;
-                let s = p.global_stiffness_root + (p.global_stiffness_tip - p.global_stiffness_root) * t;
-                stiffness_per_application(s, applications_per_second)
-            })
-            .collect();
-        tables.extend(alphas.chunks(4).map(|a| std::array::from_fn(|i| a.get(i).copied().unwrap_or(0.0))));
+        tables.extend(c.global_alpha.chunks(4).map(|a| std::array::from_fn(|i| a.get(i).copied().unwrap_or(0.0))));
         let direction = Vec3::from_array(p.wind.direction).normalize_or_zero();
         let strength = if direction == Vec3::ZERO { 0.0 } else { p.wind.strength };
         let grid = self.grid_info.filter(|_| collide_head);
         let uniform = StepUniform {
             counts: [self.strands, self.particles_per_strand, substeps, p.iterations],
             flags: [u32::from(p.collision), input.extra_colliders.len() as u32 * u32::from(p.collision), alphas_at, 0],
-            gravity_h: [p.gravity[0], p.gravity[1], p.gravity[2], h],
-            motion: [
-                (-p.drag * h).exp(),
-                p.max_speed * h,
-                stiffness_per_application(p.local_stiffness, applications_per_second),
-                p.ftl_damping / h,
-            ],
+            gravity_h: [p.gravity[0], p.gravity[1], p.gravity[2], c.h],
+            motion: [c.drag_factor, c.max_step_move, c.local_alpha, c.ftl_velocity],
             limits: [p.max_speed, p.collision_thickness, p.friction, p.teleport_distance],
             wind: [direction.x, direction.y, direction.z, strength],
             gusts: [p.wind.gust_strength, p.wind.gust_frequency, input.time, 0.0],
@@ -528,7 +511,7 @@ impl GpuStrands {
             centre: grid.map_or([0.0; 4], |g| [g.centre.x, g.centre.y, g.centre.z, 0.0]),
             springs: [p.spring_stiffness, p.spring_damping, 1.0 / p.particle_mass, p.length_tolerance],
             spring_flags: [u32::from(p.length_mode == LengthMode::Springs), u32::from(self.springs_remembered), 0, 0],
-            ray_from: ray_from(input).map_or([0.0; 4], |c| [c.x, c.y, c.z, 1.0]),
+            ray_from: c.ray_from.map_or([0.0; 4], |r| [r.x, r.y, r.z, 1.0]),
             offset: [0.0; 4],
             skin: [0; 4],
         };
@@ -570,6 +553,22 @@ impl GpuStrands {
             self.queue.write_buffer(&self.colliders, 0, bytes);
         }
         patch
+    }
+
+    /// Writes the step's pose and alpha table, growing its buffer for more substeps than it
+    /// was made for.
+    fn upload_tables(&mut self, tables: &[[f32; 4]]) {
+        let bytes: &[u8] = bytemuck::cast_slice(tables);
+        if bytes.len() as u64 > self.tables.size() {
+            self.tables = self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("hair_gpu tables"),
+                contents: bytes,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            });
+            self.rebind();
+        } else {
+            self.queue.write_buffer(&self.tables, 0, bytes);
+        }
     }
 
     /// Makes the spring model's buffer (six vec4 per particle) on its first step.
@@ -659,18 +658,6 @@ fn pack_patch(data: &mut Vec<[u32; 4]>, patch: hair_sim::collide::PatchParts) ->
     let starts = words(patch.starts);
     let bins = words(patch.bins);
     [header + 1, triangles, starts, bins]
-}
-
-/// Where [`CollisionResponse::CentreRay`] pushes from, head-local, as the CPU solver decides
-/// it: the collider's centre plus the offset, if that lies inside the head (no ray from
-/// outside leads out).
-fn ray_from(input: &StepInput) -> Option<Vec3> {
-    match (input.params.collision_response, input.collider) {
-        (CollisionResponse::CentreRay { offset }, Some(collider)) => {
-            Some(collider.centre() + Vec3::from_array(offset)).filter(|&c| collider.signed_distance(c) < 0.0)
-        }
-        _ => None,
-    }
 }
 
 /// The bind group over the solver's nine buffers, in binding order.

@@ -51,6 +51,29 @@ fn groom(guides: usize) -> (HeadMesh, HeadCollider, RestShape) {
     (head, collider, rest)
 }
 
+/// The step length, seconds: 60 Hz.
+const DT: f32 = 1.0 / 60.0;
+
+/// Step `k` of a head moving as `pose_at`, colliding with `collider` and nothing else.
+fn input_at<'a>(
+    k: usize,
+    pose_at: impl Fn(f32) -> Pose,
+    collider: &'a HeadCollider,
+    params: &'a SimParams,
+) -> StepInput<'a> {
+    let time = k as f32 * DT;
+    StepInput {
+        dt: DT,
+        time,
+        head_from: pose_at(time),
+        head_to: pose_at(time + DT),
+        collider: Some(collider),
+        extra_colliders: &[],
+        surface_patch: None,
+        params,
+    }
+}
+
 /// Steps both solvers `steps` times at 60 Hz and returns both position sets.
 fn run_both(
     gpu: &GpuContext,
@@ -75,19 +98,8 @@ fn run_both_with(
 ) -> (Vec<Vec3>, Vec<Vec3>) {
     let mut cpu = Strands::new(rest.clone(), pose_at(0.0));
     let mut on_gpu = GpuStrands::new(gpu, rest, pose_at(0.0), Some(collider)).expect("GPU strands");
-    let dt = 1.0 / 60.0;
     for k in 0..steps {
-        let time = k as f32 * dt;
-        let input = StepInput {
-            dt,
-            time,
-            head_from: pose_at(time),
-            head_to: pose_at(time + dt),
-            collider: Some(collider),
-            extra_colliders,
-            surface_patch: None,
-            params,
-        };
+        let input = StepInput { extra_colliders, ..input_at(k, &pose_at, collider, params) };
         cpu.step(&input);
         on_gpu.step(&input).expect("GPU step");
     }
@@ -159,7 +171,7 @@ fn with_collision_the_gpu_stays_near_the_cpu_and_out_of_the_head() {
         let params = SimParams { collision_response, ..SimParams::default() };
         let (cpu, on_gpu) = run_both_with(&gpu, &rest, &collider, &params, &extras, steps, head_pose);
         let (mean, max, far) = apart(&cpu, &on_gpu);
-        let pose = head_pose(steps as f32 / 60.0);
+        let pose = head_pose(steps as f32 * DT);
         let deepest = deepest_in_head(&on_gpu, n, &collider, pose);
         let in_extras = on_gpu
             .iter()
@@ -224,7 +236,7 @@ fn the_spring_model_follows_the_cpu() {
         let (cpu, on_gpu) = run_both(&gpu, &rest, &collider, &params, steps, head_pose);
         let stretch = max_stretch(&on_gpu, &rest);
         let (drop_cpu, drop_gpu) = (mean_tip_drop(&cpu, n), mean_tip_drop(&on_gpu, n));
-        let pose = head_pose(steps as f32 / 60.0);
+        let pose = head_pose(steps as f32 * DT);
         let deepest = deepest_in_head(&on_gpu, n, &collider, pose);
         eprintln!(
             "springs, collision {collision}, after {steps} steps: stretch {stretch:.4}, tips {:.1} mm (CPU {:.1} mm) \
@@ -269,19 +281,8 @@ fn moving_the_origin_the_roots_and_resetting_match_the_cpu() {
     let params = SimParams { collision: false, ..SimParams::default() };
     let mut cpu = Strands::new(rest.clone(), head_pose(0.0));
     let mut on_gpu = GpuStrands::new(&gpu, &rest, head_pose(0.0), Some(&collider)).expect("GPU strands");
-    let dt = 1.0 / 60.0;
     let step_both = |k: usize, pose_at: &dyn Fn(f32) -> Pose, cpu: &mut Strands, on_gpu: &mut GpuStrands| {
-        let time = k as f32 * dt;
-        let input = StepInput {
-            dt,
-            time,
-            head_from: pose_at(time),
-            head_to: pose_at(time + dt),
-            collider: Some(&collider),
-            extra_colliders: &[],
-            surface_patch: None,
-            params: &params,
-        };
+        let input = input_at(k, pose_at, &collider, &params);
         cpu.step(&input);
         on_gpu.step(&input).expect("GPU step");
     };
@@ -309,7 +310,7 @@ fn moving_the_origin_the_roots_and_resetting_match_the_cpu() {
     eprintln!("moved and re-rooted: mean {mean:.2e} m, max {max:.2e} m apart");
     assert!(mean < 1e-6 && max < 1e-4, "mean {mean} m, max {max} m");
     let moved_root = on_gpu.positions().expect("read back")[40 * n];
-    assert!(moved_root.distance(shifted(20.0 * dt).transform_point(rest.positions[40 * n])) > 0.004);
+    assert!(moved_root.distance(shifted(20.0 * DT).transform_point(rest.positions[40 * n])) > 0.004);
     cpu.reset(head_pose(1.0));
     on_gpu.reset(head_pose(1.0));
     let (_, max, _) = apart(cpu.positions(), &on_gpu.positions().expect("read back"));
@@ -337,22 +338,12 @@ fn the_skin_moving_against_the_head_pushes_as_on_the_cpu() {
     // The same without the skin: what the skin's push is measured against.
     let mut unpushed = Strands::new(rest.clone(), head_pose(0.0));
     let mut on_gpu = GpuStrands::new(&gpu, &rest, head_pose(0.0), Some(&collider)).expect("GPU strands");
-    let dt = 1.0 / 60.0;
     let steps = 120;
     let mut deepest = 0.0f32;
     for k in 0..steps {
-        let time = k as f32 * dt;
-        skin.update(&swollen(time + dt));
-        let input = StepInput {
-            dt,
-            time,
-            head_from: head_pose(time),
-            head_to: head_pose(time + dt),
-            collider: Some(&collider),
-            extra_colliders: &[],
-            surface_patch: Some(&skin),
-            params: &params,
-        };
+        let time = k as f32 * DT;
+        skin.update(&swollen(time + DT));
+        let input = StepInput { surface_patch: Some(&skin), ..input_at(k, head_pose, &collider, &params) };
         cpu.step(&input);
         unpushed.step(&StepInput { surface_patch: None, ..input });
         on_gpu.step(&input).expect("GPU step");
@@ -361,7 +352,7 @@ fn the_skin_moving_against_the_head_pushes_as_on_the_cpu() {
         if k % 10 != 9 {
             continue;
         }
-        let pose = head_pose(time + dt);
+        let pose = head_pose(time + DT);
         let positions = on_gpu.positions().expect("read back");
         for (_, &p) in positions.iter().enumerate().filter(|(i, _)| i % n != 0) {
             if let Some(contact) = skin.resolve(pose.inverse_transform_point(p), 0.0) {
@@ -393,16 +384,8 @@ fn a_step_that_collides_needs_the_collider() {
     let (_, collider, rest) = groom(16);
     let mut strands = GpuStrands::new(&gpu, &rest, head_pose(0.0), None).expect("GPU strands");
     let params = SimParams::default();
-    let input = StepInput {
-        dt: 1.0 / 60.0,
-        time: 0.0,
-        head_from: head_pose(0.0),
-        head_to: head_pose(0.0),
-        collider: Some(&collider),
-        extra_colliders: &[],
-        surface_patch: None,
-        params: &params,
-    };
+    // The head standing still.
+    let input = input_at(0, |_| head_pose(0.0), &collider, &params);
     assert!(matches!(strands.step(&input), Err(GpuError::NoCollider)));
     let before = strands.positions().expect("read back");
     assert_eq!(before, Strands::new(rest, head_pose(0.0)).positions());

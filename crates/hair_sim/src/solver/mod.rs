@@ -13,7 +13,7 @@ mod step;
 use detail::{Detail, Role};
 pub use detail::{FULL_DETAIL_HEIGHT, MAX_DETAIL_LEVEL, level_for_height, level_with_hysteresis, simulated_at_level};
 
-pub use step::{MAX_STEP, MIN_STEP, step_length};
+pub use step::{MIN_STEP, StepConstants};
 mod wind;
 
 pub use params::{CollisionResponse, LengthMode, ParamIssue, SimParams, SimdPath, Wind, stiffness_per_application};

@@ -30,7 +30,7 @@ use glam::{Mat3A, Vec3A};
 
 /// Longest step the solver takes in one go; longer ones (a frame hitch) are shortened,
 /// because the head's motion over them is unknown anyway.
-pub const MAX_STEP: f32 = 1.0 / 15.0;
+const MAX_STEP: f32 = 1.0 / 15.0;
 
 /// Shortest step the solver takes. Shorter ones are skipped: nothing moves measurably in
 /// a microsecond, and dividing a push-out by such a step would make huge velocities (and
@@ -75,43 +75,40 @@ impl PoseMatrix {
     }
 }
 
-/// Per-step constants shared by every strand of a chunk.
-struct Constants<S: Simd> {
-    h: f32,
-    poses: Vec<Pose>,
-    /// `poses` as matrices.
-    matrices: Vec<PoseMatrix>,
-    /// `matrices` splatted across the lanes.
-    lane_poses: Vec<PoseLanes<S>>,
-    drag_factor: f32,
-    max_step_move: f32,
-    local_alpha: f32,
-    global_alpha: Vec<f32>,
-    spring_k: Wide<S>,
-    spring_d: Wide<S>,
+/// What one step asks of every strand, whatever steps it: each SIMD path here, and the
+/// GPU solver (`hair_gpu` uploads it). `None` from [`StepConstants::new`] means no step.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StepConstants {
+    /// Substep length, seconds.
+    pub h: f32,
+    /// The head's pose at each substep boundary: `substeps + 1` of them, from the step's
+    /// start to its end.
+    pub poses: Vec<Pose>,
+    /// The share of its velocity a particle keeps per substep against drag.
+    pub drag_factor: f32,
+    /// The farthest a particle moves in one substep (the speed limit), metres.
+    pub max_step_move: f32,
+    /// Local shape's pull per application.
+    pub local_alpha: f32,
+    /// Global shape's pull per application, per particle of a strand, root to tip.
+    pub global_alpha: Vec<f32>,
     /// Where [`CollisionResponse::CentreRay`] pushes from, head-local; `None` for the
     /// normal push, and for a centre outside the head (no ray from there leads out).
-    ray_from: Option<Vec3>,
-    ftl_velocity: f32,
+    pub ray_from: Option<Vec3>,
+    /// Follow-The-Leader's velocity correction per metre of correction.
+    pub ftl_velocity: f32,
 }
 
-/// The step `input` asks for, clamped to [`MAX_STEP`]; `None` when no step is taken (too
-/// short, not finite, or the head's pose is not valid).
-pub fn step_length(input: &StepInput) -> Option<f32> {
-    (input.dt >= MIN_STEP && input.dt.is_finite() && input.head_to.is_valid()).then(|| input.dt.min(MAX_STEP))
-}
-
-impl<S: Simd> Constants<S> {
-    #[inline(always)]
-    fn new(input: &StepInput, n: usize) -> Option<Self> {
+impl StepConstants {
+    /// The constants of one step of `input` for strands of `n` particles; `None` when no
+    /// step is taken (too short, not finite, or the head's pose is not valid).
+    pub fn new(input: &StepInput, n: usize) -> Option<Self> {
         let p = input.params;
         let dt = step_length(input)?;
         let from = if input.head_from.is_valid() { input.head_from } else { input.head_to };
         let substeps = p.substeps.max(1);
         let h = dt / substeps as f32;
-        let poses: Vec<Pose> = (0..=substeps).map(|s| from.lerp(&input.head_to, s as f32 / substeps as f32)).collect();
-        let matrices: Vec<PoseMatrix> = poses.iter().map(PoseMatrix::new).collect();
-        let lane_poses = matrices.iter().map(|m| PoseLanes::new(m.rotation, m.translation)).collect();
+        let poses = (0..=substeps).map(|s| from.lerp(&input.head_to, s as f32 / substeps as f32)).collect();
         // Shape constraints run `iterations` times per substep.
         let applications_per_second = p.iterations.max(1) as f32 / h;
         let global_alpha = (0..n)
@@ -121,25 +118,56 @@ impl<S: Simd> Constants<S> {
                 stiffness_per_application(s, applications_per_second)
             })
             .collect();
-        Some(Constants {
+        Some(StepConstants {
             h,
             poses,
-            matrices,
-            lane_poses,
             drag_factor: (-p.drag * h).exp(),
             max_step_move: p.max_speed * h,
             local_alpha: stiffness_per_application(p.local_stiffness, applications_per_second),
             global_alpha,
-            // Implicit springs need no cap: any stiffness is stable.
             ray_from: match (p.collision_response, input.collider) {
                 (CollisionResponse::CentreRay { offset }, Some(collider)) => {
                     Some(collider.centre() + Vec3::from_array(offset)).filter(|&c| collider.signed_distance(c) < 0.0)
                 }
                 _ => None,
             },
+            ftl_velocity: p.ftl_damping / h,
+        })
+    }
+}
+
+/// The step `input` asks for, clamped to [`MAX_STEP`]; `None` when no step is taken (too
+/// short, not finite, or the head's pose is not valid).
+pub(super) fn step_length(input: &StepInput) -> Option<f32> {
+    (input.dt >= MIN_STEP && input.dt.is_finite() && input.head_to.is_valid()).then(|| input.dt.min(MAX_STEP))
+}
+
+/// Per-step constants shared by every strand of a chunk: the [`StepConstants`], and what
+/// the lanes need of them.
+struct Constants<S: Simd> {
+    shared: StepConstants,
+    /// `poses` as matrices.
+    matrices: Vec<PoseMatrix>,
+    /// `matrices` splatted across the lanes.
+    lane_poses: Vec<PoseLanes<S>>,
+    spring_k: Wide<S>,
+    spring_d: Wide<S>,
+}
+
+impl<S: Simd> Constants<S> {
+    #[inline(always)]
+    fn new(input: &StepInput, n: usize) -> Option<Self> {
+        let shared = StepConstants::new(input, n)?;
+        let matrices: Vec<PoseMatrix> = shared.poses.iter().map(PoseMatrix::new).collect();
+        let lane_poses = matrices.iter().map(|m| PoseLanes::new(m.rotation, m.translation)).collect();
+        // Implicit springs need no cap: any stiffness is stable.
+        let p = input.params;
+        Some(Constants {
+            shared,
+            matrices,
+            lane_poses,
             spring_k: Wide::splat(p.spring_stiffness),
             spring_d: Wide::splat(p.spring_damping),
-            ftl_velocity: p.ftl_damping / h,
         })
     }
 }
@@ -363,7 +391,7 @@ fn step_chunk_on<S: Simd>(
         return report;
     };
     let p = input.params;
-    let head_to = *c.poses.last().expect("at least one pose");
+    let head_to = *c.shared.poses.last().expect("at least one pose");
     // Only the spring model integrates with memory of the substep before.
     let history = p.length_mode == LengthMode::Springs;
     let mut group_state = GroupState::<S>::new(n, history);
@@ -424,15 +452,15 @@ fn step_group<S: Simd>(
     input: &StepInput,
     report: &mut StepReport,
 ) {
-    for s in 1..c.poses.len() {
+    for s in 1..c.shared.poses.len() {
         let poses = SubstepPoses {
             before: &c.matrices[s - 1],
             now: &c.lane_poses[s],
             now_one: &c.matrices[s],
-            frame: c.poses[s].rotation,
-            last: s + 1 == c.poses.len(),
+            frame: c.shared.poses[s].rotation,
+            last: s + 1 == c.shared.poses.len(),
         };
-        let time = input.time + c.h * s as f32;
+        let time = input.time + c.shared.h * s as f32;
         substep(g, state, c, time, &poses, input, report);
     }
 }
@@ -463,7 +491,7 @@ fn substep<S: Simd>(
 ) {
     let p = input.params;
     let n = g.positions.len();
-    let h = Wide::splat(c.h);
+    let h = Wide::splat(c.shared.h);
 
     // 1. Forces and integration of the free particles; 2. the root follows the head.
     g.start.copy_from_slice(&g.positions);
@@ -483,7 +511,7 @@ fn substep<S: Simd>(
     g.positions[0] = poses.now.world_point(g.rest_positions[0]);
     match p.length_mode {
         LengthMode::Inextensible => {
-            let (drag, max_move) = (Wide::splat(c.drag_factor), Wide::splat(c.max_step_move));
+            let (drag, max_move) = (Wide::splat(c.shared.drag_factor), Wide::splat(c.shared.max_step_move));
             for j in 1..n {
                 let v = (g.velocities[j] + g.accel[j] * h) * drag;
                 g.positions[j] += (v * h).clamp_length_max(max_move);
@@ -498,9 +526,9 @@ fn substep<S: Simd>(
     g.ftl_correction.fill(V3::zero());
     let root_frame = M3::from_fn(|l| Mat3A::from_quat(poses.frame * g.root_frames[l]));
     for _ in 0..p.iterations {
-        global_shape(g, &c.global_alpha, poses.now);
-        if c.local_alpha > 0.0 {
-            local_shape(g, c.local_alpha, root_frame);
+        global_shape(g, &c.shared.global_alpha, poses.now);
+        if c.shared.local_alpha > 0.0 {
+            local_shape(g, c.shared.local_alpha, root_frame);
         }
         length_pass(g, p);
     }
@@ -522,7 +550,7 @@ fn substep<S: Simd>(
     // 5. Velocities: what the integrator's `x = base + step · v` makes of where the
     //    particles ended up. The root moves with the head; its speed feeds spring damping,
     //    so it gets the same limit.
-    let (max_speed, ftl_velocity) = (Wide::splat(p.max_speed), Wide::splat(c.ftl_velocity));
+    let (max_speed, ftl_velocity) = (Wide::splat(p.max_speed), Wide::splat(c.shared.ftl_velocity));
     g.velocities[0] = ((g.positions[0] - g.start[0]) * h.recip()).clamp_length_max(max_speed);
     let inv_step = g.step.recip();
     for j in 1..n {
@@ -552,14 +580,14 @@ fn substep<S: Simd>(
 #[inline(always)]
 fn implicit_springs<S: Simd>(g: &mut GroupState<S>, c: &Constants<S>, p: &SimParams) {
     let n = g.positions.len();
-    let h = Wide::splat(c.h);
+    let h = Wide::splat(c.shared.h);
     // BDF2 where a lane remembers a substep of the same length, else backward Euler.
     let first = g.history_step.cmpne(h);
     let (now, before) = (Wide::splat(4.0 / 3.0), Wide::splat(1.0 / 3.0));
     let current = Wide::select(first, Wide::one(), now);
     let previous = Wide::select(first, Wide::zero(), before);
     let step = Wide::select(first, h, h * Wide::splat(2.0 / 3.0));
-    let drag = Wide::splat(c.drag_factor);
+    let drag = Wide::splat(c.shared.drag_factor);
     for j in 1..n {
         let (x, v) = (g.start[j], g.velocities[j]);
         g.base[j] = x * current - g.previous_positions[j] * previous;
@@ -716,7 +744,7 @@ fn collide<S: Simd>(
         for l in 0..g.lanes {
             let hints = &mut state.hints[g.strands[l] * n..][..n];
             for (j, hint) in hints.iter_mut().enumerate().skip(1) {
-                let contact = match head_contact(collider, g.local[j].lane(l), thickness, c.ray_from, hint) {
+                let contact = match head_contact(collider, g.local[j].lane(l), thickness, c.shared.ray_from, hint) {
                     Resolution::Contact(contact) => Some(contact),
                     Resolution::Clear(distance) => {
                         g.clearance[j].set(l, distance);
@@ -732,7 +760,9 @@ fn collide<S: Simd>(
                     // slide is too short to reach the surface ([`FRICTION_SLACK`]).
                     let slide = (held - contact.position).length();
                     if slide > FRICTION_SLACK * thickness {
-                        if let Resolution::Contact(again) = head_contact(collider, held, thickness, c.ray_from, hint) {
+                        if let Resolution::Contact(again) =
+                            head_contact(collider, held, thickness, c.shared.ray_from, hint)
+                        {
                             held = again.position;
                         }
                     } else {
