@@ -35,6 +35,9 @@ use hair_sim::math::{Pose, Vec3};
 use hair_sim::solver::{LengthMode, RestShape, StepConstants, StepInput};
 use wgpu::util::DeviceExt;
 
+mod draw;
+
+pub use draw::{CURVE_SHADER, DRAW_SHADER, GpuDrawing};
 pub use wgpu;
 
 /// The solver's WGSL source (`step.wgsl`, beside this file).
@@ -70,6 +73,25 @@ pub enum GpuError {
         /// The largest storage buffer the device binds, bytes.
         limit: u64,
     },
+    /// A renderer's buffer is too small for [`GpuDrawing`] (or cannot be bound for storage).
+    #[error("the drawing buffer has {bytes} bytes where {needed} are needed, with storage use")]
+    DrawTarget {
+        /// The buffer's size, bytes.
+        bytes: u64,
+        /// What the strands need, bytes.
+        needed: u64,
+    },
+    /// A [`GpuDrawing`] was given a root frame per strand for another strand count.
+    #[error("{given} root frames given for {expected} strands")]
+    RootCount {
+        /// Root frames given.
+        given: usize,
+        /// Strands drawn.
+        expected: usize,
+    },
+    /// A [`GpuDrawing`] was asked to draw strands other than those it was made for.
+    #[error("this drawing was made for other GPU strands")]
+    OtherStrands,
     /// Reading the positions back failed.
     #[error("reading the positions back from the GPU failed: {0}")]
     ReadBack(String),
@@ -191,6 +213,10 @@ pub struct GpuStrands {
     strands: u32,
     particles_per_strand: u32,
     timestamps: Option<Timestamps>,
+    /// The last two steps in head space, for [`GpuDrawing`].
+    published: draw::Published,
+    /// Tells these strands from others (for [`GpuDrawing::draws`]).
+    id: u64,
 }
 
 /// Bytes per particle in `motion`: velocity, substep start and FTL correction.
@@ -308,7 +334,9 @@ impl GpuStrands {
             [&uniform, &tables, &positions, &motion, &rest_buffer, &root_frames, &colliders, &grid, &springs],
         );
         let timestamps = gpu.timestamps.then(|| Timestamps::new(device));
-        Ok(GpuStrands {
+        let published = draw::Published::new(device, &positions, particles);
+        static NEXT_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+        let mut strands = GpuStrands {
             device: device.clone(),
             queue: gpu.queue.clone(),
             pipeline,
@@ -330,7 +358,25 @@ impl GpuStrands {
             strands: rest.strand_count() as u32,
             particles_per_strand: n as u32,
             timestamps,
-        })
+            published,
+            id: NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
+        };
+        strands.publish(pose);
+        strands.publish(pose);
+        Ok(strands)
+    }
+
+    /// `[strands, particles per strand]`.
+    fn counts(&self) -> [u32; 2] {
+        [self.strands, self.particles_per_strand]
+    }
+
+    /// Keeps the positions as they are now in the frame of the head at `pose` (the pose the
+    /// last step ended at, in the solver's frame) for [`GpuDrawing`], which draws between
+    /// the last two positions kept. Call it after each step; call it twice after a reset,
+    /// so that nothing is drawn between the positions before and after it.
+    pub fn publish(&mut self, pose: Pose) {
+        self.published.publish((&self.device, &self.queue), self.counts(), pose);
     }
 
     /// Strands stepped.

@@ -390,3 +390,87 @@ fn a_step_that_collides_needs_the_collider() {
     let before = strands.positions().expect("read back");
     assert_eq!(before, Strands::new(rest, head_pose(0.0)).positions());
 }
+
+/// Waits for the GPU and reads `buffer` (with `COPY_SRC` use) as `vec4`s.
+fn read_vec4s(gpu: &GpuContext, buffer: &hair_gpu::wgpu::Buffer) -> Vec<[f32; 4]> {
+    use hair_gpu::wgpu;
+    let staging = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: None,
+        size: buffer.size(),
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut encoder = gpu.device.create_command_encoder(&Default::default());
+    encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, buffer.size());
+    gpu.queue.submit([encoder.finish()]);
+    staging.slice(..).map_async(wgpu::MapMode::Read, |result| result.expect("mapped"));
+    gpu.device.poll(wgpu::PollType::wait_indefinitely()).expect("GPU finished");
+    let data = bytemuck::cast_slice(&staging.slice(..).get_mapped_range()).to_vec();
+    data
+}
+
+#[test]
+fn the_gpu_draws_its_strands_as_the_cpu_draws_them() {
+    use hair_gpu::wgpu;
+    let Some(gpu) = gpu() else { return };
+    let (_, collider, rest) = groom(64);
+    let n = rest.particles_per_strand;
+    let params = SimParams::default();
+    let mut strands = GpuStrands::new(&gpu, &rest, head_pose(0.0), Some(&collider)).expect("GPU strands");
+    // Each strand's frame vector at its root, head space: any unit vector will do.
+    let root_u: Vec<Vec3> = rest.root_frames.iter().map(|q| *q * Vec3::X).collect();
+    let target = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: None,
+        size: (2 * rest.positions.len() * 16) as u64,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let drawing = hair_gpu::GpuDrawing::new(&strands, &root_u, &target).expect("drawing");
+    // The CPU's drawing from the solver's positions after the last two steps, each in the
+    // frame of the head at the end of its step.
+    let mut local = Vec::new();
+    for k in 0..8 {
+        strands.step(&input_at(k, head_pose, &collider, &params)).expect("GPU step");
+        let pose = head_pose((k + 1) as f32 * DT);
+        strands.publish(pose);
+        let now: Vec<Vec3> = strands.positions().expect("read back");
+        local.push(now.iter().map(|&p| pose.inverse_transform_point(p)).collect::<Vec<_>>());
+    }
+    let (previous, last) = (&local[local.len() - 2], &local[local.len() - 1]);
+    let (overstep, drawn_pose) = (0.3, Pose::new(head_pose(0.14).rotation, Vec3::new(2.0, 1.5, -3.0)));
+    drawing.draw(&strands, overstep, drawn_pose).expect("draw");
+    let drawn = read_vec4s(&gpu, &target);
+    let (positions, frames) = drawn.split_at(rest.positions.len());
+    let mut expected = Vec::new();
+    for i in 0..rest.positions.len() {
+        let p = if i % n == 0 { rest.positions[i] } else { previous[i].lerp(last[i], overstep) };
+        expected.push(drawn_pose.transform_point(p));
+    }
+    let position_error =
+        positions.iter().zip(&expected).map(|(d, e)| Vec3::new(d[0], d[1], d[2]).distance(*e)).fold(0.0, f32::max);
+    let expected_frames: Vec<Vec3> = expected
+        .chunks(n)
+        .zip(&root_u)
+        .flat_map(|(strand, &u)| hair_sim::groom::transport_frames(strand, drawn_pose.rotation * u))
+        .collect();
+    let frame_error =
+        frames.iter().zip(&expected_frames).map(|(d, e)| Vec3::new(d[0], d[1], d[2]).distance(*e)).fold(0.0, f32::max);
+    assert!(drawn.iter().all(|v| v.iter().all(|c| c.is_finite())));
+    assert!(positions.iter().all(|v| v[3] == 1.0) && frames.iter().all(|v| v[3] == 0.0));
+    eprintln!("drawn positions within {position_error:e} m, frames within {frame_error:e}");
+    assert!(position_error < 2e-6, "positions {position_error} m apart");
+    assert!(frame_error < 1e-4, "frames {frame_error} apart");
+    // The hair moved between the two steps, so the interpolation was tested.
+    let moved = previous.iter().zip(last.iter()).map(|(a, b)| a.distance(*b)).fold(0.0, f32::max);
+    assert!(moved > 1e-3, "the last step moved the hair {moved} m");
+    // Drawing other strands is refused; a buffer too small is refused.
+    let other = GpuStrands::new(&gpu, &rest, head_pose(0.0), None).expect("GPU strands");
+    assert!(matches!(drawing.draw(&other, 0.0, drawn_pose), Err(GpuError::OtherStrands)));
+    let small = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: None,
+        size: 64,
+        usage: wgpu::BufferUsages::STORAGE,
+        mapped_at_creation: false,
+    });
+    assert!(matches!(hair_gpu::GpuDrawing::new(&strands, &root_u, &small), Err(GpuError::DrawTarget { .. })));
+}
