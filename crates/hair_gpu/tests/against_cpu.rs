@@ -405,8 +405,7 @@ fn read_vec4s(gpu: &GpuContext, buffer: &hair_gpu::wgpu::Buffer) -> Vec<[f32; 4]
     gpu.queue.submit([encoder.finish()]);
     staging.slice(..).map_async(wgpu::MapMode::Read, |result| result.expect("mapped"));
     gpu.device.poll(wgpu::PollType::wait_indefinitely()).expect("GPU finished");
-    let data = bytemuck::cast_slice(&staging.slice(..).get_mapped_range()).to_vec();
-    data
+    bytemuck::cast_slice(&staging.slice(..).get_mapped_range()).to_vec()
 }
 
 #[test]
