@@ -1,10 +1,14 @@
 //! [`HairBackend::Gpu`](crate::HairBackend): a groom stepped by `hair_gpu`'s compute pass on
-//! the app's render device, its positions read back after each step into the groom's
-//! CPU [`Strands`], which everything else reads as before.
+//! the app's render device, and drawn from there (`hair_gpu::GpuDrawing`): nothing waits
+//! for the GPU.
 //!
-//! The GPU keeps the strands' motion between steps; the CPU strands mirror its positions.
-//! What moves the CPU strands from outside a step (the solver's origin following the head,
-//! a skinned scalp's roots, a reset) is applied to both.
+//! The GPU keeps the strands between steps. The groom's CPU [`Strands`] mirror its
+//! positions a frame or two late, copied back without waiting whenever the last copy has
+//! arrived, for what the CPU still computes from them (the drawing's bounds, the blended
+//! draw order, opacity maps, [`HairState`](crate::HairState)'s positions);
+//! [`HairState::read_back_gpu`](crate::HairState::read_back_gpu) waits for the latest.
+//! What moves the strands from outside a step (the solver's origin following the head, a
+//! skinned scalp's roots, a reset) is applied to both.
 
 use bevy::prelude::*;
 use hair_sim::math::{Pose, Vec3 as SimVec3};
@@ -20,16 +24,27 @@ pub(crate) struct GpuDevice(#[cfg(feature = "render")] Result<std::sync::Arc<hai
 pub(crate) struct GpuSolver {
     #[cfg(feature = "render")]
     strands: Option<hair_gpu::GpuStrands>,
+    /// The copy of the positions on its way back to the CPU, if one is.
+    #[cfg(feature = "render")]
+    copy: Option<PositionsCopy>,
     /// Why the GPU last could not step the groom, as reported (`None`: it could, or was
     /// not asked to).
     pub issue: Option<String>,
 }
 
+/// Positions on their way back, and how far the solver's origin moved the particles
+/// since they were copied.
+#[cfg(feature = "render")]
+struct PositionsCopy {
+    copy: hair_gpu::PositionsCopy,
+    moved: SimVec3,
+}
+
 #[cfg(feature = "render")]
 impl GpuSolver {
-    /// Steps `strands` on the GPU (made from them on the first step) and copies the
-    /// positions back. `Err` says why the GPU cannot step them; the caller steps them on
-    /// the CPU instead.
+    /// Queues a step of `strands` on the GPU (made from them on the first step), and
+    /// brings the CPU mirror up to the last copy that has arrived. `Err` says why the GPU
+    /// cannot step them; the caller steps them on the CPU instead.
     pub fn step(&mut self, strands: &mut Strands, input: &StepInput, device: Option<&GpuDevice>) -> Result<(), String> {
         let context = match device.map(|d| &d.0) {
             Some(Ok(context)) => context,
@@ -42,27 +57,78 @@ impl GpuSolver {
                 let mut gpu = hair_gpu::GpuStrands::new(context, strands.rest(), input.head_from, input.collider)
                     .map_err(|e| e.to_string())?;
                 gpu.set_positions(strands.positions());
+                // Nothing drawn between the rest pose and where the CPU left the strands.
+                gpu.publish(input.head_from);
+                gpu.publish(input.head_from);
                 empty.insert(gpu)
             }
         };
-        let positions = gpu.step(input).and_then(|()| gpu.positions()).map_err(|e| {
-            self.strands = None;
-            e.to_string()
-        })?;
+        if let Err(e) = gpu.step(input) {
+            self.release();
+            return Err(e.to_string());
+        }
+        gpu.publish(input.head_to);
+        self.receive(strands);
+        self.send();
+        Ok(())
+    }
+
+    /// Copies the positions toward the CPU, unless a copy is on its way already.
+    fn send(&mut self) {
+        if let (Some(gpu), None) = (&self.strands, &self.copy) {
+            self.copy = Some(PositionsCopy { copy: gpu.copy_positions(), moved: SimVec3::ZERO });
+        }
+    }
+
+    /// Takes the copy on its way into `strands` if it has arrived (waiting for it when
+    /// `wait`); whether it did.
+    fn take_copy(&mut self, strands: &mut Strands, wait: bool) -> bool {
+        if !self.copy.as_ref().is_some_and(|c| c.copy.arrived(wait)) {
+            return false;
+        }
+        let Some(PositionsCopy { copy, moved }) = self.copy.take() else { return false };
+        let Ok(mut positions) = copy.into_positions() else { return false };
+        positions.iter_mut().for_each(|p| *p += moved);
         // The GPU resets a strand that goes non-finite, so this holds.
-        strands.set_positions(&positions).map_err(|e| e.to_string())
+        strands.set_positions(&positions).is_ok()
+    }
+
+    /// The arrived copy, if any, into the CPU mirror.
+    fn receive(&mut self, strands: &mut Strands) {
+        self.take_copy(strands, false);
+    }
+
+    /// Waits for the GPU and copies its latest positions into `strands`; whether there were
+    /// GPU strands to read.
+    pub fn read_back(&mut self, strands: &mut Strands) -> bool {
+        if self.strands.is_none() {
+            return false;
+        }
+        // The copy on its way may predate the last step: wait for it, then copy again.
+        self.take_copy(strands, true);
+        self.send();
+        self.take_copy(strands, true)
+    }
+
+    /// The GPU strands, while the GPU steps the groom.
+    pub fn strands(&self) -> Option<&hair_gpu::GpuStrands> {
+        self.strands.as_ref()
     }
 
     /// Forgets the GPU strands: the groom steps on the CPU from here (and starts on the GPU
     /// again from the CPU's positions).
     pub fn release(&mut self) {
         self.strands = None;
+        self.copy = None;
     }
 
     /// The solver's origin moved by `-offset`: see [`Strands::translate`].
     pub fn translate(&mut self, offset: SimVec3) {
         if let Some(gpu) = &mut self.strands {
             gpu.translate(offset);
+        }
+        if let Some(copy) = &mut self.copy {
+            copy.moved += offset;
         }
     }
 
@@ -73,11 +139,15 @@ impl GpuSolver {
         }
     }
 
-    /// See [`Strands::reset`].
+    /// See [`Strands::reset`]; nothing is drawn between before and after.
     pub fn reset(&mut self, pose: Pose) {
         if let Some(gpu) = &mut self.strands {
             gpu.reset(pose);
+            gpu.publish(pose);
+            gpu.publish(pose);
         }
+        // A copy from before the reset would undo it on the CPU.
+        self.copy = None;
     }
 }
 
@@ -87,6 +157,10 @@ impl GpuSolver {
 impl GpuSolver {
     pub fn step(&mut self, _: &mut Strands, _: &StepInput, _: Option<&GpuDevice>) -> Result<(), String> {
         Err("bevy_hair was built without its `render` feature".into())
+    }
+
+    pub fn read_back(&mut self, _: &mut Strands) -> bool {
+        false
     }
 
     pub fn release(&mut self) {}

@@ -186,7 +186,9 @@ impl HairState {
         self.strands.particles_per_strand()
     }
 
-    /// Particle positions after the last fixed step, world space, strand-major.
+    /// Particle positions after the last fixed step, world space, strand-major. For a
+    /// groom the GPU steps ([`HairBackend::Gpu`]) these are a frame or two late, as copied
+    /// back without waiting; [`Self::read_back_gpu`] waits for the last step's.
     pub fn current_positions(&self) -> &[Vec3] {
         &self.current
     }
@@ -298,6 +300,26 @@ impl HairState {
         self.gpu.issue.as_deref()
     }
 
+    /// For a groom the GPU steps ([`HairBackend::Gpu`]): waits for the GPU and makes this
+    /// state's positions ([`Self::current_positions`] and the rest) the last step's, which
+    /// otherwise arrive a frame or two late. Returns `false`, changing nothing, when the
+    /// groom is not on the GPU. It stalls until the GPU has run everything queued before
+    /// (the last frame's drawing included): for tests, tools and the odd gameplay query,
+    /// not every frame.
+    pub fn read_back_gpu(&mut self) -> bool {
+        let read = self.gpu.read_back(&mut self.strands);
+        if read {
+            self.refresh(ComputeTaskPool::get_or_init(TaskPool::default));
+        }
+        read
+    }
+
+    /// The GPU strands, while the GPU steps the groom.
+    #[cfg(feature = "render")]
+    pub(crate) fn gpu_strands(&self) -> Option<&hair_gpu::GpuStrands> {
+        self.gpu.strands()
+    }
+
     /// Puts every strand back at rest on the head, motionless.
     pub fn reset(&mut self) {
         self.strands.reset(relative_to(self.pose_to, self.origin));
@@ -306,9 +328,15 @@ impl HairState {
         self.previous_local.clone_from(&self.current_local);
     }
 
-    /// Copies the solver's positions out: world space, and head space for drawing.
+    /// Copies the solver's positions out: world space, and head space for drawing, keeping
+    /// the last step's as the one before.
     fn publish(&mut self, pool: &TaskPool) {
         std::mem::swap(&mut self.previous_local, &mut self.current_local);
+        self.refresh(pool);
+    }
+
+    /// Copies the solver's positions out as the last step's.
+    fn refresh(&mut self, pool: &TaskPool) {
         let (origin, pose) = (self.origin, relative_to(self.pose_to, self.origin));
         let positions = self.strands.positions();
         self.current.resize(positions.len(), Vec3::ZERO);

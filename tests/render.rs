@@ -12,7 +12,8 @@ use bevy::light::{CascadeShadowConfigBuilder, DirectionalLightShadowMap, GlobalA
 use bevy::log::LogPlugin;
 use bevy::prelude::*;
 use bevy::render::RenderPlugin;
-use bevy::render::render_resource::{TextureFormat, TextureUsages};
+use bevy::render::render_resource::{BufferInitDescriptor, BufferUsages, TextureFormat, TextureUsages};
+use bevy::render::renderer::RenderDevice;
 use bevy::render::storage::ShaderBuffer;
 use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured};
 use bevy::window::ExitCondition;
@@ -155,15 +156,23 @@ impl Scene {
     }
 
     /// Draws strands with the hair material directly, no groom: `data` is what the plugin
-    /// uploads (positions, then frame vectors), `uniform` the look and counts.
-    fn draw_strands(&mut self, mut data: Vec<Vec4>, layout: &StrandLayout, uniform: HairUniform) -> Entity {
+    /// uploads (positions, then frame vectors, then the scalp at each root and the head's
+    /// centre where there are children), `uniform` the look and counts.
+    fn draw_strands(&mut self, data: Vec<Vec4>, layout: &StrandLayout, uniform: HairUniform) -> Entity {
+        let (particles, rest) = data.split_at((2 * layout.guides * layout.particles) as usize);
         // Up to the head's centre (zeros where the strands have no children), then the
         // pieces in the order they were grown.
-        data.resize((2 * layout.guides * layout.particles + layout.guides + 1) as usize, Vec4::ZERO);
-        data.extend(StrandLayout::pack_order(&layout.grown_order()));
+        let mut guides = rest.to_vec();
+        guides.resize((layout.guides + 1) as usize, Vec4::ZERO);
+        guides.extend(StrandLayout::pack_order(&layout.grown_order()));
         let world = self.app.world_mut();
-        let guides = world.resource_mut::<Assets<ShaderBuffer>>().add(ShaderBuffer::from(data));
-        let material = world.resource_mut::<Assets<HairMaterial>>().add(HairMaterial { guides, uniform });
+        let particles = world.resource::<RenderDevice>().create_buffer_with_data(&BufferInitDescriptor {
+            label: None,
+            contents: bytemuck::cast_slice(particles),
+            usage: BufferUsages::STORAGE,
+        });
+        let guides = world.resource_mut::<Assets<ShaderBuffer>>().add(ShaderBuffer::from(guides));
+        let material = world.resource_mut::<Assets<HairMaterial>>().add(HairMaterial { guides, uniform, particles });
         let mesh = world.resource_mut::<Assets<Mesh>>().add(layout.mesh());
         let entity = world.spawn((Mesh3d(mesh), MeshMaterial3d(material), NoFrustumCulling)).id();
         self.frames(5);
@@ -363,6 +372,38 @@ fn turning_the_light_moves_the_highlight_and_children_cover_more() {
     }
     assert!(coverage[0] < coverage[1] && coverage[1] < coverage[2], "coverage {coverage:?} does not grow");
     assert!(coverage[2] as f32 > 1.3 * coverage[0] as f32, "coverage {coverage:?}");
+}
+
+#[test]
+fn a_groom_the_gpu_steps_is_drawn_from_the_gpu_where_the_cpu_would_draw_it() {
+    require_adapter!();
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let mut scene = Scene::new();
+    let head = scene.spawn_head(short_groom());
+    scene.wait_until_ready(head);
+    scene.look_from(Vec3::new(0.3, 0.1, 0.5));
+    scene.frames(3);
+    let on_cpu = scene.capture("backend-cpu");
+    let cpu_bytes = scene.app.world().resource::<HairRenderStats>().uploaded_bytes;
+    // The head is still and the hair settled: on the GPU it stays where it hangs.
+    scene.app.world_mut().entity_mut(head).insert(HairBackend::Gpu);
+    scene.frames(3);
+    let on_gpu = scene.capture("backend-gpu");
+    let state = scene.app.world().get::<HairState>(head).unwrap();
+    assert_eq!(state.gpu_fallback(), None, "the GPU steps the groom");
+    // The particles and their frames (600 guides × 11 particles, two vec4 each) are
+    // written on the GPU; only the rest travels.
+    let gpu_bytes = scene.app.world().resource::<HairRenderStats>().uploaded_bytes;
+    assert_eq!(cpu_bytes - gpu_bytes, 600 * 11 * 2 * 16, "{cpu_bytes} then {gpu_bytes} bytes uploaded");
+    let (cpu_hair, gpu_hair) = (on_cpu.hair_pixels(), on_gpu.hair_pixels());
+    let differing = (0..SIZE * SIZE)
+        .filter(|i| {
+            Picture::is_hair(on_cpu.at((i % SIZE, i / SIZE))) != Picture::is_hair(on_gpu.at((i % SIZE, i / SIZE)))
+        })
+        .count();
+    println!("hair pixels: {cpu_hair} drawn from the CPU, {gpu_hair} from the GPU, {differing} differ");
+    assert!(cpu_hair > 1000, "{cpu_hair} hair pixels");
+    assert!(differing * 50 < cpu_hair, "{differing} of {cpu_hair} hair pixels differ");
 }
 
 /// Where the hair is, then how bright each of its pixels is (linear luminance) with `light`

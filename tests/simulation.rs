@@ -4,6 +4,7 @@ mod common;
 
 use bevy::animation::{AnimatedBy, AnimationTargetId, animated_field, prelude::*};
 use bevy::prelude::*;
+use bevy::render::renderer::RenderDevice;
 use bevy::time::TimeUpdateStrategy;
 use bevy_hair::prelude::*;
 use common::*;
@@ -445,10 +446,22 @@ fn collect_gpu_fallbacks(mut errors: MessageReader<HairError>, mut seen: ResMut<
     }));
 }
 
+/// What [`beside_the_cpu`] saw.
+struct Beside {
+    /// The first app's positions as its state held them (for a GPU groom, the last copy
+    /// that arrived without waiting)…
+    copied: Vec<Vec3>,
+    /// …and after waiting for the GPU's last step (`HairState::read_back_gpu`).
+    exact: Vec<Vec3>,
+    /// The plain app's.
+    on_cpu: Vec<Vec3>,
+    /// The fallbacks the first app reported.
+    fallbacks: Vec<String>,
+}
+
 /// Grows `groom()` in `app` (with `backend`) and in a plain app on the CPU, turns both
-/// heads alike for `frames` updates, and returns both position sets and the fallbacks the
-/// first app reported.
-fn beside_the_cpu(mut app: App, backend: HairBackend, frames: usize) -> (Vec<Vec3>, Vec<Vec3>, Vec<String>) {
+/// heads alike for `frames` updates, and returns what each holds.
+fn beside_the_cpu(mut app: App, backend: HairBackend, frames: usize) -> Beside {
     app.init_resource::<GpuFallbacks>().add_systems(Last, collect_gpu_fallbacks);
     let head = spawn_head(&mut app, groom(), Transform::default());
     app.world_mut().entity_mut(head).insert(backend);
@@ -461,8 +474,11 @@ fn beside_the_cpu(mut app: App, backend: HairBackend, frames: usize) -> (Vec<Vec
         }
     }
     let positions = |app: &App, head| state(app, head).current_positions().to_vec();
+    let copied = positions(&app, head);
+    let read = app.world_mut().get_mut::<HairState>(head).unwrap().read_back_gpu();
+    assert_eq!(read, backend == HairBackend::Gpu && app.world().contains_resource::<RenderDevice>());
     let fallbacks = std::mem::take(&mut app.world_mut().resource_mut::<GpuFallbacks>().0);
-    (positions(&app, head), positions(&cpu, cpu_head), fallbacks)
+    Beside { copied, exact: positions(&app, head), on_cpu: positions(&cpu, cpu_head), fallbacks }
 }
 
 #[test]
@@ -474,7 +490,7 @@ fn the_gpu_backend_steps_a_groom_as_the_cpu_does() {
         }
         Err(reason) => return eprintln!("SKIPPED: {reason}"),
     };
-    let (on_gpu, on_cpu, fallbacks) = beside_the_cpu(app, HairBackend::Gpu, 60);
+    let Beside { copied, exact: on_gpu, on_cpu, fallbacks } = beside_the_cpu(app, HairBackend::Gpu, 60);
     assert!(fallbacks.is_empty(), "stepped on the GPU: {fallbacks:?}");
     let apart: Vec<f32> = on_gpu.iter().zip(&on_cpu).map(|(a, b)| a.distance(*b)).collect();
     let mean = apart.iter().sum::<f32>() / apart.len() as f32;
@@ -488,14 +504,21 @@ fn the_gpu_backend_steps_a_groom_as_the_cpu_does() {
     // The GPU collides with the distance grid, the CPU with the mesh (see hair_gpu's tests).
     assert!(mean < 1e-3 && max < 0.025, "mean {mean} m, max {max} m apart");
     // And it moved: the turn swings the tips by centimetres.
-    let still = beside_the_cpu(app_with_render_device().unwrap(), HairBackend::Gpu, 1).0;
+    let still = beside_the_cpu(app_with_render_device().unwrap(), HairBackend::Gpu, 1).exact;
     let swing = on_gpu.iter().zip(&still).map(|(a, b)| a.distance(*b)).fold(0.0, f32::max);
     assert!(swing > 0.05, "the GPU groom moved {swing} m");
+    // The copies that came back without waiting moved with it, a step or two behind.
+    let copied_swing = copied.iter().zip(&still).map(|(a, b)| a.distance(*b)).fold(0.0, f32::max);
+    let behind = copied.iter().zip(&on_gpu).map(|(a, b)| a.distance(*b)).fold(0.0, f32::max);
+    eprintln!("the copy without waiting: {:.2} mm from the last step", behind * 1e3);
+    assert!(copied.iter().all(|p| p.is_finite()));
+    assert!(copied_swing > 0.05, "the copied positions moved {copied_swing} m");
 }
 
 #[test]
 fn without_a_render_device_the_gpu_backend_says_why_once_and_steps_on_the_cpu() {
-    let (fell_back, on_cpu, fallbacks) = beside_the_cpu(app(), HairBackend::Gpu, 30);
+    let Beside { copied, exact: fell_back, on_cpu, fallbacks } = beside_the_cpu(app(), HairBackend::Gpu, 30);
+    assert_eq!(copied, fell_back, "nothing to wait for on the CPU");
     assert_eq!(fallbacks.len(), 1, "reported once: {fallbacks:?}");
     assert!(fallbacks[0].contains("no render device"), "{}", fallbacks[0]);
     // The CPU solver stepped it: the same bits as a groom that asked for the CPU.

@@ -8,8 +8,9 @@
 
 #import bevy_hair::strand::{
     HAIR_FLAGS_ANTIALIAS, HAIR_FLAGS_BLENDED, HAIR_FLAGS_RECEIVE_SHADOWS, coverage_samples, hair, hash_unit, self_shadow,
-    strand_point, strand_response, unit_or,
+    strand_point, strand_response,
 }
+#import bevy_hair::curve::unit_or
 #import bevy_pbr::{
     mesh_view_bindings::view,
     view_transformations::position_world_to_clip,

@@ -1,5 +1,6 @@
-//! The strand material: guide particles in a storage buffer, the look in a uniform, and
-//! `hair.wgsl` for both stages.
+//! The strand material: guide particles and their frames in one storage buffer, what the
+//! CPU adds (the scalp, the draw order, opacity maps) in another, the look in a uniform,
+//! and `hair.wgsl` for both stages.
 
 use super::layout::{ATTRIBUTE_HAIR_VERTEX, StrandLayout};
 use bevy::asset::io::AssetSourceId;
@@ -7,7 +8,9 @@ use bevy::asset::{AssetPath, embedded_path};
 use bevy::mesh::MeshVertexBufferLayoutRef;
 use bevy::pbr::{MaterialPipeline, MaterialPipelineKey};
 use bevy::prelude::*;
-use bevy::render::render_resource::{AsBindGroup, RenderPipelineDescriptor, ShaderType, SpecializedMeshPipelineError};
+use bevy::render::render_resource::{
+    AsBindGroup, Buffer, RenderPipelineDescriptor, ShaderType, SpecializedMeshPipelineError,
+};
 use bevy::render::storage::ShaderBuffer;
 use bevy::shader::ShaderRef;
 
@@ -21,15 +24,19 @@ pub fn shader_path() -> AssetPath<'static> {
 /// [`HairLook`](super::HairLook) and layout; users edit the look, not this.
 #[derive(Asset, TypePath, AsBindGroup, Clone, Debug)]
 pub struct HairMaterial {
-    /// Guide particle positions (one `vec4` each, strand-major), then each particle's
-    /// transport frame vector `u` (same order, `w` = 0), then per guide the scalp's normal
-    /// and curvature at its root, then the head's centre; rewritten every frame at the same
-    /// size.
+    /// Per guide the scalp's normal and curvature at its root, then the head's centre, the
+    /// order the strands' pieces are drawn in and the deep opacity maps; rewritten every
+    /// frame at the same size.
     #[storage(0, read_only)]
     pub guides: Handle<ShaderBuffer>,
     /// Colours, widths, specular lobes, child placement and counts.
     #[uniform(1)]
     pub uniform: HairUniform,
+    /// Guide particle positions (one `vec4` each, strand-major), then each particle's
+    /// transport frame vector `u` (same order, `w` = 0): written every frame from the CPU,
+    /// or on the GPU for a groom the GPU steps (`hair_gpu::GpuDrawing`).
+    #[storage(2, read_only, buffer)]
+    pub particles: Buffer,
 }
 
 /// The uniform block of `strand.wgsl` (`bevy_hair::strand::HairUniform`), field for field.

@@ -25,6 +25,8 @@ use bevy::camera::visibility::{NoAutoAabb, RenderLayers, VisibilitySystems};
 use bevy::diagnostic::Diagnostics;
 use bevy::light::NotShadowCaster;
 use bevy::prelude::*;
+use bevy::render::render_resource::{Buffer, BufferDescriptor, BufferUsages};
+use bevy::render::renderer::{RenderDevice, RenderQueue};
 use bevy::render::storage::ShaderBuffer;
 use bevy::shader::load_shader_library;
 use bevy::tasks::{ComputeTaskPool, TaskPool};
@@ -41,6 +43,12 @@ impl Plugin for HairRenderPlugin {
     fn build(&self, app: &mut App) {
         embedded_asset!(app, "hair.wgsl");
         load_shader_library!(app, "strand.wgsl");
+        // The curve's geometry, shared with the GPU solver's drawing pass (which prepends
+        // it to its own source, so the import path is added here).
+        let curve = format!("#define_import_path bevy_hair::curve\n\n{}", hair_gpu::CURVE_SHADER);
+        let curve =
+            app.world_mut().resource_mut::<Assets<Shader>>().add(Shader::from_wgsl(curve, "bevy_hair/curve.wgsl"));
+        app.insert_resource(CurveShader(curve));
         app.add_plugins(MaterialPlugin::<HairMaterial>::default())
             .register_type::<HairLook>()
             .register_type::<HairAntialias>()
@@ -50,7 +58,14 @@ impl Plugin for HairRenderPlugin {
             .init_resource::<ShadowCastingLights>()
             .add_systems(
                 PostUpdate,
-                (find_shadow_casting_lights, sync_drawing, choose_blending, upload_guides, update_materials)
+                (
+                    find_shadow_casting_lights,
+                    sync_drawing,
+                    choose_blending,
+                    draw_on_gpu,
+                    upload_guides,
+                    update_materials,
+                )
                     .chain()
                     .in_set(HairSystems::Draw)
                     .after(VisibilitySystems::VisibilityPropagate)
@@ -59,6 +74,10 @@ impl Plugin for HairRenderPlugin {
             .add_observer(forget_drawing);
     }
 }
+
+/// Keeps the shared curve shader (`bevy_hair::curve`) loaded.
+#[derive(Resource)]
+struct CurveShader(#[allow(dead_code)] Handle<Shader>);
 
 /// A specular highlight of Scheuermann's two-lobe hair model.
 #[derive(Reflect, Clone, Copy, Debug, PartialEq)]
@@ -214,8 +233,11 @@ pub struct HairRenderStats {
 pub struct HairDrawing {
     /// The head entity (with [`HairGroom`] and [`HairState`]).
     pub head: Entity,
-    /// The storage buffer of guide particles.
+    /// The storage buffer of what the CPU adds to the particles (the scalp at each root, the
+    /// draw order, opacity maps).
     pub guides: Handle<ShaderBuffer>,
+    /// The guide particles and their frames ([`HairMaterial::particles`]).
+    pub particles: Buffer,
     /// The strand material.
     pub material: Handle<HairMaterial>,
     /// The mesh layout drawn.
@@ -228,6 +250,8 @@ pub struct HairDrawing {
     /// Where the guides are sorted from (back to front) when the strands are blended
     /// ([`HairAntialias`]); `None` when they are not.
     blended_from: Option<Vec3>,
+    /// Writes [`Self::particles`] on the GPU, for a groom the GPU steps.
+    gpu: Option<hair_gpu::GpuDrawing>,
 }
 
 impl HairDrawing {
@@ -272,7 +296,7 @@ fn layout_of(state: &HairState, groom: &HairGroom, look: &HairLook) -> StrandLay
 /// mesh, buffer and material when the groom regrew or its layout changed, stops drawing
 /// while the groom regrows, and keeps its render layers those of the head. Its
 /// [`Visibility`] is left to the user.
-#[allow(clippy::type_complexity)] // the heads query
+#[allow(clippy::type_complexity, clippy::too_many_arguments)] // the heads query; the assets it makes
 fn sync_drawing(
     mut commands: Commands,
     heads: Query<(Entity, Option<Ref<HairState>>, &HairGroom, &HairLook, Option<&HairDrawnBy>, Option<&RenderLayers>)>,
@@ -281,7 +305,10 @@ fn sync_drawing(
     mut meshes: ResMut<Assets<Mesh>>,
     mut buffers: ResMut<Assets<ShaderBuffer>>,
     mut materials: ResMut<Assets<HairMaterial>>,
+    device: Option<Res<RenderDevice>>,
 ) {
+    // Without a render device (an app rendering nothing) nothing is drawn.
+    let Some(device) = device else { return };
     // Room for an opacity map per shadow-casting light: the buffer is rebuilt when their
     // number changes.
     let casting = lights.0.len();
@@ -322,10 +349,28 @@ fn sync_drawing(
             .collect();
         let bytes = (guide_buffer_len(&layout) + opacity_maps_len(opacity_maps)) * size_of::<Vec4>();
         let guides = buffers.add(ShaderBuffer::with_size(bytes, default()));
-        let material =
-            materials.add(HairMaterial { guides: guides.clone(), uniform: uniform(&layout, groom, look, false) });
-        let drawing =
-            HairDrawing { head, guides, material: material.clone(), layout, roots, opacity_maps, blended_from: None };
+        let particles = device.create_buffer(&BufferDescriptor {
+            label: Some("bevy_hair particles"),
+            size: (particles_len(&layout) * size_of::<Vec4>()) as u64,
+            usage: BufferUsages::STORAGE | BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let material = materials.add(HairMaterial {
+            guides: guides.clone(),
+            uniform: uniform(&layout, groom, look, false),
+            particles: particles.clone(),
+        });
+        let drawing = HairDrawing {
+            head,
+            guides,
+            particles,
+            material: material.clone(),
+            layout,
+            roots,
+            opacity_maps,
+            blended_from: None,
+            gpu: None,
+        };
         let bundle = (Mesh3d(meshes.add(layout.mesh())), MeshMaterial3d(material), drawing, Transform::IDENTITY);
         match existing {
             Some((entity, _)) => _ = commands.entity(entity).insert(bundle),
@@ -349,11 +394,15 @@ fn sync_drawing(
     }
 }
 
-/// One `vec4` per guide particle for its position, then one per particle for its frame,
-/// then one per guide for the scalp at its root, then the head's centre, then the order
-/// the strands' pieces are drawn in (four per `vec4`).
+/// One `vec4` per guide particle for its position, then one per particle for its frame.
+fn particles_len(layout: &StrandLayout) -> usize {
+    (2 * layout.guides * layout.particles) as usize
+}
+
+/// One `vec4` per guide for the scalp at its root, then the head's centre, then the order
+/// the strands' pieces are drawn in (four per `vec4`); the opacity maps follow.
 fn guide_buffer_len(layout: &StrandLayout) -> usize {
-    (2 * layout.guides * layout.particles + layout.guides + 1 + (layout.guides * layout.pieces()).div_ceil(4)) as usize
+    (layout.guides + 1 + (layout.guides * layout.pieces()).div_ceil(4)) as usize
 }
 
 /// [`HairAntialias::Auto`] blends a groom whose widest strand is under this many pixels…
@@ -499,18 +548,67 @@ fn write_opacity_maps(
     data.resize(data.len() + (slots - maps.len()) * (opacity_maps_len(1) - 1), Vec4::ZERO);
 }
 
-/// A groom's guide buffer contents for this frame, written on a task of its own.
+/// A groom's buffer contents for this frame, written on a task of its own.
 struct WrittenGuides {
     buffer: Handle<ShaderBuffer>,
     data: Vec<Vec4>,
+    /// The particles and their frames, unless the GPU writes them.
+    particles: Option<(Buffer, Vec<Vec4>)>,
     layout: StrandLayout,
 }
 
+/// For a groom the GPU steps, writes the frame's particles and their frames straight into
+/// the drawing's buffer on the GPU (`hair_gpu::GpuDrawing`); [`upload_guides`] writes the
+/// rest. Nothing comes back to the CPU for it.
+fn draw_on_gpu(
+    clock: Res<Time<Hair>>,
+    heads: Query<&HairState>,
+    mut drawings: Query<(&mut HairDrawing, &InheritedVisibility), With<Mesh3d>>,
+) {
+    let overstep = clock.overstep_fraction();
+    for (mut drawing, visible) in &mut drawings {
+        let Ok(state) = heads.get(drawing.head) else { continue };
+        let Some(strands) = state.gpu_strands().filter(|_| state.roots().len() == drawing.roots.len()) else {
+            if drawing.gpu.is_some() {
+                drawing.gpu = None; // back on the CPU: upload_guides writes the particles
+            }
+            continue;
+        };
+        if !visible.get() {
+            continue;
+        }
+        if !drawing.gpu.as_ref().is_some_and(|gpu| gpu.draws(strands)) {
+            let root_u: Vec<_> = drawing.roots.iter().map(|root| to_sim(root.u)).collect();
+            match hair_gpu::GpuDrawing::new(strands, &root_u, &drawing.particles) {
+                Ok(gpu) => drawing.gpu = Some(gpu),
+                Err(e) => {
+                    warn!("hair on {}: drawn from the CPU, the GPU cannot draw it: {e}", drawing.head);
+                    drawing.gpu = None;
+                    continue;
+                }
+            }
+        }
+        if let Some(gpu) = &drawing.gpu
+            && let Err(e) = gpu.draw(strands, overstep, state.drawn_head_pose())
+        {
+            warn!("hair on {}: {e}", drawing.head);
+        }
+    }
+}
+
+/// Whether the GPU writes `drawing`'s particles this frame ([`draw_on_gpu`]).
+fn drawn_on_gpu(drawing: &HairDrawing, state: &HairState) -> bool {
+    drawing.gpu.as_ref().zip(state.gpu_strands()).is_some_and(|(gpu, strands)| gpu.draws(strands))
+}
+
 /// Writes this frame's guide particles (interpolated between the last two hair steps, on
-/// the head as posed this frame), their transport frames, the draw order and the opacity
-/// maps into each drawing's storage buffer, and fits its bounding box (in the drawing's
-/// own frame: it is a child of the head, and a skinned head's hair follows a joint
-/// instead). The grooms are written in parallel.
+/// the head as posed this frame) and their transport frames into each drawing's particle
+/// buffer, unless the GPU does ([`draw_on_gpu`]), then the scalp at each root, the draw
+/// order and the opacity maps into its guide buffer, and fits its bounding box (in the
+/// drawing's own frame: it is a child of the head, and a skinned head's hair follows a
+/// joint instead). The grooms are written in parallel. For a groom the GPU steps, the
+/// box, the order and the maps come from the positions last copied back (a frame or two
+/// late).
 #[allow(clippy::too_many_arguments)] // one system: the buffers, their inputs and the statistics
 fn upload_guides(
     clock: Res<Time<Hair>>,
@@ -518,12 +616,15 @@ fn upload_guides(
     lights: Res<ShadowCastingLights>,
     mut drawings: Query<(&HairDrawing, &GlobalTransform, &mut Aabb, &InheritedVisibility), With<Mesh3d>>,
     mut buffers: ResMut<Assets<ShaderBuffer>>,
+    queue: Option<Res<RenderQueue>>,
     mut stats: ResMut<HairRenderStats>,
     mut diagnostics: Diagnostics,
     mut written: Local<Parallel<Vec<WrittenGuides>>>,
 ) {
+    let Some(queue) = queue else { return };
     let overstep = clock.overstep_fraction();
-    let write = |drawing: &HairDrawing, placed: &GlobalTransform| -> Option<(Vec<Vec4>, Option<Aabb>)> {
+    type Written = (Option<Vec<Vec4>>, Vec<Vec4>, Option<Aabb>);
+    let write = |drawing: &HairDrawing, placed: &GlobalTransform| -> Option<Written> {
         let (state, groom, look) = heads.get(drawing.head).ok()?;
         if state.roots().len() != drawing.roots.len() {
             return None; // regrown with another guide count; sync_drawing rebuilds next frame
@@ -532,24 +633,28 @@ fn upload_guides(
         let positions: Vec<Vec3> = state.interpolated_positions(overstep).collect();
         let to_drawing = placed.affine().inverse();
         let (mut min, mut max) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-        let mut data: Vec<Vec4> = Vec::with_capacity(guide_buffer_len(&drawing.layout));
         for &p in &positions {
             let local = to_drawing.transform_point3(p);
             min = min.min(local);
             max = max.max(local);
-            data.push(p.extend(1.0));
         }
         // The solver's vectors of the same positions, for the frames, the draw order and
         // the opacity maps.
         let points: Vec<_> = positions.iter().map(|&p| to_sim(p)).collect();
-        // The frames are one root → tip pass per guide here, instead of a walk from the
-        // root in every vertex of every child.
         let n = state.particles_per_strand();
-        for (guide, root) in points.chunks_exact(n).zip(&drawing.roots) {
-            let frames = transport_frames(guide, to_sim(rotation * root.u));
-            data.extend(frames.into_iter().map(|u| from_sim(u).extend(0.0)));
-        }
+        let particles = (!drawn_on_gpu(drawing, state)).then(|| {
+            let mut particles: Vec<Vec4> = Vec::with_capacity(particles_len(&drawing.layout));
+            particles.extend(positions.iter().map(|p| p.extend(1.0)));
+            // The frames are one root → tip pass per guide here, instead of a walk from the
+            // root in every vertex of every child.
+            for (guide, root) in points.chunks_exact(n).zip(&drawing.roots) {
+                let frames = transport_frames(guide, to_sim(rotation * root.u));
+                particles.extend(frames.into_iter().map(|u| from_sim(u).extend(0.0)));
+            }
+            particles
+        });
         // The children's scalp: each root's normal and curvature, and the head's centre.
+        let mut data: Vec<Vec4> = Vec::with_capacity(guide_buffer_len(&drawing.layout));
         data.extend(drawing.roots.iter().map(|root| (rotation * root.normal).extend(root.curvature)));
         let pose = state.drawn_head_pose();
         data.push(from_sim(pose.transform_point(state.collider().centre())).extend(1.0));
@@ -570,7 +675,7 @@ fn upload_guides(
         let reach = (child_reach(&groom.children.sanitized().0) + look.root_width.max(look.tip_width)) * stretch;
         let fitted = (min.is_finite() && max.is_finite())
             .then(|| Aabb::from_min_max(min - Vec3::splat(reach), max + Vec3::splat(reach)));
-        Some((data, fitted))
+        Some((particles, data, fitted))
     };
     // Each groom's buffer is written on a task of its own (a crowd's grooms on every core),
     // then handed to its asset here.
@@ -580,24 +685,29 @@ fn upload_guides(
         if !inherited.get() {
             return;
         }
-        if let Some((data, fitted)) = write(drawing, placed) {
+        if let Some((particles, data, fitted)) = write(drawing, placed) {
             if let Some(fitted) = fitted {
                 *aabb = fitted;
             }
             written.borrow_local_mut().push(WrittenGuides {
                 buffer: drawing.guides.clone(),
                 data,
+                particles: particles.map(|p| (drawing.particles.clone(), p)),
                 layout: drawing.layout,
             });
         }
     });
     let mut frame = HairRenderStats::default();
-    for WrittenGuides { buffer, data, layout } in written.iter_mut().flat_map(|written| written.drain(..)) {
+    for WrittenGuides { buffer, data, particles, layout } in written.iter_mut().flat_map(|written| written.drain(..)) {
         frame.uploaded_bytes += (data.len() * size_of::<Vec4>()) as u64;
         frame.rendered_strands += layout.strands() as u64;
         frame.rendered_vertices += layout.vertices() as u64;
         if let Some(mut buffer) = buffers.get_mut(&buffer) {
             buffer.set_data(data);
+        }
+        if let Some((buffer, particles)) = particles {
+            frame.uploaded_bytes += (particles.len() * size_of::<Vec4>()) as u64;
+            queue.write_buffer(&buffer, 0, bytemuck::cast_slice(&particles));
         }
     }
     *stats = frame;

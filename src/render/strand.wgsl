@@ -1,11 +1,12 @@
 // The strand functions of bevy_hair's material, importable as `bevy_hair::strand` (by
 // `hair.wgsl`, which holds the entry points, and by a custom hair shader).
 //
-// Only guide particles travel to the GPU (`guides`: one vec4 per particle, then one vec4
-// per particle holding its parallel-transport frame vector `u`, which the CPU computes in
-// one pass per guide instead of every vertex walking its strand from the root, then one
+// Only guide particles travel to the GPU: `particles` holds one vec4 per guide particle,
+// then one vec4 per particle with its parallel-transport frame vector `u` (written by the
+// CPU, in one pass per guide instead of every vertex walking its strand from the root, or
+// on the GPU by `hair_gpu`'s drawing pass for a groom the GPU steps); `guides` holds one
 // vec4 per guide with the scalp's normal and curvature at its root, then the head's
-// centre, then the order the strands' pieces are drawn in, then the deep opacity maps).
+// centre, then the order the strands' pieces are drawn in, then the deep opacity maps.
 // Every vertex of the static strand mesh knows its drawn piece, child and curve sample
 // (`HairVertex`); from those `strand_point` evaluates the
 // Bézier curve through the guide, offsets children along the Archimedean spiral in the
@@ -14,8 +15,12 @@
 //
 // The geometry functions mirror Rust functions in `hair_sim::groom` (named in their
 // comments): those are the unit-tested reference, and `tests/render.rs` renders the result.
+// The curve's own geometry is `bevy_hair::curve` (`crates/hair_gpu/src/curve.wgsl`), which
+// the GPU solver's drawing pass shares.
 
 #define_import_path bevy_hair::strand
+
+#import bevy_hair::curve::{CurvePoint, bezier_point, perpendicular_unit, unit_or}
 
 struct HairUniform {
     root_color: vec4<f32>,
@@ -60,26 +65,27 @@ const HAIR_FLAGS_BLENDED: u32 = 8u;
 
 @group(#{MATERIAL_BIND_GROUP}) @binding(0) var<storage, read> guides: array<vec4<f32>>;
 @group(#{MATERIAL_BIND_GROUP}) @binding(1) var<uniform> hair: HairUniform;
+@group(#{MATERIAL_BIND_GROUP}) @binding(2) var<storage, read> particles: array<vec4<f32>>;
 
 const PI: f32 = 3.14159265;
 
 fn particle(guide: u32, i: u32) -> vec3<f32> {
-    return guides[guide * hair.particles + i].xyz;
+    return particles[guide * hair.particles + i].xyz;
 }
 
 // The transport frame vector `u` of particle `i` (`hair_sim::groom::transport_frames`).
 fn frame_u(guide: u32, i: u32) -> vec3<f32> {
-    return guides[(hair.guides + guide) * hair.particles + i].xyz;
+    return particles[(hair.guides + guide) * hair.particles + i].xyz;
 }
 
 // The scalp at guide `guide`'s root: outward normal (xyz) and curvature (w, 1/m).
 fn root_scalp(guide: u32) -> vec4<f32> {
-    return guides[2u * hair.guides * hair.particles + guide];
+    return guides[guide];
 }
 
 // A point inside the head (`hair_sim::groom::ChildRoot::head_centre`).
 fn head_centre() -> vec3<f32> {
-    return guides[2u * hair.guides * hair.particles + hair.guides].xyz;
+    return guides[hair.guides].xyz;
 }
 
 // Guide segments per drawn piece of a strand. Mirrors
@@ -94,7 +100,7 @@ fn pieces() -> u32 {
 // The order the strands' pieces are drawn in follows the head's centre, four per vec4,
 // each `guide · pieces + piece`: back to front when the strands are blended, else as grown.
 fn order_start() -> u32 {
-    return 2u * hair.guides * hair.particles + hair.guides + 1u;
+    return hair.guides + 1u;
 }
 
 // The piece drawn `slot`th.
@@ -194,29 +200,6 @@ fn self_shadow(kind: f32, source: vec3<f32>, p: vec3<f32>) -> f32 {
     return 1.0;
 }
 
-// Mirrors `hair_sim::groom::curve::unit_or`.
-fn unit_or(v: vec3<f32>, fallback: vec3<f32>) -> vec3<f32> {
-    let len2 = dot(v, v);
-    if len2 > 1e-20 && len2 < 3.4e38 {
-        return v * inverseSqrt(len2);
-    }
-    return fallback;
-}
-
-// Mirrors `hair_sim::groom::curve::fallback_axis`.
-fn fallback_axis(axis: vec3<f32>) -> vec3<f32> {
-    var world = vec3(0.0, 1.0, 0.0);
-    if abs(axis.x) < 0.9 {
-        world = vec3(1.0, 0.0, 0.0);
-    }
-    return unit_or(world - axis * dot(axis, world), vec3(0.0, 0.0, 1.0));
-}
-
-// Mirrors `hair_sim::groom::curve::perpendicular_unit`.
-fn perpendicular_unit(v: vec3<f32>, axis: vec3<f32>) -> vec3<f32> {
-    return unit_or(v - axis * dot(axis, v), fallback_axis(axis));
-}
-
 // Mirrors `hair_sim::groom::curve::particle`: neighbours past either end mirrored.
 fn neighbour(guide: u32, i: i32) -> vec3<f32> {
     let n = i32(hair.particles);
@@ -229,32 +212,14 @@ fn neighbour(guide: u32, i: i32) -> vec3<f32> {
     return particle(guide, u32(i));
 }
 
-struct CurvePoint {
-    position: vec3<f32>,
-    tangent: vec3<f32>,
-}
-
-// Mirrors `hair_sim::groom::curve::evaluate` (with `bezier_controls` inlined): the C1
-// Catmull-Rom Bézier through the guide particles at `s` in particle units, [0, n - 1].
+// Mirrors `hair_sim::groom::curve::evaluate`: the C1 Catmull-Rom Bézier through the guide
+// particles at `s` in particle units, [0, n - 1].
 fn evaluate(guide: u32, s_in: f32) -> CurvePoint {
     let last = f32(hair.particles - 1u);
     let s = clamp(s_in, 0.0, last);
     let i = i32(min(floor(s), last - 1.0));
     let t = s - f32(i);
-    let prev = neighbour(guide, i - 1);
-    let p0 = neighbour(guide, i);
-    let p1 = neighbour(guide, i + 1);
-    let next = neighbour(guide, i + 2);
-    let c0 = p0;
-    let c1 = p0 + (p1 - prev) / 6.0;
-    let c2 = p1 - (next - p0) / 6.0;
-    let c3 = p1;
-    let r = 1.0 - t;
-    var out: CurvePoint;
-    out.position = c0 * (r * r * r) + c1 * (3.0 * r * r * t) + c2 * (3.0 * r * t * t) + c3 * (t * t * t);
-    let derivative = (c1 - c0) * (3.0 * r * r) + (c2 - c1) * (6.0 * r * t) + (c3 - c2) * (3.0 * t * t);
-    out.tangent = unit_or(derivative, unit_or(c3 - c0, vec3(0.0, 1.0, 0.0)));
-    return out;
+    return bezier_point(neighbour(guide, i - 1), neighbour(guide, i), neighbour(guide, i + 1), neighbour(guide, i + 2), t);
 }
 
 // Mirrors `hair_sim::groom::curve::frame_at`: the frame (u, v) at `s`.

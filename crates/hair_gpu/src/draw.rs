@@ -154,6 +154,12 @@ pub struct GpuDrawing {
     strands: u64,
 }
 
+impl std::fmt::Debug for GpuDrawing {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("GpuDrawing").field("strands", &self.strands).finish_non_exhaustive()
+    }
+}
+
 impl GpuDrawing {
     /// Draws `strands` into `target`, which needs `STORAGE` use and room for two `vec4`
     /// per particle; `root_u` is each strand's frame vector at its root, in head space.

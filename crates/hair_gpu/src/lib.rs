@@ -665,9 +665,63 @@ impl GpuStrands {
         Ok(vec4s.iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect())
     }
 
+    /// Starts copying the positions back to the CPU, without waiting: they arrive when the
+    /// GPU has run what was queued before ([`PositionsCopy::take`]).
+    pub fn copy_positions(&self) -> PositionsCopy {
+        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("hair_gpu positions copy"),
+            size: self.positions.size(),
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut encoder =
+            self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("hair_gpu copy") });
+        encoder.copy_buffer_to_buffer(&self.positions, 0, &staging, 0, self.positions.size());
+        self.queue.submit([encoder.finish()]);
+        let mapped = std::sync::Arc::new(std::sync::OnceLock::new());
+        let arrived = mapped.clone();
+        staging.slice(..).map_async(wgpu::MapMode::Read, move |result| _ = arrived.set(result));
+        PositionsCopy { device: self.device.clone(), staging, mapped }
+    }
+
     /// Waits for every step queued so far.
     pub fn finish(&self) -> Result<(), GpuError> {
         self.device.poll(wgpu::PollType::wait_indefinitely()).map(|_| ()).map_err(|e| GpuError::ReadBack(e.to_string()))
+    }
+}
+
+/// Positions on their way back to the CPU ([`GpuStrands::copy_positions`]).
+pub struct PositionsCopy {
+    device: wgpu::Device,
+    staging: wgpu::Buffer,
+    /// Set when the GPU has mapped the copy (or failed to).
+    mapped: std::sync::Arc<std::sync::OnceLock<Result<(), wgpu::BufferAsyncError>>>,
+}
+
+impl PositionsCopy {
+    /// Whether the copy has arrived (or failed), waiting for it when `wait`.
+    pub fn arrived(&self, wait: bool) -> bool {
+        let poll = if wait { wgpu::PollType::wait_indefinitely() } else { wgpu::PollType::Poll };
+        // A failed poll leaves the copy unarrived; `into_positions` reports it.
+        let _ = self.device.poll(poll);
+        self.mapped.get().is_some()
+    }
+
+    /// The positions, strand by strand, waiting for them if they have not arrived.
+    pub fn into_positions(self) -> Result<Vec<Vec3>, GpuError> {
+        self.arrived(true);
+        match self.mapped.get() {
+            Some(Ok(())) => {}
+            Some(Err(e)) => return Err(GpuError::ReadBack(e.to_string())),
+            None => return Err(GpuError::ReadBack("the GPU did not map the copy".into())),
+        }
+        let positions = {
+            let bytes = self.staging.slice(..).get_mapped_range();
+            let vec4s: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
+            vec4s.iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect()
+        };
+        self.staging.unmap();
+        Ok(positions)
     }
 }
 

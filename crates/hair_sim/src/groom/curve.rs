@@ -27,7 +27,8 @@ pub struct CurvePoint {
 
 /// `v` normalised, or `fallback` when `v` is (near) zero or not finite.
 ///
-/// Mirrored in `src/render/hair.wgsl` (`fn unit_or`).
+/// Mirrored in `crates/hair_gpu/src/curve.wgsl` (`fn unit_or`), which the renderer and the
+/// GPU solver's drawing pass share.
 #[inline]
 pub(crate) fn unit_or(v: Vec3, fallback: Vec3) -> Vec3 {
     let len2 = v.length_squared();
@@ -37,7 +38,8 @@ pub(crate) fn unit_or(v: Vec3, fallback: Vec3) -> Vec3 {
 /// A unit vector perpendicular to the unit vector `axis`: the world axis least aligned with
 /// it, made perpendicular. Used where a direction is undefined, so frames never go NaN.
 ///
-/// Mirrored in `src/render/hair.wgsl` (`fn fallback_axis`).
+/// Mirrored in `crates/hair_gpu/src/curve.wgsl` (`fn fallback_axis`), which the renderer and the
+/// GPU solver's drawing pass share.
 #[inline]
 pub(crate) fn fallback_axis(axis: Vec3) -> Vec3 {
     let world = if axis.x.abs() < 0.9 { Vec3::X } else { Vec3::Y };
@@ -47,7 +49,8 @@ pub(crate) fn fallback_axis(axis: Vec3) -> Vec3 {
 /// The part of `v` perpendicular to the unit vector `axis`, normalised (Gram-Schmidt);
 /// [`fallback_axis`] when `v` is (nearly) parallel to `axis`.
 ///
-/// Mirrored in `src/render/hair.wgsl` (`fn perpendicular_unit`).
+/// Mirrored in `crates/hair_gpu/src/curve.wgsl` (`fn perpendicular_unit`), which the renderer and the
+/// GPU solver's drawing pass share.
 #[inline]
 pub(crate) fn perpendicular_unit(v: Vec3, axis: Vec3) -> Vec3 {
     unit_or(v - axis * axis.dot(v), fallback_axis(axis))
@@ -74,7 +77,7 @@ fn particle(points: &[Vec3], i: isize) -> Vec3 {
 /// curve passes through every particle. Fewer than two particles give the one particle
 /// (or the origin) four times.
 ///
-/// Mirrored in `src/render/hair.wgsl` (`fn bezier_controls`).
+/// Mirrored in `crates/hair_gpu/src/curve.wgsl` (inlined in `fn bezier_point`).
 pub fn bezier_controls(points: &[Vec3], segment: usize) -> [Vec3; 4] {
     if points.len() < 2 {
         return [points.first().copied().unwrap_or(Vec3::ZERO); 4];
@@ -89,7 +92,7 @@ pub fn bezier_controls(points: &[Vec3], segment: usize) -> [Vec3; 4] {
 /// as 0). The tangent is the normalised derivative; where that vanishes (repeated
 /// particles), the segment's direction, then +Y, so it is never NaN for finite particles.
 ///
-/// Mirrored in `src/render/hair.wgsl` (`fn evaluate`).
+/// Mirrored in `src/render/strand.wgsl` (`fn evaluate`, with `curve.wgsl`'s `fn bezier_point`).
 pub fn evaluate(points: &[Vec3], s: f32) -> CurvePoint {
     if points.len() < 2 {
         return CurvePoint { position: points.first().copied().unwrap_or(Vec3::ZERO), tangent: Vec3::Y };
@@ -133,6 +136,7 @@ pub fn tessellate(points: &[Vec3], subdivisions: u32) -> Vec<CurvePoint> {
 /// length. For a full reversal (`c ≈ −1`, no unique minimal rotation) it turns by π about
 /// `v` itself, i.e. keeps `v`.
 ///
+/// Mirrored in `crates/hair_gpu/src/curve.wgsl` (`fn transport`).
 #[inline]
 fn transport(v: Vec3, a: Vec3, b: Vec3) -> Vec3 {
     let k = a.cross(b);
@@ -149,7 +153,8 @@ fn transport(v: Vec3, a: Vec3, b: Vec3) -> Vec3 {
 /// does not twist around the strand.
 ///
 /// The renderer computes these on the CPU each frame and uploads them with the particles
-/// (`src/render/hair.wgsl` reads them in `fn frame_u`).
+/// (`src/render/strand.wgsl` reads them in `fn frame_u`); for a groom the GPU steps,
+/// `hair_gpu`'s drawing pass computes them on the GPU (`draw.wgsl`).
 pub fn transport_frames(points: &[Vec3], root_u: Vec3) -> Vec<Vec3> {
     if points.is_empty() {
         return Vec::new();
