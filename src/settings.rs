@@ -27,18 +27,19 @@ pub enum HairBackend {
     Cpu,
     /// `hair_gpu`'s compute pass on the app's render device (feature `render`): the same
     /// model, its particles colliding with the head's distance grid instead of its mesh (and
-    /// no whole-segment test, [`SimParams::segment_collision`]). Each step waits
-    /// for the GPU and reads the positions back, so everything that reads [`HairState`]
-    /// (drawing, self-shadows, `.hair` files) works unchanged; drawing straight from the
-    /// GPU's buffers is not built yet. The wait covers all the queue holds before the step,
-    /// the last frame's drawing included, so the CPU and the GPU take turns: experimental,
-    /// for measuring and for machines whose CPU is the bottleneck. Every guide is simulated
-    /// (levels of detail do not
-    /// apply), and [`HairState::last_report`] counts nothing. Where the GPU cannot step
-    /// the groom (no render device, an adapter without compute), it steps on the CPU and a
-    /// [`HairError`](crate::HairError) says why, once.
+    /// no whole-segment test, [`SimParams::segment_collision`]). The particles stay on the
+    /// GPU and are drawn from there: each frame a second pass writes them, interpolated and
+    /// placed on the drawn head, with their frames, into the drawing's buffer, and nothing
+    /// waits for the GPU. The groom's [`HairState`] positions are copies that come back
+    /// without waiting, a frame or two late; what the CPU computes from them (the drawing's
+    /// bounds, the blended draw order, self-shadow maps, `.hair` files) is as late.
+    /// [`HairState::read_back_gpu`] waits for the last step's. Every guide is simulated
+    /// (levels of detail do not apply), and [`HairState::last_report`] counts nothing.
+    /// Where the GPU cannot step the groom (no render device, an adapter without compute),
+    /// it steps on the CPU and a [`HairError`](crate::HairError) says why, once.
     ///
     /// [`HairState`]: crate::HairState
+    /// [`HairState::read_back_gpu`]: crate::HairState::read_back_gpu
     /// [`HairState::last_report`]: crate::HairState::last_report
     Gpu,
 }

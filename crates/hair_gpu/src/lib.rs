@@ -3,7 +3,9 @@
 //!
 //! [`GpuStrands`] mirrors [`hair_sim::solver::Strands`]: built from the same
 //! [`RestShape`] and head pose, stepped with the same [`StepInput`], read back on demand
-//! ([`GpuStrands::positions`]). Without collision it follows the CPU solver operation for
+//! ([`GpuStrands::positions`], or without waiting, [`GpuStrands::copy_positions`]), and
+//! drawn without a read-back: [`GpuDrawing`] writes them, as a renderer draws them in a
+//! frame, into the renderer's buffer. Without collision it follows the CPU solver operation for
 //! operation (the same integration, shape keeping, Follow-The-Leader, wind and resets);
 //! with collision the head is the collider's baked distance grid
 //! ([`HeadCollider::grid`]), sampled trilinearly with its gradient as the normal, where
