@@ -274,6 +274,53 @@ fn a_teleport_resets_the_strands_as_on_the_cpu() {
 }
 
 #[test]
+fn a_one_second_hitch_is_taken_as_on_the_cpu() {
+    let Some(gpu) = gpu() else { return };
+    let (_, collider, rest) = groom(256);
+    let params = SimParams::default();
+    let n = rest.particles_per_strand;
+    let mut cpu = Strands::new(rest.clone(), head_pose(0.0));
+    let mut on_gpu = GpuStrands::new(&gpu, &rest, head_pose(0.0), Some(&collider)).expect("GPU strands");
+    // 20 steps at 60 Hz, then one frame that took a second while the head turned a radian
+    // and a half, then 10 more steps.
+    let turned = |t: f32| {
+        let pose = head_pose(t);
+        if t > 0.34 { Pose::new(Quat::from_rotation_y(1.5) * pose.rotation, pose.translation) } else { pose }
+    };
+    let mut time = 0.0;
+    for k in 0..31 {
+        let dt = if k == 20 { 1.0 } else { DT };
+        let input = StepInput {
+            dt,
+            time,
+            head_from: turned(time),
+            head_to: turned(time + dt),
+            collider: Some(&collider),
+            extra_colliders: &[],
+            surface_patch: None,
+            params: &params,
+        };
+        cpu.step(&input);
+        on_gpu.step(&input).expect("GPU step");
+        time += dt;
+    }
+    let positions = on_gpu.positions().expect("read back");
+    let (mean, max, far) = apart(cpu.positions(), &positions);
+    let depth = deepest_in_head(&positions, n, &collider, turned(time));
+    let stretch = max_stretch(&positions, &rest);
+    eprintln!(
+        "after a 1 s hitch: mean {:.3} mm, max {:.2} mm apart, {:.2} % > 5 mm; depth {depth:e} m, stretch {stretch:e}",
+        mean * 1e3,
+        max * 1e3,
+        far * 100.0
+    );
+    assert!(positions.iter().all(|p| p.is_finite()));
+    assert!(mean < 1e-3, "mean {mean} m apart");
+    assert!(depth <= 5e-4, "{depth} m inside the head");
+    assert!(stretch <= 1e-4, "stretch {stretch}");
+}
+
+#[test]
 fn moving_the_origin_the_roots_and_resetting_match_the_cpu() {
     let Some(gpu) = gpu() else { return };
     let (_, collider, rest) = groom(64);
