@@ -132,10 +132,10 @@ impl GpuSolver {
         }
     }
 
-    /// See [`Strands::set_rest_root`].
-    pub fn set_rest_root(&mut self, strand: usize, root: SimVec3) {
+    /// Every strand's [`Strands::set_rest_root`] at once, in one upload.
+    pub fn set_rest_roots(&mut self, roots: &[SimVec3]) {
         if let Some(gpu) = &mut self.strands {
-            gpu.set_rest_root(strand, root);
+            gpu.set_rest_roots(roots);
         }
     }
 
@@ -167,7 +167,7 @@ impl GpuSolver {
 
     pub fn translate(&mut self, _: SimVec3) {}
 
-    pub fn set_rest_root(&mut self, _: usize, _: SimVec3) {}
+    pub fn set_rest_roots(&mut self, _: &[SimVec3]) {}
 
     pub fn reset(&mut self, _: Pose) {}
 }

@@ -452,10 +452,16 @@ pub(crate) fn track_heads(
         {
             let matrices = joint.skinning_matrices(&joints);
             let state = &mut *state;
-            for (strand, world) in state.root_skin.skinned_roots(&matrices).enumerate() {
-                let root = pose.inverse_transform_point(to_sim(world));
+            let roots: Vec<SimVec3> = state
+                .root_skin
+                .skinned_roots(&matrices)
+                .map(|world| pose.inverse_transform_point(to_sim(world)))
+                .collect();
+            for (strand, &root) in roots.iter().enumerate() {
                 state.strands.set_rest_root(strand, root);
-                state.gpu.set_rest_root(strand, root);
+            }
+            if !roots.is_empty() {
+                state.gpu.set_rest_roots(&roots);
             }
             if let Some(patch) = &mut state.skin_patch {
                 patch.update(&matrices, pose);

@@ -274,18 +274,29 @@ impl Rig {
 /// matrices, corner by corner), and the deepest drawn particle inside the head as skinned
 /// (ray parity and exact distance on the skinned triangles, `InsideTest`).
 fn ride(blend_top: f32) -> (ScalpJoint, f32, f32) {
-    let mut app = app();
+    ride_in(app(), blend_top, HairBackend::Cpu)
+}
+
+/// [`ride`] in `app` on `backend`; a groom the GPU steps is read back every frame (its
+/// last step, the one the frame draws nearest: two 60 Hz steps per 30 fps frame).
+fn ride_in(mut app: App, blend_top: f32, backend: HairBackend) -> (ScalpJoint, f32, f32) {
     let rig = spawn_rig(&mut app, blend_top);
+    app.world_mut().entity_mut(rig.head).insert(backend);
     wait_until_ready(&mut app, rig.head);
+    let on_gpu = backend == HairBackend::Gpu;
     let joint = state(&app, rig.head).scalp_joint().expect("a skinned head follows a joint").clone();
     app.insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(1.0 / 30.0)));
     let (mut worst_root, mut deepest) = (0.0f32, 0.0f32);
     for frame in 0..60 {
         rig.animate(&mut app, frame as f32 / 30.0);
         app.update();
+        let fraction = app.world().resource::<Time<Hair>>().overstep_fraction();
+        if on_gpu {
+            assert!(app.world_mut().get_mut::<HairState>(rig.head).unwrap().read_back_gpu());
+            assert_eq!(state(&app, rig.head).gpu_fallback(), None);
+        }
         let state = state(&app, rig.head);
         let n = state.particles_per_strand();
-        let fraction = app.world().resource::<Time<Hair>>().overstep_fraction();
         let drawn: Vec<Vec3> = state.interpolated_positions(fraction).collect();
         let mesh = state.head_mesh();
         for (root, strand) in state.roots().iter().zip(drawn.chunks_exact(n)) {
@@ -342,6 +353,24 @@ fn hair_on_a_skinned_head_rides_the_skin() {
     assert!(worst_root <= 2e-4, "a drawn root is {} mm off the blended skinned scalp", worst_root * 1e3);
     // The skin blended away from the head joint is collided with as it is drawn.
     assert!(deepest <= 1e-4, "a particle is {} mm inside the blended skinned head", deepest * 1e3);
+}
+
+#[test]
+fn hair_on_a_skinned_head_rides_the_skin_on_the_gpu() {
+    // The scalp blended into the neck: every root moves against the head joint each frame,
+    // all of them in one upload to the GPU.
+    let Some(app) = app_on_a_gpu() else { return };
+    let (joint, worst_root, deepest) = ride_in(app, 0.08, HairBackend::Gpu);
+    println!(
+        "on the GPU, scalp blended into the neck ({:.1}% on the head joint): roots within {:.4} mm, deepest {:.2} mm",
+        joint.share * 100.0,
+        worst_root * 1e3,
+        deepest * 1e3
+    );
+    assert!(joint.share < 0.95);
+    assert!(worst_root <= 2e-4, "a root is {} mm off the blended skinned scalp", worst_root * 1e3);
+    // The GPU collides with the head's distance grid and the moving skin's patch.
+    assert!(deepest <= 5e-4, "a particle is {} mm inside the blended skinned head", deepest * 1e3);
 }
 
 /// Spawns a skinned procedural head with one joint; `weights` adds joint attributes.

@@ -413,23 +413,6 @@ fn a_far_head_simulates_a_fraction_of_its_guides() {
     assert!(all_finite(&app, head));
 }
 
-/// A headless app whose main world holds a render device, as Bevy's `RenderPlugin` leaves
-/// one there for main-world systems: what the GPU backend steps on, without a renderer.
-/// `Err` says why there is none.
-fn app_with_render_device() -> Result<App, String> {
-    use bevy::render::renderer::{RenderAdapterInfo, RenderDevice, RenderQueue, WgpuWrapper};
-    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
-    let adapter = bevy::tasks::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions::default()))
-        .map_err(|e| format!("no GPU adapter ({e}); install mesa-vulkan-drivers and libvulkan1 for lavapipe"))?;
-    let (device, queue) = bevy::tasks::block_on(adapter.request_device(&wgpu::DeviceDescriptor::default()))
-        .map_err(|e| format!("the adapter opened no device ({e})"))?;
-    let mut app = app();
-    app.insert_resource(RenderDevice::from(device))
-        .insert_resource(RenderQueue(std::sync::Arc::new(WgpuWrapper::new(queue))))
-        .insert_resource(RenderAdapterInfo(WgpuWrapper::new(adapter.get_info())));
-    Ok(app)
-}
-
 /// The head's yaw at update `k`: a turn one way and back, 1.5 rad at 3 rad/s peaks.
 fn turning(k: usize) -> Transform {
     Transform::from_rotation(Quat::from_rotation_y(1.5 * (k as f32 / 30.0).sin()))
@@ -483,13 +466,7 @@ fn beside_the_cpu(mut app: App, backend: HairBackend, frames: usize) -> Beside {
 
 #[test]
 fn the_gpu_backend_steps_a_groom_as_the_cpu_does() {
-    let app = match app_with_render_device() {
-        Ok(app) => app,
-        Err(reason) if std::env::var_os("BEVY_HAIR_REQUIRE_ADAPTER").is_some() => {
-            panic!("BEVY_HAIR_REQUIRE_ADAPTER is set and there is {reason}")
-        }
-        Err(reason) => return eprintln!("SKIPPED: {reason}"),
-    };
+    let Some(app) = app_on_a_gpu() else { return };
     let Beside { copied, exact: on_gpu, on_cpu, fallbacks } = beside_the_cpu(app, HairBackend::Gpu, 60);
     assert!(fallbacks.is_empty(), "stepped on the GPU: {fallbacks:?}");
     let apart: Vec<f32> = on_gpu.iter().zip(&on_cpu).map(|(a, b)| a.distance(*b)).collect();

@@ -99,3 +99,35 @@ pub fn all_finite(app: &App, head: Entity) -> bool {
 pub fn settings(app: &mut App, change: impl FnOnce(&mut SimParams)) {
     change(&mut app.world_mut().resource_mut::<HairSettings>().0);
 }
+
+/// A headless app whose main world holds a render device, as Bevy's `RenderPlugin` leaves
+/// one there for main-world systems: what the GPU backend steps on, without a renderer.
+/// `Err` says why there is none.
+pub fn app_with_render_device() -> Result<App, String> {
+    use bevy::render::renderer::{RenderAdapterInfo, RenderDevice, RenderQueue, WgpuWrapper};
+    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+    let adapter = bevy::tasks::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions::default()))
+        .map_err(|e| format!("no GPU adapter ({e}); install mesa-vulkan-drivers and libvulkan1 for lavapipe"))?;
+    let (device, queue) = bevy::tasks::block_on(adapter.request_device(&wgpu::DeviceDescriptor::default()))
+        .map_err(|e| format!("the adapter opened no device ({e})"))?;
+    let mut app = app();
+    app.insert_resource(RenderDevice::from(device))
+        .insert_resource(RenderQueue(std::sync::Arc::new(WgpuWrapper::new(queue))))
+        .insert_resource(RenderAdapterInfo(WgpuWrapper::new(adapter.get_info())));
+    Ok(app)
+}
+
+/// [`app_with_render_device`], or `None` after saying why the test skips; without a device
+/// it fails instead when `BEVY_HAIR_REQUIRE_ADAPTER` is set (as `.ci/run` sets it).
+pub fn app_on_a_gpu() -> Option<App> {
+    match app_with_render_device() {
+        Ok(app) => Some(app),
+        Err(reason) if std::env::var_os("BEVY_HAIR_REQUIRE_ADAPTER").is_some() => {
+            panic!("BEVY_HAIR_REQUIRE_ADAPTER is set and there is {reason}")
+        }
+        Err(reason) => {
+            eprintln!("SKIPPED: {reason}");
+            None
+        }
+    }
+}

@@ -3,7 +3,8 @@
 //! them as drawn, with their parallel-transport frames, into a renderer's buffer
 //! (`draw.wgsl`, with `curve.wgsl`'s geometry, which the renderer's shader shares).
 
-use crate::{GpuError, GpuStrands, WORKGROUP_SIZE};
+use crate::pass::{bind_group, pipeline, submit};
+use crate::{GpuError, GpuStrands};
 use bytemuck::{Pod, Zeroable};
 use hair_sim::math::{Pose, Vec3};
 use wgpu::util::DeviceExt;
@@ -44,39 +45,12 @@ fn module(device: &wgpu::Device) -> wgpu::ShaderModule {
     })
 }
 
-fn pipeline(device: &wgpu::Device, module: &wgpu::ShaderModule, entry_point: &str) -> wgpu::ComputePipeline {
-    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some(entry_point),
-        layout: None,
-        module,
-        entry_point: Some(entry_point),
-        compilation_options: Default::default(),
-        cache: None,
-    })
-}
-
 fn uniform_buffer(device: &wgpu::Device) -> wgpu::Buffer {
     device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("hair_gpu placement"),
         size: size_of::<Placement>() as u64,
         usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
-    })
-}
-
-fn bind_group(
-    device: &wgpu::Device,
-    pipeline: &wgpu::ComputePipeline,
-    buffers: &[(u32, &wgpu::Buffer)],
-) -> wgpu::BindGroup {
-    let entries: Vec<_> = buffers
-        .iter()
-        .map(|&(binding, buffer)| wgpu::BindGroupEntry { binding, resource: buffer.as_entire_binding() })
-        .collect();
-    device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("hair_gpu draw"),
-        layout: &pipeline.get_bind_group_layout(0),
-        entries: &entries,
     })
 }
 
@@ -119,25 +93,6 @@ impl Published {
         let group = &self.groups[self.latest];
         submit((device, queue), "hair_gpu publish", &self.pipeline, group, counts[0] * counts[1]);
     }
-}
-
-/// One dispatch of `pipeline` over `invocations`, submitted.
-fn submit(
-    (device, queue): (&wgpu::Device, &wgpu::Queue),
-    label: &str,
-    pipeline: &wgpu::ComputePipeline,
-    group: &wgpu::BindGroup,
-    invocations: u32,
-) {
-    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
-    {
-        let mut pass =
-            encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(label), timestamp_writes: None });
-        pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, group, &[]);
-        pass.dispatch_workgroups(invocations.div_ceil(WORKGROUP_SIZE), 1, 1);
-    }
-    queue.submit([encoder.finish()]);
 }
 
 /// Writes [`GpuStrands`] into a renderer's buffer as they are drawn in a frame, on the GPU:

@@ -38,6 +38,7 @@ use hair_sim::solver::{LengthMode, RestShape, StepConstants, StepInput};
 use wgpu::util::DeviceExt;
 
 mod draw;
+mod pass;
 
 pub use draw::{CURVE_SHADER, DRAW_SHADER, GpuDrawing};
 pub use wgpu;
@@ -219,6 +220,38 @@ pub struct GpuStrands {
     published: draw::Published,
     /// Tells these strands from others (for [`GpuDrawing::draws`]).
     id: u64,
+    /// The pass that moves every root at once, made on first use.
+    roots: Option<RootsUpload>,
+}
+
+/// `roots.wgsl`: a root per strand uploaded, then written into the rest shape.
+struct RootsUpload {
+    roots: wgpu::Buffer,
+    pipeline: wgpu::ComputePipeline,
+    group: wgpu::BindGroup,
+}
+
+impl RootsUpload {
+    fn new(device: &wgpu::Device, rest: &wgpu::Buffer, strands: u32, particles_per_strand: usize) -> Self {
+        let roots = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("hair_gpu roots"),
+            size: u64::from(strands.max(1)) * 16,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let counts = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("hair_gpu roots counts"),
+            contents: bytemuck::cast_slice(&[strands, particles_per_strand as u32, 0, 0]),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("hair_gpu roots.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(include_str!("roots.wgsl").into()),
+        });
+        let pipeline = pass::pipeline(device, &module, "place_roots");
+        let group = pass::bind_group(device, &pipeline, &[(0, &counts), (1, &roots), (2, rest)]);
+        RootsUpload { roots, pipeline, group }
+    }
 }
 
 /// Bytes per particle in `motion`: velocity, substep start and FTL correction.
@@ -362,6 +395,7 @@ impl GpuStrands {
             timestamps,
             published,
             id: NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
+            roots: None,
         };
         strands.publish(pose);
         strands.publish(pose);
@@ -466,6 +500,30 @@ impl GpuStrands {
         self.rest_positions[i] = root;
         // The root's vec4 holds its segment's rest length in w: zero at a root.
         self.queue.write_buffer(&self.rest, (2 * i * 16) as u64, bytemuck::cast_slice(&[root.x, root.y, root.z, 0.0]));
+    }
+
+    /// Moves every strand's root within the rest shape at once, as
+    /// [`Self::set_rest_root`] per strand would, in one upload and one pass instead of a
+    /// write per root (a skinned scalp moves them all every frame). `roots` holds one per
+    /// strand; a non-finite one leaves its strand's root where it was. A wrong count
+    /// changes nothing and returns `false`.
+    pub fn set_rest_roots(&mut self, roots: &[Vec3]) -> bool {
+        let (strands, n) = (self.strands as usize, self.particles_per_strand as usize);
+        if roots.len() != strands {
+            return false;
+        }
+        let mut placed = Vec::with_capacity(strands);
+        for (strand, &root) in roots.iter().enumerate() {
+            let kept = &mut self.rest_positions[strand * n];
+            if root.is_finite() {
+                *kept = root;
+            }
+            placed.push([kept.x, kept.y, kept.z, 0.0]);
+        }
+        let upload = self.roots.get_or_insert_with(|| RootsUpload::new(&self.device, &self.rest, self.strands, n));
+        self.queue.write_buffer(&upload.roots, 0, bytemuck::cast_slice(&placed));
+        pass::submit((&self.device, &self.queue), "hair_gpu roots", &upload.pipeline, &upload.group, self.strands);
+        true
     }
 
     /// Queues one step of `input` (the same input a CPU [`hair_sim::solver::Strands`] takes;
@@ -846,6 +904,14 @@ mod tests {
         naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::empty())
             .validate(&module)
             .expect("step.wgsl validates");
+    }
+
+    #[test]
+    fn the_roots_shader_validates() {
+        let module = naga::front::wgsl::parse_str(include_str!("roots.wgsl")).expect("roots.wgsl parses");
+        naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::empty())
+            .validate(&module)
+            .expect("roots.wgsl validates");
     }
 
     #[test]

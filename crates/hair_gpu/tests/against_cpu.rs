@@ -340,11 +340,17 @@ fn moving_the_origin_the_roots_and_resetting_match_the_cpu() {
     let offset = Vec3::new(0.5, -0.25, 2.0);
     cpu.translate(offset);
     on_gpu.translate(offset);
+    // The GPU takes every root at once: those two moved, one not finite (left where it
+    // was, as the CPU leaves it), the rest where they were.
+    let mut roots: Vec<Vec3> = rest.positions.iter().step_by(n).copied().collect();
     for strand in [3, 40] {
-        let root = rest.positions[strand * n] + Vec3::new(0.004, 0.0, -0.003);
-        cpu.set_rest_root(strand, root);
-        on_gpu.set_rest_root(strand, root);
+        roots[strand] += Vec3::new(0.004, 0.0, -0.003);
+        cpu.set_rest_root(strand, roots[strand]);
     }
+    roots[7] = Vec3::NAN;
+    cpu.set_rest_root(7, roots[7]);
+    assert!(on_gpu.set_rest_roots(&roots));
+    assert!(!on_gpu.set_rest_roots(&roots[1..]), "one root short");
     // The head is where the shifted strands expect it from here on.
     let shifted = |t: f32| {
         let pose = head_pose(t);
