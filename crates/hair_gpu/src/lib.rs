@@ -720,28 +720,13 @@ impl GpuStrands {
 
     /// Waits for the queued steps and reads the world positions back, strand by strand.
     pub fn positions(&self) -> Result<Vec<Vec3>, GpuError> {
-        let bytes = read_buffer(&self.device, &self.queue, &self.positions)?;
-        let vec4s: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
-        Ok(vec4s.iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect())
+        self.copy_positions().into_positions()
     }
 
     /// Starts copying the positions back to the CPU, without waiting: they arrive when the
     /// GPU has run what was queued before ([`PositionsCopy::take`]).
     pub fn copy_positions(&self) -> PositionsCopy {
-        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("hair_gpu positions copy"),
-            size: self.positions.size(),
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let mut encoder =
-            self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("hair_gpu copy") });
-        encoder.copy_buffer_to_buffer(&self.positions, 0, &staging, 0, self.positions.size());
-        self.queue.submit([encoder.finish()]);
-        let mapped = std::sync::Arc::new(std::sync::OnceLock::new());
-        let arrived = mapped.clone();
-        staging.slice(..).map_async(wgpu::MapMode::Read, move |result| _ = arrived.set(result));
-        PositionsCopy { device: self.device.clone(), staging, mapped }
+        PositionsCopy(BufferCopy::start(&self.device, &self.queue, &self.positions))
     }
 
     /// Waits for every step queued so far.
@@ -751,37 +736,67 @@ impl GpuStrands {
 }
 
 /// Positions on their way back to the CPU ([`GpuStrands::copy_positions`]).
-pub struct PositionsCopy {
+pub struct PositionsCopy(BufferCopy);
+
+impl PositionsCopy {
+    /// Whether the copy has arrived (or failed), waiting for it when `wait`.
+    pub fn arrived(&self, wait: bool) -> bool {
+        self.0.arrived(wait)
+    }
+
+    /// The positions, strand by strand, waiting for them if they have not arrived.
+    pub fn into_positions(self) -> Result<Vec<Vec3>, GpuError> {
+        let bytes = self.0.into_bytes()?;
+        let vec4s: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
+        Ok(vec4s.iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect())
+    }
+}
+
+/// A buffer copied into a mappable one, on its way to the CPU.
+struct BufferCopy {
     device: wgpu::Device,
     staging: wgpu::Buffer,
     /// Set when the GPU has mapped the copy (or failed to).
     mapped: std::sync::Arc<std::sync::OnceLock<Result<(), wgpu::BufferAsyncError>>>,
 }
 
-impl PositionsCopy {
-    /// Whether the copy has arrived (or failed), waiting for it when `wait`.
-    pub fn arrived(&self, wait: bool) -> bool {
+impl BufferCopy {
+    /// Queues the copy of `buffer` (with `COPY_SRC` use) and asks for it mapped.
+    fn start(device: &wgpu::Device, queue: &wgpu::Queue, buffer: &wgpu::Buffer) -> Self {
+        let staging = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("hair_gpu read-back"),
+            size: buffer.size(),
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut encoder =
+            device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("hair_gpu read-back") });
+        encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, buffer.size());
+        queue.submit([encoder.finish()]);
+        let mapped = std::sync::Arc::new(std::sync::OnceLock::new());
+        let arrived = mapped.clone();
+        staging.slice(..).map_async(wgpu::MapMode::Read, move |result| _ = arrived.set(result));
+        BufferCopy { device: device.clone(), staging, mapped }
+    }
+
+    fn arrived(&self, wait: bool) -> bool {
         let poll = if wait { wgpu::PollType::wait_indefinitely() } else { wgpu::PollType::Poll };
-        // A failed poll leaves the copy unarrived; `into_positions` reports it.
+        // A failed poll leaves the copy unarrived; `into_bytes` reports it.
         let _ = self.device.poll(poll);
         self.mapped.get().is_some()
     }
 
-    /// The positions, strand by strand, waiting for them if they have not arrived.
-    pub fn into_positions(self) -> Result<Vec<Vec3>, GpuError> {
+    /// The bytes, waiting for them if they have not arrived.
+    fn into_bytes(self) -> Result<Vec<u8>, GpuError> {
         self.arrived(true);
         match self.mapped.get() {
             Some(Ok(())) => {}
             Some(Err(e)) => return Err(GpuError::ReadBack(e.to_string())),
             None => return Err(GpuError::ReadBack("the GPU did not map the copy".into())),
         }
-        let positions = {
-            let bytes = self.staging.slice(..).get_mapped_range();
-            let vec4s: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
-            vec4s.iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect()
-        };
+        let bytes = self.staging.slice(..).get_mapped_range().to_vec();
         self.staging.unmap();
-        Ok(positions)
+        Ok(bytes)
     }
 }
 
@@ -832,25 +847,7 @@ fn bind(device: &wgpu::Device, layout: &wgpu::BindGroupLayout, buffers: [&wgpu::
 
 /// Copies `buffer` into a mappable one and reads it, waiting for the GPU.
 fn read_buffer(device: &wgpu::Device, queue: &wgpu::Queue, buffer: &wgpu::Buffer) -> Result<Vec<u8>, GpuError> {
-    let staging = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("hair_gpu read-back"),
-        size: buffer.size(),
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    let mut encoder =
-        device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("hair_gpu read-back") });
-    encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, buffer.size());
-    queue.submit([encoder.finish()]);
-    let (sender, receiver) = std::sync::mpsc::channel();
-    staging.slice(..).map_async(wgpu::MapMode::Read, move |result| {
-        let _ = sender.send(result);
-    });
-    device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| GpuError::ReadBack(e.to_string()))?;
-    receiver.recv().map_err(|e| GpuError::ReadBack(e.to_string()))?.map_err(|e| GpuError::ReadBack(e.to_string()))?;
-    let bytes = staging.slice(..).get_mapped_range().to_vec();
-    staging.unmap();
-    Ok(bytes)
+    BufferCopy::start(device, queue, buffer).into_bytes()
 }
 
 /// A pass's start and end timestamps, resolved and read back.
