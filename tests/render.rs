@@ -385,6 +385,9 @@ fn a_groom_the_gpu_steps_is_drawn_from_the_gpu_where_the_cpu_would_draw_it() {
     scene.frames(3);
     let on_cpu = scene.capture("backend-cpu");
     let cpu_bytes = scene.app.world().resource::<HairRenderStats>().uploaded_bytes;
+    let drawing = scene.app.world().get::<HairDrawnBy>(head).unwrap().0;
+    let aabb = |scene: &Scene| *scene.app.world().get::<bevy::camera::primitives::Aabb>(drawing).unwrap();
+    let cpu_box = aabb(&scene);
     // The head is still and the hair settled: on the GPU it stays where it hangs.
     scene.app.world_mut().entity_mut(head).insert(HairBackend::Gpu);
     scene.frames(3);
@@ -395,6 +398,13 @@ fn a_groom_the_gpu_steps_is_drawn_from_the_gpu_where_the_cpu_would_draw_it() {
     // written on the GPU; only the rest travels.
     let gpu_bytes = scene.app.world().resource::<HairRenderStats>().uploaded_bytes;
     assert_eq!(cpu_bytes - gpu_bytes, 600 * 11 * 2 * 16, "{cpu_bytes} then {gpu_bytes} bytes uploaded");
+    // Culling takes a GPU groom's strands as far as they reach from their roots: a box
+    // holding the one around the particles themselves.
+    let gpu_box = aabb(&scene);
+    assert!(
+        gpu_box.min().cmple(cpu_box.min()).all() && gpu_box.max().cmpge(cpu_box.max()).all(),
+        "{gpu_box:?} holds {cpu_box:?}"
+    );
     let (cpu_hair, gpu_hair) = (on_cpu.hair_pixels(), on_gpu.hair_pixels());
     let differing = (0..SIZE * SIZE)
         .filter(|i| {

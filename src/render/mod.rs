@@ -18,7 +18,8 @@ pub use material::{HairMaterial, HairUniform, shader_path};
 use crate::convert::{from_sim, quat_from_sim, to_sim};
 use crate::detail::{UNKNOWN_VIEWPORT_HEIGHT, pixels_per_metre};
 use crate::diagnostics::HairDiagnostics;
-use crate::{Hair, HairGroom, HairState, HairSystems, HairTime};
+use crate::settings::effective;
+use crate::{Hair, HairGroom, HairSettings, HairSettingsOverride, HairState, HairSystems, HairTime};
 use bevy::asset::embedded_asset;
 use bevy::camera::primitives::Aabb;
 use bevy::camera::visibility::{NoAutoAabb, RenderLayers, VisibilitySystems};
@@ -270,6 +271,13 @@ struct DrawnRoot {
     curvature: f32,
 }
 
+/// On a drawing: the box around its strands as the CPU last had them, in the drawing's
+/// frame, which the blending choice reads ([`choose_blending`]). The drawing's [`Aabb`]
+/// (what culling reads) is the same box, except for a groom the GPU steps, whose
+/// positions here trail the drawn ones: there it holds every strand as far as it reaches.
+#[derive(Component, Clone, Copy, Debug, Default)]
+struct StrandsBox(Aabb);
+
 /// On a head: the entity that draws its hair. Set that entity's [`Visibility`] to hide
 /// the hair alone.
 #[derive(Component, Debug)]
@@ -383,6 +391,7 @@ fn sync_drawing(
                     Visibility::Inherited,
                     NoAutoAabb,
                     Aabb::default(),
+                    StrandsBox::default(),
                 ));
                 if let Some(layers) = layers {
                     entity.insert(layers.clone());
@@ -415,9 +424,9 @@ const UNBLEND_ABOVE_PIXELS: f32 = 1.25;
 fn choose_blending(
     heads: Query<&HairLook>,
     cameras: Query<(&Camera, &Projection, &GlobalTransform)>,
-    mut drawings: Query<(&mut HairDrawing, &GlobalTransform, &Aabb)>,
+    mut drawings: Query<(&mut HairDrawing, &GlobalTransform, &StrandsBox)>,
 ) {
-    for (mut drawing, placed, aabb) in &mut drawings {
+    for (mut drawing, placed, StrandsBox(aabb)) in &mut drawings {
         let Ok(look) = heads.get(drawing.head) else { continue };
         // The strands' bounding sphere, in the world.
         let centre = placed.transform_point(aabb.center.into());
@@ -606,15 +615,19 @@ fn drawn_on_gpu(drawing: &HairDrawing, state: &HairState) -> bool {
 /// buffer, unless the GPU does ([`draw_on_gpu`]), then the scalp at each root, the draw
 /// order and the opacity maps into its guide buffer, and fits its bounding box (in the
 /// drawing's own frame: it is a child of the head, and a skinned head's hair follows a
-/// joint instead). The grooms are written in parallel. For a groom the GPU steps, the
-/// box, the order and the maps come from the positions last copied back (a frame or two
-/// late).
+/// joint instead; [`StrandsBox`]). The grooms are written in parallel. For a groom the
+/// GPU steps, the order and the maps come from the positions last copied back (a frame or
+/// two late).
 #[allow(clippy::too_many_arguments)] // one system: the buffers, their inputs and the statistics
 fn upload_guides(
     clock: Res<Time<Hair>>,
-    heads: Query<(&HairState, &HairGroom, &HairLook)>,
+    heads: Query<(&HairState, &HairGroom, &HairLook, Option<&HairSettingsOverride>)>,
+    settings: Res<HairSettings>,
     lights: Res<ShadowCastingLights>,
-    mut drawings: Query<(&HairDrawing, &GlobalTransform, &mut Aabb, &InheritedVisibility), With<Mesh3d>>,
+    mut drawings: Query<
+        (&HairDrawing, &GlobalTransform, &mut Aabb, &mut StrandsBox, &InheritedVisibility),
+        With<Mesh3d>,
+    >,
     mut buffers: ResMut<Assets<ShaderBuffer>>,
     queue: Option<Res<RenderQueue>>,
     mut stats: ResMut<HairRenderStats>,
@@ -623,26 +636,35 @@ fn upload_guides(
 ) {
     let Some(queue) = queue else { return };
     let overstep = clock.overstep_fraction();
-    type Written = (Option<Vec<Vec4>>, Vec<Vec4>, Option<Aabb>);
+    /// The particles and frames (unless the GPU writes them), the guide buffer, and the
+    /// boxes around the strands as copied here and as far as they can be.
+    type Written = (Option<Vec<Vec4>>, Vec<Vec4>, Option<(Aabb, Aabb)>);
     let write = |drawing: &HairDrawing, placed: &GlobalTransform| -> Option<Written> {
-        let (state, groom, look) = heads.get(drawing.head).ok()?;
+        let (state, groom, look, local_settings) = heads.get(drawing.head).ok()?;
         if state.roots().len() != drawing.roots.len() {
             return None; // regrown with another guide count; sync_drawing rebuilds next frame
         }
         let rotation = quat_from_sim(state.drawn_head_pose().rotation);
         let positions: Vec<Vec3> = state.interpolated_positions(overstep).collect();
         let to_drawing = placed.affine().inverse();
+        let n = state.particles_per_strand();
+        let on_gpu = drawn_on_gpu(drawing, state);
+        // The box around the particles, and around the roots as placed this frame.
         let (mut min, mut max) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-        for &p in &positions {
+        let (mut roots_min, mut roots_max) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+        for (i, &p) in positions.iter().enumerate() {
             let local = to_drawing.transform_point3(p);
             min = min.min(local);
             max = max.max(local);
+            if i % n == 0 {
+                roots_min = roots_min.min(local);
+                roots_max = roots_max.max(local);
+            }
         }
         // The solver's vectors of the same positions, for the frames, the draw order and
         // the opacity maps.
         let points: Vec<_> = positions.iter().map(|&p| to_sim(p)).collect();
-        let n = state.particles_per_strand();
-        let particles = (!drawn_on_gpu(drawing, state)).then(|| {
+        let particles = (!on_gpu).then(|| {
             let mut particles: Vec<Vec4> = Vec::with_capacity(particles_len(&drawing.layout));
             particles.extend(positions.iter().map(|p| p.extend(1.0)));
             // The frames are one root → tip pass per guide here, instead of a walk from the
@@ -673,21 +695,36 @@ fn upload_guides(
         // stretched at most by the inverse's Frobenius norm (1.7 for a rigid frame).
         let stretch = to_drawing.matrix3.to_cols_array().iter().map(|c| c * c).sum::<f32>().sqrt();
         let reach = (child_reach(&groom.children.sanitized().0) + look.root_width.max(look.tip_width)) * stretch;
-        let fitted = (min.is_finite() && max.is_finite())
-            .then(|| Aabb::from_min_max(min - Vec3::splat(reach), max + Vec3::splat(reach)));
-        Some((particles, data, fitted))
+        let widened = |min: Vec3, max: Vec3, by: f32| {
+            (min.is_finite() && max.is_finite())
+                .then(|| Aabb::from_min_max(min - Vec3::splat(by), max + Vec3::splat(by)))
+        };
+        let fitted = widened(min, max, reach);
+        // The GPU's strands are drawn where they are now, which the copies here trail by a
+        // frame or two: culling takes every strand as far as it reaches from its root
+        // (stretched as far as the length tolerance lets it), the blending choice the copies.
+        let culled = if on_gpu {
+            let rest = state.strands().rest();
+            let longest = rest.lengths.chunks_exact(n).map(|strand| strand.iter().sum::<f32>()).fold(0.0, f32::max);
+            let tolerance = effective(&settings, local_settings).sanitized().0.length_tolerance;
+            widened(roots_min, roots_max, longest * (1.0 + tolerance) * stretch + reach)
+        } else {
+            fitted
+        };
+        Some((particles, data, fitted.zip(culled)))
     };
     // Each groom's buffer is written on a task of its own (a crowd's grooms on every core),
     // then handed to its asset here.
-    drawings.par_iter_mut().for_each(|(drawing, placed, mut aabb, inherited)| {
+    drawings.par_iter_mut().for_each(|(drawing, placed, mut aabb, mut strands_box, inherited)| {
         // The head or the hair is hidden (the drawing's own `Visibility` is part of its
         // inherited one): nothing is drawn, so nothing is uploaded.
         if !inherited.get() {
             return;
         }
-        if let Some((particles, data, fitted)) = write(drawing, placed) {
-            if let Some(fitted) = fitted {
-                *aabb = fitted;
+        if let Some((particles, data, boxes)) = write(drawing, placed) {
+            if let Some((fitted, culled)) = boxes {
+                strands_box.0 = fitted;
+                *aabb = culled;
             }
             written.borrow_local_mut().push(WrittenGuides {
                 buffer: drawing.guides.clone(),
