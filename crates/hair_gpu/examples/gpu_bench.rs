@@ -1,14 +1,16 @@
 //! GPU benchmark: grooms of 2,048 × 16, 16,384 × 16 and 65,536 × 32 guides on the
 //! procedural head, stepped on the GPU while keyframes turn and nod it; one JSON line per
 //! size with the adapter's name and the median milliseconds per step, from timestamp
-//! queries where the adapter has them, else wall time with a wait for each step.
+//! queries where the adapter has them, else wall time with a wait for each step; then the
+//! median milliseconds of the frame's drawing pass (`GpuDrawing`: the particles
+//! interpolated and placed, their frames), wall time with a wait for each.
 //!
 //! ```text
 //! cargo run --release -p hair_gpu --example gpu_bench
 //! # also: --steps N (default 60), --sizes 2048x16,16384x16 (guides × particles)
 //! ```
 
-use hair_gpu::{GpuContext, GpuStrands};
+use hair_gpu::{GpuContext, GpuDrawing, GpuStrands, wgpu};
 use hair_sim::prelude::*;
 use std::time::Instant;
 
@@ -74,7 +76,26 @@ fn main() {
                     timed_on_gpu = false;
                 }
             }
+            strands.publish(input.head_to);
         }
+        // The frame's drawing, into a buffer as a renderer's.
+        let target = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("gpu_bench drawn"),
+            size: (2 * rest.positions.len() * 16) as u64,
+            usage: wgpu::BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        });
+        let root_u: Vec<Vec3> = rest.root_frames.iter().map(|q| *q * Vec3::X).collect();
+        let drawing = GpuDrawing::new(&strands, &root_u, &target).expect("drawing");
+        let mut draw_times: Vec<f64> = (0..steps)
+            .map(|k| {
+                let start = Instant::now();
+                drawing.draw(&strands, k as f32 / steps as f32, head_pose(k as f32 * dt)).expect("draw");
+                strands.finish().expect("GPU wait");
+                start.elapsed().as_secs_f64() * 1e3
+            })
+            .collect();
+        draw_times.sort_by(f64::total_cmp);
         let positions = strands.positions().expect("read back");
         let pose = head_pose(steps as f32 * dt);
         let deepest = positions
@@ -91,13 +112,14 @@ fn main() {
         println!(
             "{{\"guides\":{guides},\"particles_per_strand\":{particles},\"steps\":{steps},\"adapter\":\"{}\",\
              \"backend\":\"{:?}\",\"timing\":\"{}\",\"ms_per_step\":{:.4},\"finite\":{},\"max_stretch\":{stretch:.6},\
-             \"max_penetration_m\":{:.6}}}",
+             \"max_penetration_m\":{:.6},\"draw_ms_per_frame\":{:.4},\"draw_timing\":\"wall time, waiting for each draw\"}}",
             gpu.adapter.name.replace('"', "'"),
             gpu.adapter.backend,
             if timed_on_gpu { "timestamp queries" } else { "wall time, waiting for each step" },
             times[times.len() / 2],
             positions.iter().all(|p| p.is_finite()),
-            deepest.max(0.0)
+            deepest.max(0.0),
+            draw_times[draw_times.len() / 2]
         );
     }
 }
