@@ -474,18 +474,8 @@ impl GpuStrands {
             ..StepUniform::zeroed()
         };
         self.queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&uniform));
-        let mut encoder =
-            self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("hair_gpu translate") });
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("hair_gpu translate"),
-                timestamp_writes: None,
-            });
-            pass.set_pipeline(&self.translate);
-            pass.set_bind_group(0, &self.bind_group, &[]);
-            pass.dispatch_workgroups((self.strands * self.particles_per_strand).div_ceil(WORKGROUP_SIZE), 1, 1);
-        }
-        self.queue.submit([encoder.finish()]);
+        let particles = self.strands * self.particles_per_strand;
+        pass::submit((&self.device, &self.queue), "hair_gpu translate", &self.translate, &self.bind_group, particles);
     }
 
     /// Moves strand `strand`'s root within the rest shape (head-local), for a root riding

@@ -1,5 +1,5 @@
-//! The small compute passes beside the solver's step (drawing, roots): a pipeline from
-//! one entry point, a bind group of whole buffers, one dispatch submitted.
+//! The small compute passes beside the solver's step (drawing, roots, the translation):
+//! a pipeline from one entry point, a bind group of whole buffers, one dispatch submitted.
 
 use crate::WORKGROUP_SIZE;
 
