@@ -68,7 +68,8 @@ impl GpuSolver {
             return Err(e.to_string());
         }
         gpu.publish(input.head_to);
-        self.receive(strands);
+        // The copy that has arrived, if any, into the CPU mirror; then the next.
+        self.take_copy(strands, false);
         self.send();
         Ok(())
     }
@@ -91,11 +92,6 @@ impl GpuSolver {
         positions.iter_mut().for_each(|p| *p += moved);
         // The GPU resets a strand that goes non-finite, so this holds.
         strands.set_positions(&positions).is_ok()
-    }
-
-    /// The arrived copy, if any, into the CPU mirror.
-    fn receive(&mut self, strands: &mut Strands) {
-        self.take_copy(strands, false);
     }
 
     /// Waits for the GPU and copies its latest positions into `strands`; whether there were
@@ -143,8 +139,6 @@ impl GpuSolver {
     pub fn reset(&mut self, pose: Pose) {
         if let Some(gpu) = &mut self.strands {
             gpu.reset(pose);
-            gpu.publish(pose);
-            gpu.publish(pose);
         }
         // A copy from before the reset would undo it on the CPU.
         self.copy = None;

@@ -409,8 +409,9 @@ impl GpuStrands {
 
     /// Keeps the positions as they are now in the frame of the head at `pose` (the pose the
     /// last step ended at, in the solver's frame) for [`GpuDrawing`], which draws between
-    /// the last two positions kept. Call it after each step; call it twice after a reset,
-    /// so that nothing is drawn between the positions before and after it.
+    /// the last two positions kept. Call it after each step, and twice after
+    /// [`Self::set_positions`], so that nothing is drawn between the positions before and
+    /// after it ([`Self::reset`] does this itself).
     pub fn publish(&mut self, pose: Pose) {
         self.published.publish((&self.device, &self.queue), self.counts(), pose);
     }
@@ -432,10 +433,14 @@ impl GpuStrands {
     }
 
     /// Puts every strand back at rest under `pose`, motionless, forgetting the spring
-    /// model's memory (as [`hair_sim::solver::Strands::reset`]).
+    /// model's memory (as [`hair_sim::solver::Strands::reset`]) and, for [`GpuDrawing`],
+    /// the step before.
     pub fn reset(&mut self, pose: Pose) {
         let placed: Vec<Vec3> = self.rest_positions.iter().map(|&p| pose.transform_point(p)).collect();
         self.place(&placed);
+        // Nothing is drawn between before and after.
+        self.publish(pose);
+        self.publish(pose);
     }
 
     /// Places every particle at `positions` (strand-major), motionless, forgetting the
@@ -637,16 +642,13 @@ impl GpuStrands {
         if data.is_empty() {
             return patch;
         }
-        let bytes: &[u8] = bytemuck::cast_slice(&data);
-        if bytes.len() as u64 > self.colliders.size() {
-            self.colliders = self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("hair_gpu colliders"),
-                contents: bytes,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-            });
+        if write_growing(
+            (&self.device, &self.queue),
+            &mut self.colliders,
+            "hair_gpu colliders",
+            bytemuck::cast_slice(&data),
+        ) {
             self.rebind();
-        } else {
-            self.queue.write_buffer(&self.colliders, 0, bytes);
         }
         patch
     }
@@ -654,16 +656,9 @@ impl GpuStrands {
     /// Writes the step's pose and alpha table, growing its buffer for more substeps than it
     /// was made for.
     fn upload_tables(&mut self, tables: &[[f32; 4]]) {
-        let bytes: &[u8] = bytemuck::cast_slice(tables);
-        if bytes.len() as u64 > self.tables.size() {
-            self.tables = self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("hair_gpu tables"),
-                contents: bytes,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-            });
+        if write_growing((&self.device, &self.queue), &mut self.tables, "hair_gpu tables", bytemuck::cast_slice(tables))
+        {
             self.rebind();
-        } else {
-            self.queue.write_buffer(&self.tables, 0, bytes);
         }
     }
 
@@ -788,6 +783,27 @@ impl BufferCopy {
         self.staging.unmap();
         Ok(bytes)
     }
+}
+
+/// Writes `bytes` at the start of `buffer` (a storage buffer), replacing it with a larger
+/// one named `label` when they do not fit; whether it did (the bind group then needs
+/// rebuilding).
+fn write_growing(
+    (device, queue): (&wgpu::Device, &wgpu::Queue),
+    buffer: &mut wgpu::Buffer,
+    label: &str,
+    bytes: &[u8],
+) -> bool {
+    if bytes.len() as u64 <= buffer.size() {
+        queue.write_buffer(buffer, 0, bytes);
+        return false;
+    }
+    *buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(label),
+        contents: bytes,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+    });
+    true
 }
 
 /// A vec4 of floats as `step.wgsl`'s `colliders` holds them: their bits.

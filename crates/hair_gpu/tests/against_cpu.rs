@@ -515,6 +515,16 @@ fn the_gpu_draws_its_strands_as_the_cpu_draws_them() {
     // The hair moved between the two steps, so the interpolation was tested.
     let moved = previous.iter().zip(last.iter()).map(|(a, b)| a.distance(*b)).fold(0.0, f32::max);
     assert!(moved > 1e-3, "the last step moved the hair {moved} m");
+    // After a reset nothing is drawn between before and after: halfway is the rest shape.
+    strands.reset(head_pose(1.0));
+    drawing.draw(&strands, 0.5, drawn_pose).expect("draw");
+    let after_reset = read_vec4s(&gpu, &target);
+    let off_rest = after_reset[..rest.positions.len()]
+        .iter()
+        .zip(&rest.positions)
+        .map(|(d, &r)| Vec3::new(d[0], d[1], d[2]).distance(drawn_pose.transform_point(r)))
+        .fold(0.0, f32::max);
+    assert!(off_rest < 2e-6, "drawn {off_rest} m off the rest shape after a reset");
     // Drawing other strands is refused; a buffer too small is refused.
     let other = GpuStrands::new(&gpu, &rest, head_pose(0.0), None).expect("GPU strands");
     assert!(matches!(drawing.draw(&other, 0.0, drawn_pose), Err(GpuError::OtherStrands)));
