@@ -85,7 +85,31 @@ impl Edge {
     const NONE: Edge = Edge { neighbour: u32::MAX, opposite: 0, clearance: 0.0 };
 }
 
-/// What the certificate settled about a point.
+/// What a certificate settled about a point.
+#[derive(Clone, Copy, Debug)]
+pub(super) enum Certificate {
+    /// The closest point of the mesh.
+    Closest(Certified),
+    /// Not which point is closest, but that none is nearer than this, metres: the point
+    /// is over the face, higher than the clearance or the gap can name the closest point
+    /// from, yet the triangles below the plane are as far as its height and the rising
+    /// ones at least this far.
+    Beyond(f32),
+    /// Nothing: the point is not over the face, below it, or the triangle is unknown.
+    Unsettled,
+}
+
+impl Certificate {
+    /// The closest point, where the certificate names it.
+    pub fn closest(self) -> Option<Certified> {
+        match self {
+            Certificate::Closest(certified) => Some(certified),
+            _ => None,
+        }
+    }
+}
+
+/// The closest point a certificate proved.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Certified {
     /// The closest point of the mesh.
@@ -122,21 +146,25 @@ impl FlatTriangles {
     /// The closest point of the mesh to `p`, if a certificate of `triangle` proves it:
     /// `p` above the triangle's face, below its clearance or below `gap()`, the height up
     /// to which the caller's gap certificate holds (computed only when the clearance
-    /// falls short).
+    /// falls short). Higher over the face, the same argument still bounds the distance
+    /// ([`Certificate::Beyond`]): a particle lifted off the scalp learns that it touches
+    /// nothing without a search.
     ///
     /// This runs for most particles resting on the head, so it skips the general
     /// projection: the height is one dot product, and "above the face" is the sign of the
     /// projection's barycentric coordinates, without dividing by their sum.
     #[inline]
-    pub fn certify(&self, triangle: u32, p: Vec3, gap: impl FnOnce() -> f32) -> Option<Certified> {
-        let t = self.triangles.get(triangle as usize)?;
+    pub fn certify(&self, triangle: u32, p: Vec3, gap: impl FnOnce() -> f32) -> Certificate {
+        let Some(t) = self.triangles.get(triangle as usize) else {
+            return Certificate::Unsettled;
+        };
         let ap = Vec3A::from(p) - t.a;
         let normal = Vec3A::from(t.normal);
         let height = normal.dot(ap);
         // Written to refuse a NaN height too.
         let outside = height >= 0.0;
         if !outside {
-            return None;
+            return Certificate::Unsettled;
         }
         // The in-plane point a + v·ab + w·ac under `p` solves the 2×2 Gram system of the
         // edges; v, w and 1 − v − w, times its (positive) determinant, are all ≥ 0 over the face.
@@ -144,13 +172,17 @@ impl FlatTriangles {
         let (d1, d2) = (t.ab.dot(ap), t.ac.dot(ap));
         let (v, w) = (cc * d1 - ab_ac * d2, aa * d2 - ab_ac * d1);
         if !(v >= 0.0 && w >= 0.0 && v + w <= aa * cc - ab_ac * ab_ac) {
-            return self.certify_edge(triangle, p);
+            return self.certify_edge(triangle, p).map_or(Certificate::Unsettled, Certificate::Closest);
         }
         // Strict bounds: a sliver has no clearance, no gap and no normal.
-        if !(height < t.clearance || height < gap()) {
-            return None;
+        let closest =
+            || Certified { point: (Vec3A::from(p) - normal * height).into(), distance: height, normal: t.normal };
+        if height < t.clearance {
+            return Certificate::Closest(closest());
         }
-        Some(Certified { point: (Vec3A::from(p) - normal * height).into(), distance: height, normal: t.normal })
+        // The rising triangles are at least `2 × clearance − height` away, or `gap()`.
+        let rising = (2.0 * t.clearance - height).max(gap());
+        if height < rising { Certificate::Closest(closest()) } else { Certificate::Beyond(rising) }
     }
 
     /// [`Self::certify`] on the faces across `triangle`'s edges (by their own clearance),
@@ -159,10 +191,9 @@ impl FlatTriangles {
     #[inline(never)]
     pub fn certify_neighbours(&self, triangle: u32, p: Vec3) -> Option<(u32, Certified)> {
         let edges = self.edges.get(triangle as usize)?;
-        edges
-            .iter()
-            .filter(|edge| edge.neighbour != u32::MAX)
-            .find_map(|edge| self.certify(edge.neighbour, p, || 0.0).map(|certified| (edge.neighbour, certified)))
+        edges.iter().filter(|edge| edge.neighbour != u32::MAX).find_map(|edge| {
+            self.certify(edge.neighbour, p, || 0.0).closest().map(|certified| (edge.neighbour, certified))
+        })
     }
 
     /// The edge certificate (module docs) for `p` beside `triangle`'s face.
@@ -526,18 +557,18 @@ mod tests {
     fn certificate_refuses_where_another_triangle_may_be_closer() {
         let flat = FlatTriangles::bake(&floor_and_wall());
         // 1.5 mm above the floor, far from the wall: the floor is certainly closest.
-        let low = flat.certify(0, Vec3::new(0.02, 0.0015, -0.02), || 0.0).expect("within the clearance");
+        let low = flat.certify(0, Vec3::new(0.02, 0.0015, -0.02), || 0.0).closest().expect("within the clearance");
         assert!((low.distance - 0.0015).abs() < 1e-7);
         // Over the floor's corner, 4.5 mm up and 4.1 mm from the wall: the wall is closer,
         // and 4.5 mm is beyond the floor's 2 mm clearance, so the floor is not claimed.
         let p = Vec3::new(0.0999, 0.0045, -0.00005);
         assert!(0.104 - p.x < p.y, "the wall is the closer triangle");
         assert!(matches!(flat.get(0).project(p).1, TrianglePointLocation::OnFace(0, _)), "over the face");
-        assert!(flat.certify(0, p, || 0.0).is_none());
+        assert!(flat.certify(0, p, || 0.0).closest().is_none());
         // Below the floor, or beside its face: no claim either.
-        assert!(flat.certify(0, Vec3::new(0.02, -0.001, -0.02), || 0.0).is_none());
-        assert!(flat.certify(0, Vec3::new(-0.01, 0.001, 0.01), || 0.0).is_none());
-        assert!(flat.certify(7, Vec3::ZERO, || 0.0).is_none(), "an unknown triangle proves nothing");
+        assert!(flat.certify(0, Vec3::new(0.02, -0.001, -0.02), || 0.0).closest().is_none());
+        assert!(flat.certify(0, Vec3::new(-0.01, 0.001, 0.01), || 0.0).closest().is_none());
+        assert!(flat.certify(7, Vec3::ZERO, || 0.0).closest().is_none(), "an unknown triangle proves nothing");
     }
 
     /// Two 10 cm triangles meeting along the X axis, sloping down to −Z (`t`) and +Z (`u`):
@@ -554,19 +585,19 @@ mod tests {
         // 5 mm straight above the ridge: beside both faces, closest to the edge.
         let above = Vec3::new(0.05, 0.005, 0.0);
         for triangle in [0, 1] {
-            let c = flat.certify(triangle, above, || 0.0).expect("over the ridge");
+            let c = flat.certify(triangle, above, || 0.0).closest().expect("over the ridge");
             assert!((c.point - Vec3::new(0.05, 0.0, 0.0)).length() < 1e-7, "{:?}", c.point);
             assert!((c.distance - 0.005).abs() < 1e-7 && (c.normal - Vec3::Y).length() < 1e-5);
         }
         // Beside `t` but over `u`'s face: `u` is closer, and `t`'s edge claims nothing.
         let over_u = Vec3::new(0.05, 0.0, 0.03);
         assert!(matches!(flat.get(0).project(over_u).1, TrianglePointLocation::OnEdge(0, _)));
-        assert!(flat.certify(0, over_u, || 0.0).is_none());
-        assert!(flat.certify(1, over_u, || 0.0).is_some(), "u's face certificate takes it");
+        assert!(flat.certify(0, over_u, || 0.0).closest().is_none());
+        assert!(flat.certify(1, over_u, || 0.0).closest().is_some(), "u's face certificate takes it");
         // Beyond the (capped) edge clearance, and over a valley: no claim.
-        assert!(flat.certify(0, Vec3::new(0.05, 0.011, 0.0), || 0.0).is_none());
+        assert!(flat.certify(0, Vec3::new(0.05, 0.011, 0.0), || 0.0).closest().is_none());
         let valley = FlatTriangles::bake(&ridge(0.02));
-        assert!(valley.certify(0, Vec3::new(0.05, 0.005, 0.0), || 0.0).is_none());
+        assert!(valley.certify(0, Vec3::new(0.05, 0.005, 0.0), || 0.0).closest().is_none());
     }
 
     #[test]
@@ -588,9 +619,14 @@ mod tests {
             let mut hint = ContactHint::NONE;
             collider.resolve_hinted(first, 0.003, &mut hint);
             if let Hint::Touching { triangle, at, gap, .. } = hint.0 {
-                if collider.triangles.certify(triangle, second, || 0.0).is_some() {
+                if collider.triangles.certify(triangle, second, || 0.0).closest().is_some() {
                     certified += 1;
-                } else if collider.triangles.certify(triangle, second, || gap - (second - at).length()).is_some() {
+                } else if collider
+                    .triangles
+                    .certify(triangle, second, || gap - (second - at).length())
+                    .closest()
+                    .is_some()
+                {
                     by_gap += 1;
                 }
             }
