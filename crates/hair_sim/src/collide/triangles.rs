@@ -91,9 +91,10 @@ pub(super) enum Certificate {
     /// The closest point of the mesh.
     Closest(Certified),
     /// Not which point is closest, but that none is nearer than this, metres: the point
-    /// is over the face, higher than the clearance or the gap can name the closest point
-    /// from, yet the triangles below the plane are as far as its height and the rising
-    /// ones at least this far.
+    /// is over the face (or beside it, over a convex edge), farther than the clearance or
+    /// the gap can name the closest point from, yet the triangles below the plane (the
+    /// planes) are as far as the point is from the face (the edge), and the rising ones
+    /// at least this far.
     Beyond(f32),
     /// Nothing: the point is not over the face, below it, or the triangle is unknown.
     Unsettled,
@@ -153,7 +154,7 @@ impl FlatTriangles {
     /// This runs for most particles resting on the head, so it skips the general
     /// projection: the height is one dot product, and "above the face" is the sign of the
     /// projection's barycentric coordinates, without dividing by their sum.
-    #[inline]
+    #[inline(always)]
     pub fn certify(&self, triangle: u32, p: Vec3, gap: impl FnOnce() -> f32) -> Certificate {
         let Some(t) = self.triangles.get(triangle as usize) else {
             return Certificate::Unsettled;
@@ -172,7 +173,7 @@ impl FlatTriangles {
         let (d1, d2) = (t.ab.dot(ap), t.ac.dot(ap));
         let (v, w) = (cc * d1 - ab_ac * d2, aa * d2 - ab_ac * d1);
         if !(v >= 0.0 && w >= 0.0 && v + w <= aa * cc - ab_ac * ab_ac) {
-            return self.certify_edge(triangle, p).map_or(Certificate::Unsettled, Certificate::Closest);
+            return self.certify_edge(triangle, p);
         }
         // Strict bounds: a sliver has no clearance, no gap and no normal.
         let closest =
@@ -183,6 +184,12 @@ impl FlatTriangles {
         // The rising triangles are at least `2 × clearance − height` away, or `gap()`.
         let rising = (2.0 * t.clearance - height).max(gap());
         if height < rising { Certificate::Closest(closest()) } else { Certificate::Beyond(rising) }
+    }
+
+    /// The clearance baked for edge `edge` (0 = ab, 1 = bc, 2 = ca) of `triangle`.
+    #[cfg(test)]
+    pub fn edge_clearance(&self, triangle: u32, edge: usize) -> f32 {
+        self.edges[triangle as usize][edge].clearance
     }
 
     /// [`Self::certify`] on the faces across `triangle`'s edges (by their own clearance),
@@ -196,30 +203,39 @@ impl FlatTriangles {
         })
     }
 
-    /// The edge certificate (module docs) for `p` beside `triangle`'s face.
-    fn certify_edge(&self, triangle: u32, p: Vec3) -> Option<Certified> {
+    /// The edge certificate (module docs) for `p` beside `triangle`'s face; beyond the
+    /// edge's clearance, as over a face, the bound it still proves. Out of line, so that
+    /// [`Self::certify`] stays small enough to inline into the solver's loop.
+    #[inline(never)]
+    fn certify_edge(&self, triangle: u32, p: Vec3) -> Certificate {
         let t = &self.triangles[triangle as usize];
         let (q, TrianglePointLocation::OnEdge(i, _)) = t.project(p) else {
-            return None;
+            return Certificate::Unsettled;
         };
         let edge = self.edges[triangle as usize][i as usize];
-        let offset = p - q;
-        let distance = offset.length();
-        // Strict: an edge without a certificate has no clearance (and NaN is refused).
-        let within = distance < edge.clearance;
-        if !within {
-            return None;
+        // A concave, open or non-manifold edge has no certificate.
+        let certified = edge.clearance > 0.0;
+        if !certified {
+            return Certificate::Unsettled;
         }
         // `p` over the neighbour's face (its projection on the near side of the edge) is
         // the neighbour's face certificate's business, not this one's.
+        let offset = p - q;
         let neighbour = &self.triangles[edge.neighbour as usize];
         if offset.dot(Vec3::from(neighbour.corner(edge.opposite)) - q) > 0.0 {
-            return None;
+            return Certificate::Unsettled;
+        }
+        let distance = offset.length();
+        // Strict, and written to refuse NaN.
+        let within = distance < edge.clearance;
+        if !within {
+            let rising = 2.0 * edge.clearance - distance;
+            return if rising >= 0.0 { Certificate::Beyond(rising) } else { Certificate::Unsettled };
         }
         // Right on the edge the offset has no direction; the edge's pseudo-normal is out.
         let normal =
             if distance > 1e-7 { offset / distance } else { (t.normal + neighbour.normal).normalize_or(t.normal) };
-        Some(Certified { point: q, distance, normal })
+        Certificate::Closest(Certified { point: q, distance, normal })
     }
 }
 
