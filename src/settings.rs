@@ -27,7 +27,8 @@ pub enum HairBackend {
     Cpu,
     /// `hair_gpu`'s compute pass on the app's render device (feature `render`): the same
     /// model, its particles colliding with the head's distance grid instead of its mesh (and
-    /// no whole-segment test, [`SimParams::segment_collision`]). The particles stay on the
+    /// whole segments, [`SimParams::segment_collision`], tested by sampling the grid along
+    /// them). The particles stay on the
     /// GPU and are drawn from there: each frame a second pass writes them, interpolated and
     /// placed on the drawn head, with their frames, into the drawing's buffer, and nothing
     /// waits for the GPU. The groom's [`HairState`] positions are copies that come back

@@ -9,15 +9,16 @@
 //! operation (the same integration, shape keeping, Follow-The-Leader, wind and resets);
 //! with collision the head is the collider's baked distance grid
 //! ([`HeadCollider::grid`]), sampled trilinearly with its gradient as the normal, where
-//! the CPU solver queries the exact mesh and tests whole segments. The tests in
-//! `tests/against_cpu.rs` measure how far the two part.
+//! the CPU solver queries the exact mesh. The tests in `tests/against_cpu.rs` measure how
+//! far the two part.
 //!
 //! Both length models (Follow-The-Leader and the implicit mass-spring model), both
 //! collision responses (along the surface normal, or along the ray from the head's centre),
 //! the extra colliders and the skin that moves against the head's frame (a skinned scalp's
 //! surface patch) are modelled. What differs is collision with the head: particles against
-//! the distance grid, where the CPU solver queries the exact mesh and also keeps whole
-//! segments out of thin parts (`SimParams::segment_collision`, which the GPU ignores).
+//! the distance grid, where the CPU solver queries the exact mesh, and whole segments
+//! (`SimParams::segment_collision`) kept out of thin parts by sampling the grid along them
+//! every half cell, where the CPU solver tests them against the triangles.
 //!
 //! ```no_run
 //! # use hair_sim::prelude::*;
@@ -611,7 +612,12 @@ impl GpuStrands {
             grid_dims: grid.map_or([0; 4], |g| [g.dims[0], g.dims[1], g.dims[2], 1]),
             centre: grid.map_or([0.0; 4], |g| [g.centre.x, g.centre.y, g.centre.z, 0.0]),
             springs: [p.spring_stiffness, p.spring_damping, 1.0 / p.particle_mass, p.length_tolerance],
-            spring_flags: [u32::from(p.length_mode == LengthMode::Springs), u32::from(self.springs_remembered), 0, 0],
+            spring_flags: [
+                u32::from(p.length_mode == LengthMode::Springs),
+                u32::from(self.springs_remembered),
+                u32::from(p.segment_collision),
+                0,
+            ],
             ray_from: c.ray_from.map_or([0.0; 4], |r| [r.x, r.y, r.z, 1.0]),
             offset: [0.0; 4],
             skin: [0; 4],

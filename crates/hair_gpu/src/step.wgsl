@@ -2,8 +2,8 @@
 // the step in one dispatch (strands do not interact). It mirrors hair_sim's CPU solver
 // (`solver/step.rs`) for the inextensible length model, operation for operation where it
 // can, so that the two agree to rounding without collision. The head is the collider's
-// baked distance grid, sampled trilinearly, with its gradient as the normal; the CPU
-// solver's exact mesh queries and whole-segment test have no counterpart here.
+// baked distance grid, sampled trilinearly, with its gradient as the normal, where the CPU
+// solver queries the exact mesh; whole segments are tested by sampling the grid along them.
 
 struct Step {
     // Strands, particles per strand, substeps, shape iterations.
@@ -30,7 +30,8 @@ struct Step {
     centre: vec4<f32>,
     // The spring model: stiffness, damping, 1 / particle mass, length tolerance.
     springs: vec4<f32>,
-    // The spring model on (1/0); whether the strands remember the step before (1/0).
+    // The spring model on (1/0); whether the strands remember the step before (1/0);
+    // whole-segment collision on (1/0).
     spring_flags: vec4<u32>,
     // Where the centre-ray response pushes from (head-local), and 1 in w for that
     // response (0: along the surface normal).
@@ -331,6 +332,53 @@ fn too_deep(local: vec3<f32>) -> bool {
     return head_surface(local).distance < 0.5 * step.limits.y || (skin.hit && skin.depth > 0.5 * step.limits.y);
 }
 
+// --- Whole segments: hair_sim's `keep_segments_outside`, on the grid ---
+
+// The deepest point of the segment between head-local `a` and `b`, with its signed distance
+// in w: the grid sampled every half cell along the segment. A segment whose ends both clear
+// half its length cannot reach the surface (every point of it is within half its length of
+// an end); it is not sampled, and w is that clearance.
+fn deepest_between(a: vec3<f32>, b: vec3<f32>) -> vec4<f32> {
+    let span = length(b - a);
+    let ends = min(head_surface(a).distance, head_surface(b).distance);
+    if ends > 0.5 * span || step.grid_dims.w == 0u {
+        return vec4<f32>(a, ends);
+    }
+    let samples = clamp(u32(ceil(2.0 * span * step.grid_origin.w)), 1u, 32u);
+    var deepest = vec4<f32>(a, ends);
+    for (var k = 0u; k < samples; k++) {
+        let x = mix(a, b, (f32(k) + 0.5) / f32(samples));
+        let d = head_surface(x).distance;
+        if d < deepest.w {
+            deepest = vec4<f32>(x, d);
+        }
+    }
+    return deepest;
+}
+
+// Where to put world `placed`, `length` from world `parent`, so that the segment between them
+// no longer runs through the head or deep into its shell: turned about the parent toward its
+// deepest point pushed out onto the shell, a few turns at most (as on the CPU). `placed`
+// itself where the segment stays out.
+fn turn_segment_out(parent: vec3<f32>, placed: vec3<f32>, length: f32, now: Pose) -> vec3<f32> {
+    let down = vec3<f32>(0.0, -1.0, 0.0);
+    let local_parent = local_point(now, parent);
+    var turned = placed;
+    for (var turn = 0u; turn < 4u; turn++) {
+        // Within a tenth of the shell of the surface counts as through: the grid is not
+        // exact, and reads a segment cut by an ear's rim a little above zero. Over the
+        // scalp a segment between two particles on the shell sags a fraction of a
+        // millimetre below its ends, nowhere near that.
+        let deepest = deepest_between(local_parent, local_point(now, turned));
+        if deepest.w >= 0.1 * step.limits.y {
+            break;
+        }
+        let through = world_point(now, out_of_head(deepest.xyz));
+        turned = parent + normalize_or(through - parent, down) * length;
+    }
+    return turned;
+}
+
 // --- The skin that moves against the head: hair_sim's `SurfacePatch::resolve` ---
 
 struct PatchContact {
@@ -570,6 +618,11 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
                 }
                 let out = world_point(now, out_of_head(local));
                 placed = parent + normalize_or(out - parent, down) * length;
+            }
+            // On the step's last substep, a segment must not cut through a thin part either
+            // (the root's, which starts on the scalp, is the head's own business).
+            if step.spring_flags.z == 1u && k == step.counts.z && j >= 2u && step.grid_dims.w == 1u {
+                placed = turn_segment_out(parent, placed, length, now);
             }
             let local = local_point(now, placed);
             if step.grid_dims.w == 1u && too_deep(local) {

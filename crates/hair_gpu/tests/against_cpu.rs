@@ -122,6 +122,15 @@ fn deepest_in_head(positions: &[Vec3], n: usize, collider: &HeadCollider, pose: 
     depths.map(|(_, &p)| -collider.signed_distance(pose.inverse_transform_point(p))).fold(0.0, f32::max)
 }
 
+/// How many segments run through the head (both ends outside, cutting a thin part between
+/// them, as through an ear's rim), by the collider's exact test against the triangles. The
+/// segment from the root, which sits on the scalp, is left out.
+fn crossing_segments(positions: &[Vec3], n: usize, collider: &HeadCollider, pose: Pose) -> usize {
+    let local: Vec<Vec3> = positions.iter().map(|&p| pose.inverse_transform_point(p)).collect();
+    let segments = local.chunks(n).flat_map(|strand| strand[1..].windows(2));
+    segments.filter(|s| collider.segment_crossing(s[0], s[1]).is_some()).count()
+}
+
 /// Largest |segment length / rest length − 1|.
 fn max_stretch(positions: &[Vec3], rest: &RestShape) -> f32 {
     let n = rest.particles_per_strand;
@@ -178,23 +187,30 @@ fn with_collision_the_gpu_stays_near_the_cpu_and_out_of_the_head() {
             .flat_map(|&p| extras.iter().filter_map(move |e| e.resolve(p, 0.0)))
             .fold(0.0f32, |deepest, contact| deepest.max(contact.depth));
         let stretch = max_stretch(&on_gpu, &rest);
+        let crossing = crossing_segments(&on_gpu, n, &collider, pose);
         eprintln!(
             "{name} response, after {steps} steps: mean {:.2} mm, max {:.2} mm apart, {:.2} % over 5 mm; \
-             deepest {:.3} mm in the head, {:.3} mm in the extras; stretch {stretch:.1e}",
+             deepest {:.3} mm in the head, {:.3} mm in the extras; stretch {stretch:.1e}; \
+             {crossing} segments through the head ({} on the CPU)",
             mean * 1e3,
             max * 1e3,
             far * 100.0,
             deepest * 1e3,
-            in_extras * 1e3
+            in_extras * 1e3,
+            crossing_segments(&cpu, n, &collider, pose)
         );
         assert!(on_gpu.iter().all(|p| p.is_finite()));
         // The grid is not the mesh, and a strand sliding over the scalp can take another
         // way round an ear: a few strands part by more than the rest (lavapipe,
-        // 2026-12-03: normal response mean 0.09 mm, max 15 mm, 0.02 % of the particles
-        // over 5 mm; centre ray 0.11 mm, 13 mm, 0.44 %). The CPU alone is not chaotic
-        // here: a 0.17 µm nudge of every particle ends at most 0.012 mm apart.
+        // 2026-12-03: normal response mean 0.09 mm, max 12 mm, 0.05 % of the particles
+        // over 5 mm; centre ray 0.09 mm, 22 mm, 0.16 %; without the GPU's whole-segment
+        // test 0.09 mm, 15 mm, 0.02 % and 0.11 mm, 13 mm, 0.44 %). The CPU alone is not
+        // chaotic here: a 0.17 µm nudge of every particle ends at most 0.012 mm apart.
         assert!(mean < 1e-3, "mean {mean} m apart");
         assert!(far < far_share && max < 0.025, "{} % over 5 mm, max {max} m", far * 100.0);
+        // Without the whole-segment test, 1 and 5 of the 7,168 segments below the roots cut
+        // an ear's rim.
+        assert_eq!(crossing, 0, "segments through the head");
         assert!(deepest <= 5e-4, "{deepest} m inside the head");
         assert!(in_extras <= 5e-4, "{in_extras} m inside a shoulder or the neck");
         assert!(stretch <= 1e-4, "stretch {stretch}");
@@ -308,16 +324,20 @@ fn a_one_second_hitch_is_taken_as_on_the_cpu() {
     let (mean, max, far) = apart(cpu.positions(), &positions);
     let depth = deepest_in_head(&positions, n, &collider, turned(time));
     let stretch = max_stretch(&positions, &rest);
+    let crossing = crossing_segments(&positions, n, &collider, turned(time));
     eprintln!(
-        "after a 1 s hitch: mean {:.3} mm, max {:.2} mm apart, {:.2} % > 5 mm; depth {depth:e} m, stretch {stretch:e}",
+        "after a 1 s hitch: mean {:.3} mm, max {:.2} mm apart, {:.2} % > 5 mm; depth {depth:e} m, stretch {stretch:e}; \
+         {crossing} segments through the head ({} on the CPU)",
         mean * 1e3,
         max * 1e3,
-        far * 100.0
+        far * 100.0,
+        crossing_segments(cpu.positions(), n, &collider, turned(time))
     );
     assert!(positions.iter().all(|p| p.is_finite()));
     assert!(mean < 1e-3, "mean {mean} m apart");
     assert!(depth <= 5e-4, "{depth} m inside the head");
     assert!(stretch <= 1e-4, "stretch {stretch}");
+    assert_eq!(crossing, 0, "segments through the head");
 }
 
 #[test]
