@@ -210,6 +210,10 @@ struct GroupState<S: Simd> {
     ftl_correction: Vec<V3<S>>,
     /// Head-local positions during collision, and per particle the lanes it moved.
     local: Vec<V3<S>>,
+    /// Where the head's contacts put each particle (head-local), and along which normal:
+    /// written by the queries for the lanes in `moved`, read by friction.
+    pushed: Vec<V3<S>>,
+    normals: Vec<V3<S>>,
     /// Positions right after collision, before the final length pass.
     collided: Vec<V3<S>>,
     /// Per particle, how far `collided` is at least from the head's surface: what the
@@ -259,6 +263,8 @@ impl<S: Simd> GroupState<S> {
             rigid: vec![Mask::from_bits(0); spring_n],
             ftl_correction: vec![V3::zero(); n],
             local: vec![V3::zero(); n],
+            pushed: vec![V3::zero(); n],
+            normals: vec![V3::zero(); n],
             collided: vec![V3::zero(); n],
             clearance: vec![Wide::zero(); n],
             moved: vec![0; n],
@@ -455,6 +461,7 @@ fn step_group<S: Simd>(
     for s in 1..c.shared.poses.len() {
         let poses = SubstepPoses {
             before: &c.matrices[s - 1],
+            before_lanes: &c.lane_poses[s - 1],
             now: &c.lane_poses[s],
             now_one: &c.matrices[s],
             frame: c.shared.poses[s].rotation,
@@ -469,6 +476,8 @@ fn step_group<S: Simd>(
 struct SubstepPoses<'a, S: Simd> {
     /// For one particle at a time (friction at a contact).
     before: &'a PoseMatrix,
+    /// The same, for whole lanes at once.
+    before_lanes: &'a PoseLanes<S>,
     /// For whole lanes at once.
     now: &'a PoseLanes<S>,
     /// The same, for one particle at a time.
@@ -740,42 +749,56 @@ fn collide<S: Simd>(
         // unchecked.
         let thickness = p.collision_thickness;
         g.clearance.fill(Wide::splat(thickness));
-        // Strand by strand: neighbouring particles query neighbouring cells and triangles.
+        // The queries, strand by strand (neighbouring particles query neighbouring cells
+        // and triangles, and each particle's path differs): where each contact pushes.
         for l in 0..g.lanes {
             let hints = &mut state.hints[g.strands[l] * n..][..n];
             for (j, hint) in hints.iter_mut().enumerate().skip(1) {
-                let contact = match head_contact(collider, g.local[j].lane(l), thickness, c.shared.ray_from, hint) {
-                    Resolution::Contact(contact) => Some(contact),
-                    Resolution::Clear(distance) => {
-                        g.clearance[j].set(l, distance);
-                        None
+                match head_contact(collider, g.local[j].lane(l), thickness, c.shared.ray_from, hint) {
+                    Resolution::Contact(contact) => {
+                        g.pushed[j].set_lane(l, contact.position);
+                        g.normals[j].set_lane(l, contact.normal);
+                        g.moved[j] |= 1 << l;
+                        touch(&contact);
                     }
-                };
-                if let Some(contact) = contact {
-                    // Friction acts on sliding relative to the head, so compare in head space.
-                    let local_start = poses.before.local_point(g.start[j].lane(l));
-                    let mut held = with_friction(contact, local_start, p.friction);
-                    // Friction slides back along the tangent plane, which in a hollow (by
-                    // an ear) dips under the surface: out again from there, unless the
-                    // slide is too short to reach the surface ([`FRICTION_SLACK`]).
-                    let slide = (held - contact.position).length();
-                    if slide > FRICTION_SLACK * thickness {
-                        if let Resolution::Contact(again) =
-                            head_contact(collider, held, thickness, c.shared.ray_from, hint)
-                        {
-                            held = again.position;
-                        }
-                    } else {
-                        g.clearance[j].set(l, thickness - slide);
-                    }
-                    g.local[j].set_lane(l, held);
-                    g.moved[j] |= 1 << l;
-                    touch(&contact);
+                    Resolution::Clear(distance) => g.clearance[j].set(l, distance),
                 }
-                // The skin that moved against the head's frame, as it is now.
-                if let Some(patch) = input.surface_patch
-                    && let Some(contact) = patch.resolve(g.local[j].lane(l), thickness)
+            }
+        }
+        // Friction on every contact of a particle index at once. It acts on sliding
+        // relative to the head, so it compares in head space, and slides back along the
+        // tangent plane, which in a hollow (by an ear) dips under the surface: out again
+        // from there, one lane at a time, unless the slide is too short to reach the
+        // surface ([`FRICTION_SLACK`]).
+        let (friction, slack) = (Wide::splat(p.friction), Wide::splat(FRICTION_SLACK * thickness));
+        for j in 1..n {
+            let contacts = g.moved[j];
+            if contacts == 0 {
+                continue;
+            }
+            let (pushed, normal) = (g.pushed[j], g.normals[j]);
+            let slide = pushed - poses.before_lanes.local_point(g.start[j]);
+            let held = pushed - (slide - normal * slide.dot(normal)) * friction;
+            let back = (held - pushed).length();
+            let far = back.cmpgt(slack).bitmask() & contacts;
+            let mask = Mask::from_bits(contacts);
+            g.local[j] = V3::select(mask, held, g.local[j]);
+            g.clearance[j] =
+                Wide::select(Mask::from_bits(contacts & !far), Wide::splat(thickness) - back, g.clearance[j]);
+            for l in (0..g.lanes).filter(|&l| far & (1 << l) != 0) {
+                let hint = &mut state.hints[g.strands[l] * n + j];
+                if let Resolution::Contact(again) =
+                    head_contact(collider, held.lane(l), thickness, c.shared.ray_from, hint)
                 {
+                    g.local[j].set_lane(l, again.position);
+                }
+            }
+        }
+        // The skin that moved against the head's frame, as it is now.
+        if let Some(patch) = input.surface_patch {
+            for l in 0..g.lanes {
+                for j in 1..n {
+                    let Some(contact) = patch.resolve(g.local[j].lane(l), thickness) else { continue };
                     let local_start = poses.before.local_point(g.start[j].lane(l));
                     let pushed = with_friction(contact, local_start, p.friction);
                     let left = g.clearance[j].get(l) - (pushed - g.local[j].lane(l)).length();
