@@ -474,9 +474,9 @@ fn step_group<S: Simd>(
 
 /// The head at the start and end of a substep.
 struct SubstepPoses<'a, S: Simd> {
-    /// For one particle at a time (friction at a contact).
+    /// For one particle at a time (friction against the moving skin).
     before: &'a PoseMatrix,
-    /// The same, for whole lanes at once.
+    /// The same, for whole lanes at once (friction against the head).
     before_lanes: &'a PoseLanes<S>,
     /// For whole lanes at once.
     now: &'a PoseLanes<S>,
