@@ -212,7 +212,7 @@ pub struct GpuStrands {
     grid_info: Option<GridInfo>,
     /// The translation pass (`translate_particles`).
     translate: wgpu::ComputePipeline,
-    /// Head-local rest positions, as uploaded (roots moved by [`Self::set_rest_root`]).
+    /// Head-local rest positions, as uploaded (roots moved by [`Self::set_rest_roots`]).
     rest_positions: Vec<Vec3>,
     strands: u32,
     particles_per_strand: u32,
@@ -484,24 +484,11 @@ impl GpuStrands {
         pass::submit((&self.device, &self.queue), "hair_gpu translate", &self.translate, &self.bind_group, particles);
     }
 
-    /// Moves strand `strand`'s root within the rest shape (head-local), for a root riding
-    /// a surface that deforms against the head's frame (see
-    /// [`hair_sim::solver::Strands::set_rest_root`]). A non-finite position or a strand
-    /// out of range is ignored.
-    pub fn set_rest_root(&mut self, strand: usize, root: Vec3) {
-        if !root.is_finite() || strand >= self.strands as usize {
-            return;
-        }
-        let i = strand * self.particles_per_strand as usize;
-        self.rest_positions[i] = root;
-        // The root's vec4 holds its segment's rest length in w: zero at a root.
-        self.queue.write_buffer(&self.rest, (2 * i * 16) as u64, bytemuck::cast_slice(&[root.x, root.y, root.z, 0.0]));
-    }
-
-    /// Moves every strand's root within the rest shape at once, as
-    /// [`Self::set_rest_root`] per strand would, in one upload and one pass instead of a
-    /// write per root (a skinned scalp moves them all every frame). `roots` holds one per
-    /// strand; a non-finite one leaves its strand's root where it was. A wrong count
+    /// Moves every strand's root within the rest shape (head-local), for roots riding a
+    /// surface that deforms against the head's frame (as
+    /// [`hair_sim::solver::Strands::set_rest_root`] does one strand at a time), in one
+    /// upload and one pass (a skinned scalp moves them all every frame). `roots` holds one
+    /// per strand; a non-finite one leaves its strand's root where it was. A wrong count
     /// changes nothing and returns `false`.
     pub fn set_rest_roots(&mut self, roots: &[Vec3]) -> bool {
         let (strands, n) = (self.strands as usize, self.particles_per_strand as usize);

@@ -334,14 +334,15 @@ fn too_deep(local: vec3<f32>) -> bool {
 
 // --- Whole segments: hair_sim's `keep_segments_outside`, on the grid ---
 
-// The deepest point of the segment between head-local `a` and `b`, with its signed distance
-// in w: the grid sampled every half cell along the segment. A segment whose ends both clear
-// half its length cannot reach the surface (every point of it is within half its length of
-// an end); it is not sampled, and w is that clearance.
-fn deepest_between(a: vec3<f32>, b: vec3<f32>) -> vec4<f32> {
+// The deepest point of the segment between head-local `a` (`a_distance` from the surface)
+// and `b`, with its signed distance in w: the grid sampled every half cell along the
+// segment. A segment whose ends both clear half its length cannot reach the surface (every
+// point of it is within half its length of an end); it is not sampled, and w is that
+// clearance.
+fn deepest_between(a: vec3<f32>, a_distance: f32, b: vec3<f32>) -> vec4<f32> {
     let span = length(b - a);
-    let ends = min(head_surface(a).distance, head_surface(b).distance);
-    if ends > 0.5 * span || step.grid_dims.w == 0u {
+    let ends = min(a_distance, head_surface(b).distance);
+    if ends > 0.5 * span {
         return vec4<f32>(a, ends);
     }
     let samples = clamp(u32(ceil(2.0 * span * step.grid_origin.w)), 1u, 32u);
@@ -363,13 +364,14 @@ fn deepest_between(a: vec3<f32>, b: vec3<f32>) -> vec4<f32> {
 fn turn_segment_out(parent: vec3<f32>, placed: vec3<f32>, length: f32, now: Pose) -> vec3<f32> {
     let down = vec3<f32>(0.0, -1.0, 0.0);
     let local_parent = local_point(now, parent);
+    let parent_distance = head_surface(local_parent).distance;
     var turned = placed;
     for (var turn = 0u; turn < 4u; turn++) {
         // Within a tenth of the shell of the surface counts as through: the grid is not
         // exact, and reads a segment cut by an ear's rim a little above zero. Over the
         // scalp a segment between two particles on the shell sags a fraction of a
         // millimetre below its ends, nowhere near that.
-        let deepest = deepest_between(local_parent, local_point(now, turned));
+        let deepest = deepest_between(local_parent, parent_distance, local_point(now, turned));
         if deepest.w >= 0.1 * step.limits.y {
             break;
         }

@@ -229,8 +229,8 @@ impl FlatTriangles {
         // Strict, and written to refuse NaN.
         let within = distance < edge.clearance;
         if !within {
-            let rising = 2.0 * edge.clearance - distance;
-            return if rising >= 0.0 { Certificate::Beyond(rising) } else { Certificate::Unsettled };
+            // The rising triangles are at least `2 × clearance − distance` away.
+            return Certificate::Beyond(2.0 * edge.clearance - distance);
         }
         // Right on the edge the offset has no direction; the edge's pseudo-normal is out.
         let normal =

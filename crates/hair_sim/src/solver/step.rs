@@ -765,11 +765,11 @@ fn collide<S: Simd>(
                 }
             }
         }
-        // Friction on every contact of a particle index at once. It acts on sliding
-        // relative to the head, so it compares in head space, and slides back along the
-        // tangent plane, which in a hollow (by an ear) dips under the surface: out again
-        // from there, one lane at a time, unless the slide is too short to reach the
-        // surface ([`FRICTION_SLACK`]).
+        // Friction ([`with_friction`]) on every contact of a particle index at once. It
+        // acts on sliding relative to the head, so it compares in head space, and slides
+        // back along the tangent plane, which in a hollow (by an ear) dips under the
+        // surface: out again from there, one lane at a time, unless the slide is too short
+        // to reach the surface ([`FRICTION_SLACK`]).
         let (friction, slack) = (Wide::splat(p.friction), Wide::splat(FRICTION_SLACK * thickness));
         for j in 1..n {
             let contacts = g.moved[j];
