@@ -56,6 +56,7 @@ impl GpuSolver {
             empty => {
                 let mut gpu = hair_gpu::GpuStrands::new(context, strands.rest(), input.head_from, input.collider)
                     .map_err(|e| e.to_string())?;
+                strands.place_followers();
                 gpu.set_positions(strands.positions());
                 // Nothing drawn between the rest pose and where the CPU left the strands.
                 gpu.publish(input.head_from);

@@ -335,22 +335,55 @@ impl HairState {
         self.refresh(pool);
     }
 
-    /// Copies the solver's positions out as the last step's.
+    /// Copies the solver's positions out as the last step's, and places a level of
+    /// detail's followers, which [`step_on_pool`] leaves, from their leaders' head-space
+    /// positions on the way: one pass over a far head's particles instead of two.
     fn refresh(&mut self, pool: &TaskPool) {
         let (origin, pose) = (self.origin, relative_to(self.pose_to, self.origin));
-        let positions = self.strands.positions();
-        self.current.resize(positions.len(), Vec3::ZERO);
-        self.current_local.resize(positions.len(), Vec3::ZERO);
-        // One pass writes both, a share per thread of the pool.
-        let share = positions.len().div_ceil(pool.thread_num().max(1)).max(MIN_PARTICLES_PER_TASK);
-        let shares =
-            positions.chunks(share).zip(self.current.chunks_mut(share)).zip(self.current_local.chunks_mut(share));
+        let n = self.strands.particles_per_strand().max(1);
+        let count = self.strands.positions().len();
+        self.current.resize(count, Vec3::ZERO);
+        self.current_local.resize(count, Vec3::ZERO);
+        // Whole strands per task, a share per thread of the pool.
+        let share = count.div_ceil(pool.thread_num().max(1)).max(MIN_PARTICLES_PER_TASK).next_multiple_of(n);
+        let strands = &self.strands;
+        let pending = strands.followers_pending();
+        let shares = strands.positions().chunks(share).zip(self.current.chunks_mut(share));
         pool.scope(|scope| {
-            for ((positions, world), local) in shares {
+            for (c, ((positions, world), local)) in shares.zip(self.current_local.chunks_mut(share)).enumerate() {
                 scope.spawn(async move {
-                    for ((&p, world), local) in positions.iter().zip(world).zip(local) {
-                        *world = from_sim(p + origin);
-                        *local = from_sim(pose.inverse_transform_point(p));
+                    let strands_here = positions.chunks(n).zip(world.chunks_mut(n)).zip(local.chunks_mut(n));
+                    for (k, ((positions, world), local)) in strands_here.enumerate() {
+                        if pending && strands.is_following(c * share / n + k) {
+                            continue; // placed below
+                        }
+                        for ((&p, world), local) in positions.iter().zip(world).zip(local) {
+                            *world = from_sim(p + origin);
+                            *local = from_sim(pose.inverse_transform_point(p));
+                        }
+                    }
+                });
+            }
+        });
+        if !pending {
+            return;
+        }
+        let current_local = &self.current_local;
+        let Some(followers) = self.strands.head_space_followers(|i| to_sim(current_local[i])) else { return };
+        let (followers, shares) =
+            (&followers, self.current.chunks_mut(share).zip(self.current_local.chunks_mut(share)));
+        pool.scope(|scope| {
+            for (c, (world, local)) in shares.enumerate() {
+                scope.spawn(async move {
+                    let mut placed = vec![SimVec3::ZERO; n];
+                    for (k, (world, local)) in world.chunks_mut(n).zip(local.chunks_mut(n)).enumerate() {
+                        if followers.follows(c * share / n + k) {
+                            followers.place(c * share / n + k, &mut placed);
+                            for ((&p, world), local) in placed.iter().zip(world).zip(local) {
+                                *world = from_sim(pose.transform_point(p) + origin);
+                                *local = from_sim(p);
+                            }
+                        }
                     }
                 });
             }
@@ -581,6 +614,8 @@ pub(crate) fn simulate(
 /// Steps `strands` once, split into chunks of whole SIMD groups on `pool`, as
 /// [`HairSystems::Simulate`](crate::HairSystems) steps every groom: for stepping a
 /// groom's [`Strands`] outside the plugin (a benchmark, a tool) exactly as the plugin does.
+/// Like the plugin, it leaves a level of detail's followers where they were
+/// ([`Strands::fade_and_rise`]): [`Strands::place_followers`] places them.
 pub fn step_on_pool(strands: &mut Strands, input: &StepInput, pool: &TaskPool) -> StepReport {
     let strands_per_task = strands.strand_count().div_ceil(pool.thread_num().max(1) * 4).max(MIN_STRANDS_PER_TASK);
     // Whole SIMD groups per task, so no task steps idle lanes.
@@ -590,8 +625,9 @@ pub fn step_on_pool(strands: &mut Strands, input: &StepInput, pool: &TaskPool) -
             scope.spawn(async move { chunk.step(input) });
         }
     });
-    // The strands a level of detail leaves out follow the simulated ones.
-    strands.follow_leaders(input);
+    // The strands a level of detail leaves out are placed from the simulated ones as they
+    // are copied out for drawing (`HairState`'s writeback), or by `Strands::place_followers`.
+    strands.fade_and_rise(input);
     let mut report = StepReport::default();
     reports.into_iter().for_each(|r| report.merge(r));
     report

@@ -413,6 +413,41 @@ fn a_far_head_simulates_a_fraction_of_its_guides() {
     assert!(all_finite(&app, head));
 }
 
+/// A far head's followers are placed as the plugin copies the strands out (in head space,
+/// from their leaders' copied positions), not by the solver: copied out, they are where
+/// the solver's own placement ([`Strands::place_followers`], world space) puts them, to
+/// 1 µm, on a head turning at up to 3 rad/s through a switch of levels.
+#[test]
+fn a_far_heads_followers_are_copied_out_where_the_solver_places_them() {
+    let (mut app, head) = grown(groom());
+    // Fades of 6 steps, so that most steps have followers.
+    let lod = |level: u32| HairLod { fixed_level: Some(level), fade_seconds: 0.1, ..default() };
+    app.world_mut().entity_mut(head).insert(lod(3));
+    let (mut apart, mut followers) = (0.0f32, 0);
+    for k in 0..40 {
+        if k == 20 {
+            app.world_mut().entity_mut(head).insert(lod(5));
+        }
+        *app.world_mut().get_mut::<Transform>(head).unwrap() = turning(k);
+        app.update();
+        let state = state(&app, head);
+        let mut placed = state.strands().clone();
+        placed.place_followers();
+        let (n, origin) = (placed.particles_per_strand(), state.origin());
+        for s in (0..placed.strand_count()).filter(|&s| state.strands().is_following(s)) {
+            followers += 1;
+            for i in s * n..(s + 1) * n {
+                let by_solver = Vec3::from_array((placed.positions()[i] + origin).to_array());
+                apart = apart.max(by_solver.distance(state.current_positions()[i]));
+            }
+        }
+    }
+    println!("{followers} followers copied out, at most {:.3} µm from the solver's placement", apart * 1e6);
+    assert!(followers >= 30 * 175, "too few followers seen: {followers}");
+    assert!(apart <= 1e-6, "a follower was copied out {} µm from where the solver places it", apart * 1e6);
+    assert!(all_finite(&app, head));
+}
+
 /// The head's yaw at update `k`: a turn one way and back, 1.5 rad at 3 rad/s peaks.
 fn turning(k: usize) -> Transform {
     Transform::from_rotation(Quat::from_rotation_y(1.5 * (k as f32 / 30.0).sin()))

@@ -199,6 +199,24 @@ fn main() {
     );
 }
 
+/// The followers of a groom stepped with [`Strands::step_leaving_followers`] placed in head
+/// space, as the plugin places them while it copies the strands out for drawing: the
+/// simulated strands' positions into head space under `pose`, then the followers from those.
+fn place_followers_in_head_space(strands: &mut Strands, pose: &Pose, local: &mut [Vec3]) {
+    let n = strands.particles_per_strand();
+    for s in (0..strands.strand_count()).filter(|&s| !strands.is_following(s)) {
+        let strand = s * n..(s + 1) * n;
+        for (l, &p) in local[strand.clone()].iter_mut().zip(&strands.positions()[strand]) {
+            *l = pose.inverse_transform_point(p);
+        }
+    }
+    if let Some(followers) = strands.head_space_followers(|i| local[i]) {
+        for s in (0..local.len() / n).filter(|&s| followers.follows(s)) {
+            followers.place(s, &mut local[s * n..(s + 1) * n]);
+        }
+    }
+}
+
 /// Vertical field of view of the camera the `--lod` heads are seen through: Bevy's default.
 const FIELD_OF_VIEW: f32 = std::f32::consts::FRAC_PI_4;
 /// Its viewport's height, pixels.
@@ -255,23 +273,32 @@ fn detail_bench(
         })
         .collect();
     let mut near = Strands::new(rest.clone(), head_pose(0.0));
-    // Alternate the two, step by step, so both see the same machine.
+    // Alternate the two, step by step, so both see the same machine. The heads step as the
+    // plugin steps them: followers are left to the copy-out for drawing, timed on its own.
     let (mut near_times, mut crowd_times) = (Vec::with_capacity(steps), Vec::with_capacity(steps));
+    let mut placement_times = Vec::with_capacity(steps);
+    let mut local = vec![Vec3::ZERO; guides * particles];
     for k in 0..steps {
         let start = Instant::now();
-        near.step(&input(k, 0.0));
+        near.step_leaving_followers(&input(k, 0.0));
         near_times.push(start.elapsed().as_secs_f64() * 1e3);
         let start = Instant::now();
         for (h, strands) in heads.iter_mut().enumerate() {
-            strands.step(&input(k, phase(h)));
+            strands.step_leaving_followers(&input(k, phase(h)));
         }
         crowd_times.push(start.elapsed().as_secs_f64() * 1e3);
+        let start = Instant::now();
+        for (h, strands) in heads.iter_mut().enumerate() {
+            place_followers_in_head_space(strands, &input(k, phase(h)).head_to, &mut local);
+        }
+        placement_times.push(start.elapsed().as_secs_f64() * 1e3);
     }
+    heads.iter_mut().for_each(Strands::place_followers);
     let median = |mut t: Vec<f64>| {
         t.sort_by(f64::total_cmp);
         t[t.len() / 2]
     };
-    let (near_ms, crowd_ms) = (median(near_times), median(crowd_times));
+    let (near_ms, crowd_ms, placement_ms) = (median(near_times), median(crowd_times), median(placement_times));
     let deepest = heads
         .iter()
         .enumerate()
@@ -284,9 +311,11 @@ fn detail_bench(
     println!(
         "{{\"lod\":true,\"guides\":{guides},\"particles_per_strand\":{particles},\"steps\":{steps},\"threads\":1,\
          \"near_head_ms\":{near_ms:.4},\"sixteen_heads_ms\":{crowd_ms:.4},\"ratio\":{:.3},\
+         \"follower_placement_ms\":{placement_ms:.4},\"ratio_with_placement\":{:.3},\
          \"distances_m\":{distances:?},\"heights_px\":{:?},\"levels\":{levels:?},\"simulated\":{simulated:?},\
          \"max_penetration_m\":{:.6},\"prepare_ms\":{prepare_ms:.2}}}",
         crowd_ms / near_ms,
+        (crowd_ms + placement_ms) / near_ms,
         distances.iter().map(|&d| pixels_at(d).round()).collect::<Vec<_>>(),
         deepest.max(0.0)
     );

@@ -269,3 +269,69 @@ fn followers_survive_teleports_hitches_and_bad_poses() {
     let farthest = strands.positions().iter().map(|p| p.distance(pose.translation)).fold(0.0f32, f32::max);
     assert!(farthest < 0.5, "a particle is {farthest} m from the teleported head");
 }
+
+/// A caller that places the followers itself ([`Strands::step_leaving_followers`]) gets
+/// them where [`Strands::step`] puts them: through level switches with fades and rises in
+/// flight, followers left unplaced across them, and a move of the strands' origin. Placed in the strands, to the bit; placed in
+/// head space from head-space leaders (the plugin's copy-out), to 1 µm.
+#[test]
+fn followers_left_for_the_caller_land_where_step_puts_them() {
+    let (groom, rest) = groom();
+    let params = SimParams::default();
+    let n = rest.particles_per_strand;
+    let mut placed = Strands::new(rest.clone(), looking_around(0));
+    let mut left = placed.clone();
+    let (mut in_head_space, mut followers_checked) = (0.0f32, 0);
+    for k in 0..80 {
+        let level = match k {
+            0 => Some(3),
+            30 => Some(1),
+            45 => Some(4),
+            _ => None,
+        };
+        if let Some(level) = level {
+            placed.set_detail_level(level, 20);
+            left.set_detail_level(level, 20);
+        }
+        if k == 50 {
+            placed.translate(Vec3::new(0.3, -0.1, 0.2));
+            left.translate(Vec3::new(0.3, -0.1, 0.2));
+        }
+        let shift = if k >= 50 { Vec3::new(0.3, -0.1, 0.2) } else { Vec3::ZERO };
+        let pose = |k: usize| {
+            let p = looking_around(k);
+            Pose::new(p.rotation, p.translation + shift)
+        };
+        let input = input(k, DT, (pose(k), pose(k + 1)), &groom.collider, &params);
+        placed.step(&input);
+        left.step_leaving_followers(&input);
+        assert!(left.followers_pending(), "step {k}: followers were placed");
+        // Head space, as the plugin copies the strands out: the simulated strands' positions
+        // under the inverse pose, the followers placed from those.
+        let head = pose(k + 1);
+        let mut local: Vec<Vec3> = left.positions().iter().map(|&p| head.inverse_transform_point(p)).collect();
+        let following: Vec<usize> = (0..left.strand_count()).filter(|&s| left.is_following(s)).collect();
+        let followers = left.head_space_followers(|i| local[i]).expect("a level of detail");
+        for &s in &following {
+            assert!(followers.follows(s));
+            followers.place(s, &mut local[s * n..(s + 1) * n]);
+        }
+        for &s in &following {
+            let strand = s * n..(s + 1) * n;
+            for (l, &p) in local[strand.clone()].iter().zip(&placed.positions()[strand]) {
+                in_head_space = in_head_space.max(l.distance(head.inverse_transform_point(p)));
+            }
+        }
+        followers_checked += following.len();
+        // Placed every fifth step only: the switches at 30 and 45 place the rest first.
+        if k % 5 == 0 {
+            left.place_followers();
+            assert!(!left.followers_pending());
+            let apart = placed.positions().iter().zip(left.positions()).filter(|(p, q)| p != q).count();
+            assert_eq!(apart, 0, "step {k}: placed later, {apart} particles differ");
+        }
+    }
+    println!("{followers_checked} follower placements in head space, at most {:.3} µm apart", in_head_space * 1e6);
+    assert!(followers_checked > 5_000, "too few followers to check: {followers_checked}");
+    assert!(in_head_space <= 1e-6, "in head space a follower lands {} µm from step's", in_head_space * 1e6);
+}

@@ -17,6 +17,13 @@
 //! follow by a pull that lets go over the fade. Followers' segments keep the lengths
 //! their placement gives them (holding them would cost a square root per particle, in a
 //! chain); the solver restores a rising strand's.
+//!
+//! Placing a far head's followers is a pass over nearly all its particles, bound by memory.
+//! A caller that copies the positions out anyway (the Bevy plugin, for drawing) can leave
+//! the followers to that pass ([`Strands::fade_and_rise`](super::Strands::fade_and_rise),
+//! [`Strands::head_space_followers`](super::Strands::head_space_followers)): in head space
+//! a follower is its rest plus its leaders' weighted head-space displacement, with no pose
+//! to apply.
 
 use crate::math::{Pose, Vec3};
 use glam::{Mat3A, Vec3A};
@@ -80,7 +87,8 @@ pub(crate) enum Role {
     Simulated,
     /// Leaving the simulation: stepped by the solver once more (while `left == total`),
     /// then placed as a follower offset by where the solver left it, the offset shrinking
-    /// by `1 / total` of itself each step; `left` steps of that remain.
+    /// by `1 / total` of itself each step; `left` steps of that remain (0: the last is
+    /// placed, and the strand follows from the next step on).
     Fading {
         /// Steps of the fade left.
         left: u32,
@@ -138,6 +146,8 @@ pub(crate) struct Detail {
     starts: Vec<Vec3>,
     /// Per particle, scratch: each leader's displacement from its rest under the pose.
     displacement: Vec<Vec3A>,
+    /// The head's pose at the end of the step whose followers are not placed yet.
+    pending: Option<Pose>,
 }
 
 impl Detail {
@@ -169,17 +179,22 @@ impl Detail {
             offsets: Vec::new(),
             starts: Vec::new(),
             displacement: Vec::new(),
+            pending: None,
         }
     }
 
     /// The strands' space moved by `offset` ([`Strands::translate`](super::Strands::translate)).
     pub(crate) fn translate(&mut self, offset: Vec3) {
         self.starts.iter_mut().for_each(|p| *p += offset);
+        if let Some(pose) = &mut self.pending {
+            pose.translation += offset;
+        }
     }
 
     /// Every strand was put at `positions`, motionless: a rising strand starts its next
     /// step from there.
     pub(crate) fn placed(&mut self, positions: &[Vec3]) {
+        self.pending = None;
         if self.starts.len() == positions.len() {
             self.starts.copy_from_slice(positions);
         }
@@ -251,7 +266,9 @@ impl Detail {
         started
     }
 
-    /// After a step: places the strands the solver did not step, and pulls rising ones.
+    /// After a step: fades the strands leaving the simulation, pulls rising ones, and
+    /// places the followers (or, with `place_followers` false, leaves them for
+    /// [`Self::place_pending`] or [`Self::head_space_placement`]).
     /// A follower goes where its leaders' displacement puts its rest shape; a fading
     /// strand goes there plus what is left of its offset; and a rising strand, stepped, is
     /// drawn back toward there by what is left of its pull. The last two get the velocity of
@@ -259,6 +276,7 @@ impl Detail {
     /// as they were drawn (a follower gets its leaders' when it rises).
     /// `positions` and `velocities` are world-space and strand-major, `rest` the rest
     /// shape's positions, `pose` the head's at the end of the step.
+    #[allow(clippy::too_many_arguments)] // the strands' arrays, the step, and the choice
     pub(crate) fn follow(
         &mut self,
         n: usize,
@@ -267,63 +285,58 @@ impl Detail {
         dt: f32,
         positions: &mut [Vec3],
         velocities: &mut [Vec3],
+        place_followers: bool,
     ) {
         if self.roles.iter().all(|&r| r == Role::Simulated) {
             return;
         }
-        // Each leader's displacement from its rest under the pose, once.
-        let simulated = simulated_at_level(self.order.len(), self.level);
-        self.displacement.resize(positions.len(), Vec3A::ZERO);
-        for &s in &self.order[..simulated] {
-            for i in s as usize * n..(s as usize + 1) * n {
-                self.displacement[i] = (positions[i] - pose.transform_point(rest[i])).into();
+        // A fade placed its strand for the last time in the step before: it follows now.
+        for role in &mut self.roles {
+            if let Role::Fading { left: 0, .. } = role {
+                *role = Role::Following;
             }
         }
-        let inverse_dt = if dt > 0.0 { dt.recip() } else { 0.0 };
+        self.world_displacement(n, rest, pose, positions);
         let frame = (Mat3A::from_quat(pose.rotation), Vec3A::from(pose.translation));
+        let mut pulled = false;
+        let inverse_dt = if dt > 0.0 { dt.recip() } else { 0.0 };
         // Per particle of the strand at hand: where its leaders put it, where it goes, and
         // where the step started from.
         let (mut target, mut wanted, mut start) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
         for s in 0..self.roles.len() {
             let strand = s * n..(s + 1) * n;
-            let leaders = self.leaders[s].map(|(k, w)| (&self.displacement[k as usize * n..][..n], w));
             let (rest, x, offsets) = (&rest[strand.clone()], &positions[strand.clone()], &self.offsets);
+            let place = |out: &mut [Vec3]| followed(frame, n, self.leaders[s], &self.displacement, rest, out);
             let next = match self.roles[s] {
-                Role::Simulated => continue,
-                Role::Following => {
-                    // Where the leaders put it, lengths as they come: kept exactly, they
-                    // would chain each particle's square root onto its parent's, the bulk
-                    // of the cost of a far head (the solver restores them once it rises).
-                    // Its velocity is its leaders', taken when it rises (`led_velocities`).
-                    followed(frame, &leaders, rest, &mut positions[strand]);
-                    continue;
-                }
+                // Followers are placed below, all at once.
+                Role::Simulated | Role::Following => continue,
                 Role::Fading { left, total } if left == total => {
                     // Just stepped: from here on, the offset from the target shrinks.
-                    followed(frame, &leaders, rest, &mut target);
+                    place(&mut target);
                     self.offsets.resize(positions.len(), Vec3::ZERO);
                     for j in 0..n {
                         self.offsets[s * n + j] = pose.rotation.inverse() * (positions[s * n + j] - target[j]);
                     }
-                    self.roles[s] = if total > 1 { Role::Fading { left: total - 1, total } } else { Role::Following };
+                    self.roles[s] = Role::Fading { left: total - 1, total };
                     continue;
                 }
                 Role::Fading { left, total } => {
-                    followed(frame, &leaders, rest, &mut target);
+                    place(&mut target);
                     let share = left as f32 / total as f32;
                     for j in 0..n {
                         wanted[j] = target[j] + pose.rotation * offsets[s * n + j] * share;
                     }
                     start.copy_from_slice(x);
-                    if left > 1 { Role::Fading { left: left - 1, total } } else { Role::Following }
+                    Role::Fading { left: left - 1, total }
                 }
                 Role::Rising { left, total } => {
-                    followed(frame, &leaders, rest, &mut target);
+                    place(&mut target);
                     let pull = (left - 1) as f32 / total as f32;
                     for j in 0..n {
                         wanted[j] = x[j] + (target[j] - x[j]) * pull;
                     }
                     start.copy_from_slice(&self.starts[strand.clone()]);
+                    pulled = true;
                     if left > 1 { Role::Rising { left: left - 1, total } } else { Role::Simulated }
                 }
             };
@@ -340,25 +353,121 @@ impl Detail {
                 self.starts[strand.clone()].copy_from_slice(&positions[strand]);
             }
         }
+        // The followers follow their leaders as drawn: after the pulls.
+        self.pending = Some(*pose);
+        if place_followers {
+            if !pulled {
+                self.pending = None;
+                self.place_following(n, frame, rest, positions);
+            } else {
+                self.place_pending(n, rest, positions);
+            }
+        }
+    }
+
+    /// Places the followers left unplaced by the last [`Self::follow`] where their leaders
+    /// put them at the end of that step.
+    pub(crate) fn place_pending(&mut self, n: usize, rest: &[Vec3], positions: &mut [Vec3]) {
+        let Some(pose) = self.pending.take() else { return };
+        self.world_displacement(n, rest, &pose, positions);
+        let frame = (Mat3A::from_quat(pose.rotation), Vec3A::from(pose.translation));
+        self.place_following(n, frame, rest, positions);
+    }
+
+    /// Places every follower under the pose `frame`, from `self.displacement`.
+    fn place_following(&self, n: usize, frame: (Mat3A, Vec3A), rest: &[Vec3], positions: &mut [Vec3]) {
+        // Where the leaders put each follower, lengths as they come: kept exactly, they
+        // would chain each particle's square root onto its parent's (the solver restores
+        // them once it rises). Its velocity is its leaders', taken when it rises
+        // (`led_velocities`).
+        let following = self.roles.iter().enumerate().filter(|(_, r)| **r == Role::Following);
+        for (s, _) in following {
+            let strand = s * n..(s + 1) * n;
+            followed(frame, n, self.leaders[s], &self.displacement, &rest[strand.clone()], &mut positions[strand]);
+        }
+    }
+
+    /// Whether followers wait to be placed ([`Self::follow`] was told to leave them).
+    pub(crate) fn pending(&self) -> bool {
+        self.pending.is_some()
+    }
+
+    /// Each leader's displacement from its rest under `pose`, into `self.displacement`.
+    fn world_displacement(&mut self, n: usize, rest: &[Vec3], pose: &Pose, positions: &[Vec3]) {
+        self.leaders_displaced(n, positions.len(), |i| positions[i] - pose.transform_point(rest[i]));
+    }
+
+    /// `displacement(i)` for every particle `i` of the simulated strands (the leaders),
+    /// into `self.displacement` (sized for `particles`).
+    fn leaders_displaced(&mut self, n: usize, particles: usize, displacement: impl Fn(usize) -> Vec3) {
+        let simulated = simulated_at_level(self.order.len(), self.level);
+        self.displacement.resize(particles, Vec3A::ZERO);
+        for &s in &self.order[..simulated] {
+            let strand = s as usize * n..(s as usize + 1) * n;
+            for (i, d) in strand.clone().zip(&mut self.displacement[strand]) {
+                *d = displacement(i).into();
+            }
+        }
+    }
+
+    /// The followers' placement in head space, for a caller that copies the positions out
+    /// itself: `local(i)` is particle `i`'s head-space position (asked of the simulated
+    /// strands' particles only). A follower's head-space position is its rest plus its
+    /// leaders' weighted head-space displacement, which the head's pose does not enter: the
+    /// same placement as [`Self::place_pending`]'s, to rounding.
+    pub(crate) fn head_space_placement<'a>(
+        &'a mut self,
+        n: usize,
+        rest: &'a [Vec3],
+        local: impl Fn(usize) -> Vec3,
+    ) -> HeadSpaceFollowers<'a> {
+        self.leaders_displaced(n, rest.len(), |i| local(i) - rest[i]);
+        HeadSpaceFollowers { n, rest, detail: self }
+    }
+}
+
+/// Places a level of detail's followers in head space
+/// ([`Strands::head_space_followers`](super::Strands::head_space_followers)), strand by
+/// strand, from any thread.
+pub struct HeadSpaceFollowers<'a> {
+    n: usize,
+    rest: &'a [Vec3],
+    detail: &'a Detail,
+}
+
+impl HeadSpaceFollowers<'_> {
+    /// Whether strand `s` is a follower, to be placed here.
+    pub fn follows(&self, s: usize) -> bool {
+        self.detail.roles.get(s) == Some(&Role::Following)
+    }
+
+    /// Writes follower `s`'s head-space positions into `out`, one per particle of the
+    /// strand.
+    pub fn place(&self, s: usize, out: &mut [Vec3]) {
+        let (n, identity) = (self.n, (Mat3A::IDENTITY, Vec3A::ZERO));
+        followed(identity, n, self.detail.leaders[s], &self.detail.displacement, &self.rest[s * n..][..n], out);
     }
 }
 
 /// Where a strand's particles follow: its rest positions `rest` under the pose
 /// `(rotation, translation)`, each displaced as its leaders' particles are (their
-/// displacements and weights), into `out`; the root stays on its rest.
+/// `displacement`, strand-major, weighted), into `out`; the root stays on its rest.
 #[inline(always)]
 fn followed(
     (rotation, translation): (Mat3A, Vec3A),
-    leaders: &[(&[Vec3A], f32); LEADERS],
+    n: usize,
+    leaders: Leaders,
+    displacement: &[Vec3A],
     rest: &[Vec3],
     out: &mut [Vec3],
 ) {
-    let [(a, wa), (b, wb), (c, wc)] = *leaders;
-    let placed = |r: Vec3, displaced: Vec3A| (rotation * Vec3A::from(r) + translation + displaced).into();
-    out[0] = placed(rest[0], Vec3A::ZERO);
-    let moved = rest.iter().zip(a).zip(b).zip(c).skip(1);
-    for (x, (((&r, &a), &b), &c)) in out[1..].iter_mut().zip(moved) {
-        *x = placed(r, a * wa + b * wb + c * wc);
+    let [(a, wa), (b, wb), (c, wc)] = leaders;
+    let of = |k: u32| &displacement[k as usize * n..][..n];
+    let (a, b, c) = (of(a), of(b), of(c));
+    out[0] = (rotation * Vec3A::from(rest[0]) + translation).into();
+    for j in 1..n {
+        let displaced = a[j] * wa + b[j] * wb + c[j] * wc;
+        out[j] = (rotation * Vec3A::from(rest[j]) + translation + displaced).into();
     }
 }
 

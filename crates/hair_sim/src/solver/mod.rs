@@ -10,6 +10,7 @@ mod lanes;
 mod params;
 mod step;
 
+pub use detail::HeadSpaceFollowers;
 use detail::{Detail, Role};
 pub use detail::{FULL_DETAIL_HEIGHT, MAX_DETAIL_LEVEL, level_for_height, level_with_hysteresis, simulated_at_level};
 
@@ -251,7 +252,8 @@ impl Strands {
         self.rest.strand_count()
     }
 
-    /// World positions, strand-major.
+    /// World positions, strand-major. After [`Self::fade_and_rise`] the followers of a
+    /// level of detail are where they were last placed, until [`Self::place_followers`].
     pub fn positions(&self) -> &[Vec3] {
         &self.positions
     }
@@ -348,12 +350,27 @@ impl Strands {
     /// Advances every strand by one step on the calling thread (chunks, then
     /// [`Self::follow_leaders`]).
     pub fn step(&mut self, input: &StepInput) -> StepReport {
+        let report = self.step_chunks(input);
+        self.follow_leaders(input);
+        report
+    }
+
+    /// [`Self::step`], but a level of detail's followers stay where they were
+    /// ([`Self::fade_and_rise`]), for a caller that places them as it copies the
+    /// positions out.
+    pub fn step_leaving_followers(&mut self, input: &StepInput) -> StepReport {
+        let report = self.step_chunks(input);
+        self.fade_and_rise(input);
+        report
+    }
+
+    /// Steps every simulated strand, on this thread.
+    fn step_chunks(&mut self, input: &StepInput) -> StepReport {
         let mut report = StepReport::default();
         let all = self.strand_count().max(1);
         for mut chunk in self.chunks_mut(all) {
             report.merge(chunk.step(input));
         }
-        self.follow_leaders(input);
         report
     }
 
@@ -372,6 +389,8 @@ impl Strands {
             return;
         }
         self.prepare_detail();
+        // Rising strands start from where they are drawn.
+        self.place_followers();
         let detail = self.detail.as_mut().expect("prepared");
         let n = self.rest.particles_per_strand;
         detail.led_velocities(n, &mut self.velocities);
@@ -417,10 +436,54 @@ impl Strands {
     /// toward that. [`Self::step`] calls it; a caller stepping [`Self::chunks_mut`] itself
     /// calls it once all chunks are done. Does nothing at level 0 with no strand fading.
     pub fn follow_leaders(&mut self, input: &StepInput) {
+        self.finish_step(input, true);
+    }
+
+    /// [`Self::follow_leaders`], but the followers stay where they were, for a caller that
+    /// places them as it copies the positions out ([`Self::head_space_followers`]): one
+    /// pass over a far head's particles instead of two. [`Self::place_followers`] places
+    /// them in [`Self::positions`].
+    pub fn fade_and_rise(&mut self, input: &StepInput) {
+        self.finish_step(input, false);
+    }
+
+    fn finish_step(&mut self, input: &StepInput, place_followers: bool) {
         let Some(detail) = self.detail.as_mut() else { return };
         let Some(dt) = step::step_length(input) else { return };
         let n = self.rest.particles_per_strand;
-        detail.follow(n, &self.rest.positions, &input.head_to, dt, &mut self.positions, &mut self.velocities);
+        let (rest, pose) = (&self.rest.positions, &input.head_to);
+        detail.follow(n, rest, pose, dt, &mut self.positions, &mut self.velocities, place_followers);
+    }
+
+    /// Places the followers left by [`Self::fade_and_rise`] in [`Self::positions`], where
+    /// their leaders put them at the end of that step. Does nothing if none wait.
+    pub fn place_followers(&mut self) {
+        if let Some(detail) = self.detail.as_mut() {
+            detail.place_pending(self.rest.particles_per_strand, &self.rest.positions, &mut self.positions);
+        }
+    }
+
+    /// Whether strand `strand` is a follower: placed from its simulated neighbours, neither
+    /// stepped nor fading out.
+    pub fn is_following(&self, strand: usize) -> bool {
+        self.detail.as_ref().is_some_and(|d| d.roles.get(strand) == Some(&Role::Following))
+    }
+
+    /// Whether followers wait to be placed ([`Self::fade_and_rise`]).
+    pub fn followers_pending(&self) -> bool {
+        self.detail.as_ref().is_some_and(Detail::pending)
+    }
+
+    /// The followers' placement in head space (the head's rotation and translation
+    /// undone), for a caller copying the positions out in head space after
+    /// [`Self::fade_and_rise`]: `local(i)` gives particle `i`'s head-space position, and is
+    /// asked of the simulated strands' particles only (the followers' leaders). The same
+    /// placement as [`Self::place_followers`], to rounding. `None` without a level of
+    /// detail.
+    pub fn head_space_followers(&mut self, local: impl Fn(usize) -> Vec3) -> Option<HeadSpaceFollowers<'_>> {
+        let n = self.rest.particles_per_strand;
+        let detail = self.detail.as_mut()?;
+        Some(detail.head_space_placement(n, &self.rest.positions, local))
     }
 
     /// Head-local rest roots, one per strand.
