@@ -8,7 +8,7 @@
 
 use crate::clock::{Hair, HairTime, advance_clock, run_hair_schedule};
 use crate::colliders::HairCollider;
-use crate::convert::{from_sim, pose_and_scale, to_sim};
+use crate::convert::{from_sim, pose_and_scale, quat_from_sim, to_sim};
 use crate::description::{GroomStatus, HairError, HairErrorKind, HairGroom};
 use crate::diagnostics::HairDiagnostics;
 use crate::gpu_solver::{GpuDevice, GpuSolver};
@@ -23,7 +23,7 @@ use hair_sim::collide::{ExtraCollider, HeadCollider};
 use hair_sim::groom::{HairFile, RootBinding};
 use hair_sim::math::{Pose, Vec3 as SimVec3};
 use hair_sim::mesh::HeadMesh;
-use hair_sim::solver::{StepInput, StepReport, Strands};
+use hair_sim::solver::{SimParams, StepInput, StepReport, Strands};
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -340,6 +340,10 @@ impl HairState {
     /// positions on the way: one pass over a far head's particles instead of two.
     fn refresh(&mut self, pool: &TaskPool) {
         let (origin, pose) = (self.origin, relative_to(self.pose_to, self.origin));
+        // For the followers, the pose as a matrix: a rotation per particle, not a quaternion
+        // product.
+        let to_world =
+            bevy::math::Affine3A::from_rotation_translation(quat_from_sim(pose.rotation), from_sim(pose.translation));
         let n = self.strands.particles_per_strand().max(1);
         let count = self.strands.positions().len();
         self.current.resize(count, Vec3::ZERO);
@@ -380,14 +384,35 @@ impl HairState {
                         if followers.follows(c * share / n + k) {
                             followers.place(c * share / n + k, &mut placed);
                             for ((&p, world), local) in placed.iter().zip(world).zip(local) {
-                                *world = from_sim(pose.transform_point(p) + origin);
                                 *local = from_sim(p);
+                                *world = to_world.transform_point3(*local) + from_sim(origin);
                             }
                         }
                     }
                 });
             }
         });
+    }
+
+    /// The solver's strands, the GPU solver, and the input of the next step of `dt`
+    /// seconds (poses relative to the origin), borrowed side by side.
+    fn next_step<'a>(
+        &'a mut self,
+        dt: f32,
+        params: &'a SimParams,
+        extra: &'a [ExtraCollider],
+    ) -> (&'a mut Strands, &'a mut GpuSolver, StepInput<'a>) {
+        let input = StepInput {
+            dt,
+            time: self.time,
+            head_from: relative_to(self.pose_from, self.origin),
+            head_to: relative_to(self.pose_to, self.origin),
+            collider: Some(&self.collider),
+            extra_colliders: extra,
+            surface_patch: self.skin_patch.as_ref().map(SkinPatch::patch),
+            params,
+        };
+        (&mut self.strands, &mut self.gpu, input)
     }
 
     /// Moves the solver's origin to the head's centre (its mesh's, which may sit far from
@@ -542,13 +567,11 @@ pub(crate) fn simulate(
         .iter()
         .map(|(e, c, t)| (parents.contains(e).then(|| parents.root_ancestor(e)), c.to_world(t)))
         .collect();
-    let mut extra = Vec::with_capacity(scoped.len());
     let pool = ComputeTaskPool::get_or_init(TaskPool::default);
+    // The grooms the CPU steps, with what their steps need: stepped side by side below.
+    let mut on_cpu = Vec::new();
     for (entity, mut state, local, backend) in &mut grooms {
         let groom_started = Instant::now();
-        let character = parents.root_ancestor(entity);
-        extra.clear();
-        extra.extend(scoped.iter().filter(|(scope, _)| scope.is_none_or(|s| s == character)).map(|(_, c)| *c));
         let (params, issues) = effective(&settings, local).sanitized();
         let fields: Vec<&'static str> = issues.iter().map(|i| i.field).collect();
         if fields != state.reported_issues {
@@ -559,23 +582,20 @@ pub(crate) fn simulate(
             }
             state.reported_issues = fields;
         }
-        let state = &mut *state;
         state.recentre();
-        let origin = state.origin;
-        extra.iter_mut().for_each(|c| *c = c.translated(-origin));
-        let input = StepInput {
-            dt,
-            time: state.time,
-            head_from: relative_to(state.pose_from, origin),
-            head_to: relative_to(state.pose_to, origin),
-            collider: Some(&state.collider),
-            extra_colliders: &extra,
-            surface_patch: state.skin_patch.as_ref().map(SkinPatch::patch),
-            params: &params,
-        };
+        // A collider in the groom's character, or a top-level one, near the origin.
+        let character = parents.root_ancestor(entity);
+        let extra: Vec<ExtraCollider> = scoped
+            .iter()
+            .filter(|(scope, _)| scope.is_none_or(|s| s == character))
+            .map(|(_, c)| c.translated(-state.origin))
+            .collect();
         // On the GPU if the groom asks for it and the GPU can step it, else on the CPU.
         let on_gpu = match backend.copied().unwrap_or_default() {
-            HairBackend::Gpu => Some(state.gpu.step(&mut state.strands, &input, gpu_device.as_deref())),
+            HairBackend::Gpu => {
+                let (strands, gpu, input) = state.next_step(dt, &params, &extra);
+                Some(gpu.step(strands, &input, gpu_device.as_deref()))
+            }
             HairBackend::Cpu => {
                 state.gpu.release();
                 None
@@ -590,17 +610,36 @@ pub(crate) fn simulate(
             }
             state.gpu.issue = gpu_issue;
         }
-        // What the solver steps: a level of detail leaves the followers out (on the CPU).
-        let (simulated, report) = if on_gpu == Some(Ok(())) {
-            (state.strands.strand_count(), StepReport::default())
+        if on_gpu == Some(Ok(())) {
+            state.last_report = StepReport::default();
+            state.last_step_time = groom_started.elapsed();
+            state.time += dt;
+            guides += state.strands.strand_count();
+            particles += state.strands.strand_count() * state.strands.particles_per_strand();
         } else {
-            (state.strands.simulated_strands(), step_on_pool(&mut state.strands, &input, pool))
-        };
+            let simulated = state.strands.simulated_strands();
+            on_cpu.push((entity, state, params, extra, simulated));
+        }
+    }
+    // What the solver steps: a level of detail leaves the followers out. The grooms step
+    // side by side, each split into chunks of its own: a crowd of far heads, a few strands
+    // each, keeps every core busy.
+    pool.scope(|scope| {
+        for (_, state, params, extra, _) in &mut on_cpu {
+            scope.spawn(async move {
+                let started = Instant::now();
+                let (strands, _, input) = state.next_step(dt, params, extra);
+                let report = step_on_pool(strands, &input, pool);
+                state.last_report = report;
+                state.last_step_time = started.elapsed();
+            });
+        }
+    });
+    for (entity, mut state, _, _, simulated) in on_cpu {
+        let report = state.last_report;
         if report.nan_resets > 0 {
             warn!("hair on {entity}: {} strands produced non-finite values and were reset", report.nan_resets);
         }
-        state.last_report = report;
-        state.last_step_time = groom_started.elapsed();
         state.time += dt;
         guides += simulated;
         particles += simulated * state.strands.particles_per_strand();
@@ -617,14 +656,21 @@ pub(crate) fn simulate(
 /// Like the plugin, it leaves a level of detail's followers where they were
 /// ([`Strands::fade_and_rise`]): [`Strands::place_followers`] places them.
 pub fn step_on_pool(strands: &mut Strands, input: &StepInput, pool: &TaskPool) -> StepReport {
-    let strands_per_task = strands.strand_count().div_ceil(pool.thread_num().max(1) * 4).max(MIN_STRANDS_PER_TASK);
-    // Whole SIMD groups per task, so no task steps idle lanes.
-    let strands_per_task = strands_per_task.next_multiple_of(input.params.simd.strands_per_group());
-    let reports = pool.scope(|scope| {
-        for mut chunk in strands.chunks_mut(strands_per_task) {
-            scope.spawn(async move { chunk.step(input) });
-        }
-    });
+    // Tasks of at least MIN_STRANDS_PER_TASK simulated strands each: a far head's few are
+    // spread over all its strands (a task's SIMD groups gather its simulated ones), and
+    // stepping them in one task fills the groups' lanes and spares the pool a round trip.
+    let tasks = strands.simulated_strands().div_ceil(MIN_STRANDS_PER_TASK).clamp(1, pool.thread_num().max(1) * 4);
+    let strands_per_task =
+        strands.strand_count().div_ceil(tasks).next_multiple_of(input.params.simd.strands_per_group());
+    let reports = if tasks == 1 {
+        strands.chunks_mut(strands_per_task.max(1)).into_iter().map(|mut chunk| chunk.step(input)).collect()
+    } else {
+        pool.scope(|scope| {
+            for mut chunk in strands.chunks_mut(strands_per_task) {
+                scope.spawn(async move { chunk.step(input) });
+            }
+        })
+    };
     // The strands a level of detail leaves out are placed from the simulated ones as they
     // are copied out for drawing (`HairState`'s writeback), or by `Strands::place_followers`.
     strands.fade_and_rise(input);
@@ -637,7 +683,10 @@ pub fn step_on_pool(strands: &mut Strands, input: &StepInput, pool: &TaskPool) -
 /// (in head space) for interpolated drawing.
 pub(crate) fn writeback(mut grooms: Query<&mut HairState>) {
     let pool = ComputeTaskPool::get_or_init(TaskPool::default);
-    for mut state in &mut grooms {
-        state.publish(pool);
-    }
+    // Side by side, each groom split further: a crowd keeps every core busy.
+    pool.scope(|scope| {
+        for mut state in &mut grooms {
+            scope.spawn(async move { state.publish(pool) });
+        }
+    });
 }

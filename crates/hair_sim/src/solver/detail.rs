@@ -437,12 +437,14 @@ pub struct HeadSpaceFollowers<'a> {
 
 impl HeadSpaceFollowers<'_> {
     /// Whether strand `s` is a follower, to be placed here.
+    #[inline]
     pub fn follows(&self, s: usize) -> bool {
         self.detail.roles.get(s) == Some(&Role::Following)
     }
 
     /// Writes follower `s`'s head-space positions into `out`, one per particle of the
     /// strand.
+    #[inline]
     pub fn place(&self, s: usize, out: &mut [Vec3]) {
         let (n, identity) = (self.n, (Mat3A::IDENTITY, Vec3A::ZERO));
         followed(identity, n, self.detail.leaders[s], &self.detail.displacement, &self.rest[s * n..][..n], out);

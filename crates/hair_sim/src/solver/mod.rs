@@ -465,6 +465,7 @@ impl Strands {
 
     /// Whether strand `strand` is a follower: placed from its simulated neighbours, neither
     /// stepped nor fading out.
+    #[inline]
     pub fn is_following(&self, strand: usize) -> bool {
         self.detail.as_ref().is_some_and(|d| d.roles.get(strand) == Some(&Role::Following))
     }
