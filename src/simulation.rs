@@ -38,7 +38,7 @@ pub(crate) struct Grown {
     pub groom: HairGroom,
 }
 
-/// Fewest strands worth a task of their own.
+/// Fewest simulated strands worth a task of their own.
 const MIN_STRANDS_PER_TASK: usize = 64;
 /// The fewest particles worth a task of their own when publishing positions.
 const MIN_PARTICLES_PER_TASK: usize = 4096;
