@@ -8,7 +8,7 @@
 
 use crate::clock::{Hair, HairTime, advance_clock, run_hair_schedule};
 use crate::colliders::HairCollider;
-use crate::convert::{from_sim, pose_and_scale, quat_from_sim, to_sim};
+use crate::convert::{from_sim, pose_and_scale, to_sim};
 use crate::description::{GroomStatus, HairError, HairErrorKind, HairGroom};
 use crate::diagnostics::HairDiagnostics;
 use crate::gpu_solver::{GpuDevice, GpuSolver};
@@ -24,7 +24,7 @@ use hair_sim::groom::{HairFile, RootBinding};
 use hair_sim::math::{Pose, Vec3 as SimVec3};
 use hair_sim::mesh::HeadMesh;
 use hair_sim::solver::{SimParams, StepInput, StepReport, Strands};
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 use std::time::Duration;
 
 /// A freshly grown groom, what a [`HairState`] starts from (handed back by the growth
@@ -71,8 +71,13 @@ pub struct HairState {
     /// Positions after the step before the last and after the last, in head space.
     previous_local: Vec<Vec3>,
     current_local: Vec<Vec3>,
-    /// Positions after the last step, world space.
-    current: Vec<Vec3>,
+    /// Positions after the last step, world space: worked out from `current_local` when
+    /// first asked for (drawing needs head space only; a crowd's copy-out would write
+    /// twice as much), under the head pose and origin it was copied out with.
+    current: OnceLock<Vec<Vec3>>,
+    /// The head's pose (relative to the origin) and the origin, as `current_local` was
+    /// copied out.
+    published: (Pose, SimVec3),
     last_report: StepReport,
     last_step_time: Duration,
     /// A skinned head's scalp joint: the head's frame is the joint's.
@@ -102,7 +107,6 @@ impl HairState {
         let skin_patch = joint.as_ref().and_then(|j| j.skin_patch(&head, scale));
         let origin = pose.transform_point(collider.centre());
         strands.reset(relative_to(pose, origin));
-        let current: Vec<Vec3> = strands.positions().iter().map(|&p| from_sim(p + origin)).collect();
         let current_local: Vec<Vec3> = to_head_space(strands.positions(), relative_to(pose, origin)).collect();
         let frame = StampedPose { time: 0.0, pose };
         let head_size = head.height();
@@ -121,7 +125,8 @@ impl HairState {
             time: 0.0,
             previous_local: current_local.clone(),
             current_local,
-            current,
+            current: OnceLock::new(),
+            published: (relative_to(pose, origin), origin),
             last_report: StepReport::default(),
             last_step_time: Duration::ZERO,
             joint,
@@ -186,11 +191,15 @@ impl HairState {
         self.strands.particles_per_strand()
     }
 
-    /// Particle positions after the last fixed step, world space, strand-major. For a
+    /// Particle positions after the last fixed step, world space, strand-major: worked out
+    /// from [`Self::current_local_positions`] on the first call after a step. For a
     /// groom the GPU steps ([`HairBackend::Gpu`]) these are a frame or two late, as copied
     /// back without waiting; [`Self::read_back_gpu`] waits for the last step's.
     pub fn current_positions(&self) -> &[Vec3] {
-        &self.current
+        self.current.get_or_init(|| {
+            let (pose, origin) = self.published;
+            self.current_local.iter().map(|&p| from_sim(pose.transform_point(to_sim(p)) + origin)).collect()
+        })
     }
 
     /// Particle positions after the last step, head space (the head's rotation and
@@ -335,34 +344,30 @@ impl HairState {
         self.refresh(pool);
     }
 
-    /// Copies the solver's positions out as the last step's, and places a level of
-    /// detail's followers, which [`step_on_pool`] leaves, from their leaders' head-space
-    /// positions on the way: one pass over a far head's particles instead of two.
+    /// Copies the solver's positions out as the last step's, in head space, and places a
+    /// level of detail's followers, which [`step_on_pool`] leaves, from their leaders'
+    /// head-space positions on the way: one pass over a far head's particles instead of two.
     fn refresh(&mut self, pool: &TaskPool) {
-        let (origin, pose) = (self.origin, relative_to(self.pose_to, self.origin));
-        // For the followers, the pose as a matrix: a rotation per particle, not a quaternion
-        // product.
-        let to_world =
-            bevy::math::Affine3A::from_rotation_translation(quat_from_sim(pose.rotation), from_sim(pose.translation));
+        let pose = relative_to(self.pose_to, self.origin);
+        self.published = (pose, self.origin);
+        self.current = OnceLock::new();
         let n = self.strands.particles_per_strand().max(1);
         let count = self.strands.positions().len();
-        self.current.resize(count, Vec3::ZERO);
         self.current_local.resize(count, Vec3::ZERO);
         // Whole strands per task, a share per thread of the pool.
         let share = count.div_ceil(pool.thread_num().max(1)).max(MIN_PARTICLES_PER_TASK).next_multiple_of(n);
         let strands = &self.strands;
         let pending = strands.followers_pending();
-        let shares = strands.positions().chunks(share).zip(self.current.chunks_mut(share));
         pool.scope(|scope| {
-            for (c, ((positions, world), local)) in shares.zip(self.current_local.chunks_mut(share)).enumerate() {
+            for (c, (positions, local)) in
+                strands.positions().chunks(share).zip(self.current_local.chunks_mut(share)).enumerate()
+            {
                 scope.spawn(async move {
-                    let strands_here = positions.chunks(n).zip(world.chunks_mut(n)).zip(local.chunks_mut(n));
-                    for (k, ((positions, world), local)) in strands_here.enumerate() {
+                    for (k, (positions, local)) in positions.chunks(n).zip(local.chunks_mut(n)).enumerate() {
                         if pending && strands.is_following(c * share / n + k) {
                             continue; // placed below
                         }
-                        for ((&p, world), local) in positions.iter().zip(world).zip(local) {
-                            *world = from_sim(p + origin);
+                        for (&p, local) in positions.iter().zip(local) {
                             *local = from_sim(pose.inverse_transform_point(p));
                         }
                     }
@@ -374,18 +379,16 @@ impl HairState {
         }
         let current_local = &self.current_local;
         let Some(followers) = self.strands.head_space_followers(|i| to_sim(current_local[i])) else { return };
-        let (followers, shares) =
-            (&followers, self.current.chunks_mut(share).zip(self.current_local.chunks_mut(share)));
+        let followers = &followers;
         pool.scope(|scope| {
-            for (c, (world, local)) in shares.enumerate() {
+            for (c, local) in self.current_local.chunks_mut(share).enumerate() {
                 scope.spawn(async move {
                     let mut placed = vec![SimVec3::ZERO; n];
-                    for (k, (world, local)) in world.chunks_mut(n).zip(local.chunks_mut(n)).enumerate() {
+                    for (k, local) in local.chunks_mut(n).enumerate() {
                         if followers.follows(c * share / n + k) {
                             followers.place(c * share / n + k, &mut placed);
-                            for ((&p, world), local) in placed.iter().zip(world).zip(local) {
+                            for (&p, local) in placed.iter().zip(local) {
                                 *local = from_sim(p);
-                                *world = to_world.transform_point3(*local) + from_sim(origin);
                             }
                         }
                     }
