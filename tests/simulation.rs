@@ -448,6 +448,51 @@ fn a_far_heads_followers_are_copied_out_where_the_solver_places_them() {
     assert!(all_finite(&app, head));
 }
 
+/// The grooms of a crowd step, and are copied out, side by side on the compute pool, each
+/// split further (or, a far head's few strands, in one task): twins in a crowd of five,
+/// reset together, step to the same bits, at full detail and at a level of detail.
+#[test]
+fn twins_in_a_crowd_step_to_the_same_bits() {
+    let mut app = app();
+    let fixed = |level| HairLod { fixed_level: Some(level), fade_seconds: 0.0, ..default() };
+    let heads: Vec<Entity> = [0, 0, 2, 2, 7]
+        .into_iter()
+        .map(|level| {
+            let head = spawn_head(&mut app, groom(), Transform::default());
+            app.world_mut().entity_mut(head).insert(fixed(level));
+            head
+        })
+        .collect();
+    for &head in &heads {
+        wait_until_ready(&mut app, head);
+    }
+    // Grown at different updates: from here on, the same steps.
+    for &head in &heads {
+        app.world_mut().get_mut::<HairState>(head).unwrap().reset();
+    }
+    for k in 0..40 {
+        for &head in &heads {
+            *app.world_mut().get_mut::<Transform>(head).unwrap() = turning(k);
+        }
+        app.update();
+    }
+    let bits = |head| -> Vec<[u32; 3]> {
+        state(&app, head).current_local_positions().iter().map(|p| p.to_array().map(f32::to_bits)).collect()
+    };
+    let simulated: Vec<usize> = heads.iter().map(|&h| state(&app, h).strands().simulated_strands()).collect();
+    assert_eq!(simulated, [200, 200, 50, 50, 2]);
+    for twins in [[0, 1], [2, 3]] {
+        let apart = bits(heads[twins[0]]).iter().zip(&bits(heads[twins[1]])).filter(|(a, b)| a != b).count();
+        assert_eq!(apart, 0, "twins {twins:?}: {apart} particles differ");
+    }
+    // And the twins moved: the comparison is not of two heads at rest.
+    let rest = &state(&app, heads[2]).strands().rest().positions;
+    let local = state(&app, heads[2]).current_local_positions();
+    let moved = rest.iter().zip(local).map(|(r, p)| (Vec3::from_array(r.to_array()) - *p).length()).fold(0.0, f32::max);
+    assert!(moved > 0.001, "the hair barely moved: {moved} m");
+    assert!(all_finite(&app, heads[4]));
+}
+
 /// The head's yaw at update `k`: a turn one way and back, 1.5 rad at 3 rad/s peaks.
 fn turning(k: usize) -> Transform {
     Transform::from_rotation(Quat::from_rotation_y(1.5 * (k as f32 / 30.0).sin()))
