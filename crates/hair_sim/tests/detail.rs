@@ -282,6 +282,8 @@ fn followers_left_for_the_caller_land_where_step_puts_them() {
     let mut placed = Strands::new(rest.clone(), looking_around(0));
     let mut left = placed.clone();
     let (mut in_head_space, mut followers_checked) = (0.0f32, 0);
+    // The strands' origin moves by this at step 50.
+    let shift = Vec3::new(0.3, -0.1, 0.2);
     for k in 0..80 {
         let level = match k {
             0 => Some(3),
@@ -294,10 +296,10 @@ fn followers_left_for_the_caller_land_where_step_puts_them() {
             left.set_detail_level(level, 20);
         }
         if k == 50 {
-            placed.translate(Vec3::new(0.3, -0.1, 0.2));
-            left.translate(Vec3::new(0.3, -0.1, 0.2));
+            placed.translate(shift);
+            left.translate(shift);
         }
-        let shift = if k >= 50 { Vec3::new(0.3, -0.1, 0.2) } else { Vec3::ZERO };
+        let shift = if k >= 50 { shift } else { Vec3::ZERO };
         let pose = |k: usize| {
             let p = looking_around(k);
             Pose::new(p.rotation, p.translation + shift)
@@ -331,6 +333,10 @@ fn followers_left_for_the_caller_land_where_step_puts_them() {
             assert_eq!(apart, 0, "step {k}: placed later, {apart} particles differ");
         }
     }
+    // Stepped the usual way again, nothing is left waiting to be placed at an old pose.
+    let shifted = |k: usize| Pose::new(looking_around(k).rotation, looking_around(k).translation + shift);
+    left.step(&input(80, DT, (shifted(80), shifted(81)), &groom.collider, &params));
+    assert!(!left.followers_pending(), "step placed the followers, yet some wait");
     println!("{followers_checked} follower placements in head space, at most {:.3} µm apart", in_head_space * 1e6);
     assert!(followers_checked > 5_000, "too few followers to check: {followers_checked}");
     assert!(in_head_space <= 1e-6, "in head space a follower lands {} µm from step's", in_head_space * 1e6);

@@ -353,15 +353,15 @@ impl Detail {
                 self.starts[strand.clone()].copy_from_slice(&positions[strand]);
             }
         }
-        // The followers follow their leaders as drawn: after the pulls.
-        self.pending = Some(*pose);
+        // The followers follow their leaders as drawn: after the pulls, which move leaders.
         if place_followers {
-            if !pulled {
-                self.pending = None;
-                self.place_following(n, frame, rest, positions);
-            } else {
-                self.place_pending(n, rest, positions);
+            if pulled {
+                self.world_displacement(n, rest, pose, positions);
             }
+            self.place_following(n, frame, rest, positions);
+            self.pending = None;
+        } else {
+            self.pending = Some(*pose);
         }
     }
 
