@@ -20,14 +20,19 @@ impl HairDiagnostics {
     pub const RENDERED_VERTICES: DiagnosticPath = DiagnosticPath::const_new("hair/rendered_vertices");
     /// Bytes of guide data written to the GPU in the last frame.
     pub const UPLOADED_BYTES: DiagnosticPath = DiagnosticPath::const_new("hair/uploaded_bytes");
+    /// Wall time of the last frame's drawing work on the CPU, milliseconds, all grooms:
+    /// the guide particles interpolated and placed, their frames, the draw order and the
+    /// opacity maps, written to the GPU.
+    pub const UPLOAD_TIME: DiagnosticPath = DiagnosticPath::const_new("hair/upload_ms");
 
     /// Every path above, for registration.
-    pub const ALL: [DiagnosticPath; 6] = [
+    pub const ALL: [DiagnosticPath; 7] = [
         Self::STEP_TIME,
         Self::GUIDES,
         Self::PARTICLES,
         Self::RENDERED_STRANDS,
         Self::RENDERED_VERTICES,
         Self::UPLOADED_BYTES,
+        Self::UPLOAD_TIME,
     ];
 }

@@ -372,6 +372,11 @@ fn turning_the_light_moves_the_highlight_and_children_cover_more() {
     }
     assert!(coverage[0] < coverage[1] && coverage[1] < coverage[2], "coverage {coverage:?} does not grow");
     assert!(coverage[2] as f32 > 1.3 * coverage[0] as f32, "coverage {coverage:?}");
+    // The frame's drawing work on the CPU is published.
+    let store = scene.app.world().resource::<bevy::diagnostic::DiagnosticsStore>();
+    let upload_ms = store.get(&HairDiagnostics::UPLOAD_TIME).and_then(|d| d.value());
+    println!("drawing work on the CPU: {upload_ms:?} ms in the last frame");
+    assert!(upload_ms.is_some_and(|ms| ms > 0.0 && ms < 1e4), "no usable upload time published: {upload_ms:?}");
 }
 
 #[test]

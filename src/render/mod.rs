@@ -637,6 +637,7 @@ fn upload_guides(
     mut written: Local<Parallel<Vec<WrittenGuides>>>,
 ) {
     let Some(queue) = queue else { return };
+    let started = bevy::platform::time::Instant::now();
     let overstep = clock.overstep_fraction();
     /// The particles and frames (unless the GPU writes them), the guide buffer, and the
     /// boxes around the strands as copied here and as far as they can be.
@@ -753,6 +754,7 @@ fn upload_guides(
     diagnostics.add_measurement(&HairDiagnostics::UPLOADED_BYTES, || frame.uploaded_bytes as f64);
     diagnostics.add_measurement(&HairDiagnostics::RENDERED_STRANDS, || frame.rendered_strands as f64);
     diagnostics.add_measurement(&HairDiagnostics::RENDERED_VERTICES, || frame.rendered_vertices as f64);
+    diagnostics.add_measurement(&HairDiagnostics::UPLOAD_TIME, || started.elapsed().as_secs_f64() * 1e3);
 }
 
 /// What a groom's opacity maps are built from (`points`, strand-major, `n` per guide):
