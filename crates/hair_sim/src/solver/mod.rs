@@ -447,6 +447,7 @@ impl Strands {
         self.finish_step(input, false);
     }
 
+    /// After the chunks: fades, rises, and the followers placed or left.
     fn finish_step(&mut self, input: &StepInput, place_followers: bool) {
         let Some(detail) = self.detail.as_mut() else { return };
         let Some(dt) = step::step_length(input) else { return };
