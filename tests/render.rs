@@ -339,6 +339,35 @@ fn hair_covers_the_scalp_front_and_back_and_leaves_face_and_background() {
     assert!(hair_on_face * 10 <= face.len(), "hair covers {hair_on_face} of {} lower-face points", face.len());
 }
 
+/// A head at a level of detail is drawn as at full detail: its followers, placed where the
+/// strands are copied out, cover as many pixels, and its opacity map, built from the
+/// simulated guides alone, shades them about as much (the settled hair at rest, so the
+/// followers lie where their own strands would).
+#[test]
+fn a_head_at_a_level_of_detail_is_drawn_as_at_full_detail() {
+    require_adapter!();
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let mut scene = Scene::new();
+    let head = scene.spawn_head(short_groom());
+    scene.wait_until_ready(head);
+    scene.look_from(Vec3::new(0.0, 0.25, 0.5));
+    scene.frames(3);
+    let full = scene.capture("detail-0");
+    scene.app.world_mut().entity_mut(head).insert(HairLod { fixed_level: Some(3), fade_seconds: 0.0, ..default() });
+    scene.frames(3);
+    let far = scene.capture("detail-3");
+    let state = scene.app.world().get::<HairState>(head).unwrap();
+    assert_eq!(state.strands().simulated_strands(), 75, "1/8 of 600 guides");
+    let hair_luminance =
+        |picture: &Picture| mean(picture.pixels.iter().filter(|&&c| Picture::is_hair(c)).map(|&c| linear_luminance(c)));
+    let (pixels, lit) = ([full.hair_pixels(), far.hair_pixels()], [hair_luminance(&full), hair_luminance(&far)]);
+    println!("hair pixels {pixels:?}, mean hair luminance {lit:?} at levels 0 and 3");
+    assert!(pixels[0] > 2000, "too little hair in view: {pixels:?}");
+    let ratio = pixels[1] as f32 / pixels[0] as f32;
+    assert!((0.95..=1.05).contains(&ratio), "level 3 covers {ratio:.3} of full detail's hair pixels");
+    assert!((lit[1] / lit[0] - 1.0).abs() < 0.1, "level 3 lit {:.3} of full detail", lit[1] / lit[0]);
+}
+
 #[test]
 fn turning_the_light_moves_the_highlight_and_children_cover_more() {
     require_adapter!();
