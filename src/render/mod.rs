@@ -667,7 +667,9 @@ fn upload_guides(
         // The solver's vectors of the same positions, for the frames, the draw order and
         // the opacity maps.
         let points: Vec<_> = positions.iter().map(|&p| to_sim(p)).collect();
-        let particles = (!on_gpu).then(|| {
+        // The particles with their frames on a task of their own, beside the guide data
+        // (the opacity maps take longest): a frame waits for the longer, not for both.
+        let particles_with_frames = || {
             let mut particles: Vec<Vec4> = Vec::with_capacity(particles_len(&drawing.layout));
             particles.extend(positions.iter().map(|p| p.extend(1.0)));
             // The frames are one root → tip pass per guide here, instead of a walk from the
@@ -677,22 +679,32 @@ fn upload_guides(
                 particles.extend(frames.into_iter().map(|u| from_sim(u).extend(0.0)));
             }
             particles
-        });
-        // The children's scalp: each root's normal and curvature, and the head's centre.
+        };
         let mut data: Vec<Vec4> = Vec::with_capacity(guide_buffer_len(&drawing.layout));
-        data.extend(drawing.roots.iter().map(|root| (rotation * root.normal).extend(root.curvature)));
-        let pose = state.drawn_head_pose();
-        data.push(from_sim(pose.transform_point(state.collider().centre())).extend(1.0));
-        data.extend(StrandLayout::pack_order(&draw_order(&points, &drawing.layout, drawing.blended_from)));
-        if look.self_shadow > 0.0 {
-            let fibres = Fibres {
-                root_width: look.root_width,
-                tip_width: look.tip_width,
-                strands_per_guide: drawing.layout.strands_per_guide as f32,
-            };
-            let (points, areas) = shadow_samples(&points, n, state.strands(), fibres);
-            write_opacity_maps(&mut data, drawing.opacity_maps, &lights.0, (&points, &areas));
-        }
+        let guide_data = |data: &mut Vec<Vec4>| {
+            // The children's scalp: each root's normal and curvature, and the head's centre.
+            data.extend(drawing.roots.iter().map(|root| (rotation * root.normal).extend(root.curvature)));
+            let pose = state.drawn_head_pose();
+            data.push(from_sim(pose.transform_point(state.collider().centre())).extend(1.0));
+            data.extend(StrandLayout::pack_order(&draw_order(&points, &drawing.layout, drawing.blended_from)));
+            if look.self_shadow > 0.0 {
+                let fibres = Fibres {
+                    root_width: look.root_width,
+                    tip_width: look.tip_width,
+                    strands_per_guide: drawing.layout.strands_per_guide as f32,
+                };
+                let (points, areas) = shadow_samples(&points, n, state.strands(), fibres);
+                write_opacity_maps(data, drawing.opacity_maps, &lights.0, (&points, &areas));
+            }
+        };
+        let particles = ComputeTaskPool::get_or_init(TaskPool::default)
+            .scope(|scope| {
+                if !on_gpu {
+                    scope.spawn(async { particles_with_frames() });
+                }
+                guide_data(&mut data);
+            })
+            .pop();
         // Children sit at most the spiral's outer radius plus the tip spread from their
         // guide, and ribbons add half their width; in the drawing's frame that length is
         // stretched at most by the inverse's Frobenius norm (1.7 for a rigid frame).
