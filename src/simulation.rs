@@ -385,8 +385,9 @@ impl HairState {
                 scope.spawn(async move {
                     let mut placed = vec![SimVec3::ZERO; n];
                     for (k, local) in local.chunks_mut(n).enumerate() {
-                        if followers.follows(c * share / n + k) {
-                            followers.place(c * share / n + k, &mut placed);
+                        let strand = c * share / n + k;
+                        if followers.follows(strand) {
+                            followers.place(strand, &mut placed);
                             for (&p, local) in placed.iter().zip(local) {
                                 *local = from_sim(p);
                             }

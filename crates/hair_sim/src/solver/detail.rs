@@ -380,11 +380,16 @@ impl Detail {
         // would chain each particle's square root onto its parent's (the solver restores
         // them once it rises). Its velocity is its leaders', taken when it rises
         // (`led_velocities`).
-        let following = self.roles.iter().enumerate().filter(|(_, r)| **r == Role::Following);
-        for (s, _) in following {
+        for s in (0..self.roles.len()).filter(|&s| self.follows(s)) {
             let strand = s * n..(s + 1) * n;
             followed(frame, n, self.leaders[s], &self.displacement, &rest[strand.clone()], &mut positions[strand]);
         }
+    }
+
+    /// Whether strand `s` follows: placed from its leaders, neither stepped nor fading.
+    #[inline]
+    pub(crate) fn follows(&self, s: usize) -> bool {
+        self.roles.get(s) == Some(&Role::Following)
     }
 
     /// Whether followers wait to be placed ([`Self::follow`] was told to leave them).
@@ -439,7 +444,7 @@ impl HeadSpaceFollowers<'_> {
     /// Whether strand `s` is a follower, to be placed here.
     #[inline]
     pub fn follows(&self, s: usize) -> bool {
-        self.detail.roles.get(s) == Some(&Role::Following)
+        self.detail.follows(s)
     }
 
     /// Writes follower `s`'s head-space positions into `out`, one per particle of the

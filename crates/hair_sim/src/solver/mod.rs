@@ -468,7 +468,7 @@ impl Strands {
     /// stepped nor fading out.
     #[inline]
     pub fn is_following(&self, strand: usize) -> bool {
-        self.detail.as_ref().is_some_and(|d| d.roles.get(strand) == Some(&Role::Following))
+        self.detail.as_ref().is_some_and(|d| d.follows(strand))
     }
 
     /// Whether followers wait to be placed ([`Self::fade_and_rise`]).
