@@ -230,9 +230,17 @@ fn chunked_stepping_with_followers_matches_step() {
 
 /// Levels of detail under what a game throws at a groom: a 10 m teleport, a 1 s hitch, a
 /// NaN pose and a level switch in the same steps. Every strand, followers included, stays
-/// finite with its root on the head, and the followers come back with it.
+/// finite with its root on the head, and the followers come back with it: stepped with
+/// [`Strands::step`], and with the followers left to the caller (placed in head space, then
+/// in the strands).
 #[test]
 fn followers_survive_teleports_hitches_and_bad_poses() {
+    for leave in [false, true] {
+        followers_survive_teleports_hitches_and_bad_poses_with(leave);
+    }
+}
+
+fn followers_survive_teleports_hitches_and_bad_poses_with(leave_followers: bool) {
     let (groom, rest) = groom();
     let params = SimParams::default();
     let n = rest.particles_per_strand;
@@ -254,7 +262,22 @@ fn followers_survive_teleports_hitches_and_bad_poses() {
         if let Some(level) = level {
             strands.set_detail_level(level, 10);
         }
-        strands.step(&input(k, dt, (from, to), &groom.collider, &params));
+        let input = input(k, dt, (from, to), &groom.collider, &params);
+        if leave_followers {
+            strands.step_leaving_followers(&input);
+            if to.is_valid() {
+                let mut local: Vec<Vec3> = strands.positions().iter().map(|&p| to.inverse_transform_point(p)).collect();
+                if let Some(followers) = strands.head_space_followers(|i| local[i]) {
+                    for s in (0..local.len() / n).filter(|&s| followers.follows(s)) {
+                        followers.place(s, &mut local[s * n..(s + 1) * n]);
+                    }
+                }
+                assert!(local.iter().all(|p| p.is_finite()), "step {k}: a head-space particle is not finite");
+            }
+            strands.place_followers();
+        } else {
+            strands.step(&input);
+        }
         assert!(strands.positions().iter().all(|p| p.is_finite()), "step {k}: a particle is not finite");
         if to.is_valid() {
             for (s, root) in strands.positions().iter().step_by(n).enumerate() {
