@@ -309,6 +309,35 @@ fn wind_along_x_moves_the_tips_along_x() {
     assert!(calm - reverse > 0.004, "−X wind moved tips by {}", reverse - calm);
 }
 
+/// A root moved within the rest shape (a skinned scalp) is where the next step pins it, in
+/// every kind of SIMD group: 48 strands make full groups, whose rest shape loads as whole
+/// vectors, and a part-empty one, which loads strand by strand.
+#[test]
+fn moved_rest_roots_are_pinned_in_every_group() {
+    let g = groom();
+    let params = SimParams::default();
+    let n = g.rest.particles_per_strand;
+    let mut strands = Strands::new(g.rest.clone(), moving_head(0));
+    let moved: Vec<(usize, Vec3)> = [0, 5, 17, 31, 32, 47]
+        .into_iter()
+        .map(|s| (s, g.rest.positions[s * n] + Vec3::new(0.004, -0.003, 0.002) * (1.0 + s as f32 / 48.0)))
+        .collect();
+    for &(strand, root) in &moved {
+        strands.set_rest_root(strand, root);
+    }
+    for path in [SimdPath::Baseline, SimdPath::Auto] {
+        let params = SimParams { simd: path, ..params };
+        let mut stepped = strands.clone();
+        stepped.step(&input(0, moving_head(0), moving_head(1), Some(&g.collider), &params));
+        let pose = moving_head(1);
+        for strand in 0..strands.strand_count() {
+            let rest_root = moved.iter().find(|m| m.0 == strand).map_or(g.rest.positions[strand * n], |m| m.1);
+            let off = stepped.positions()[strand * n].distance(pose.transform_point(rest_root));
+            assert!(off < 1e-6, "{path:?}: strand {strand}'s root is {off} m from its rest root");
+        }
+    }
+}
+
 // Teleports -------------------------------------------------------------------------------
 
 #[test]

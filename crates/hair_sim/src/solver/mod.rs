@@ -8,11 +8,13 @@
 mod detail;
 mod lanes;
 mod params;
+mod rest_lanes;
 mod step;
 
 pub use detail::HeadSpaceFollowers;
 use detail::{Detail, Role};
 pub use detail::{FULL_DETAIL_HEIGHT, MAX_DETAIL_LEVEL, level_for_height, level_with_hysteresis, simulated_at_level};
+use rest_lanes::RestLanes;
 
 pub use step::{MIN_STEP, StepConstants};
 mod wind;
@@ -193,6 +195,8 @@ pub struct StepInput<'a> {
 #[derive(Clone, Debug)]
 pub struct Strands {
     rest: RestShape,
+    /// The same, transposed for the SIMD groups.
+    rest_lanes: RestLanes,
     positions: Vec<Vec3>,
     velocities: Vec<Vec3>,
     /// Per particle, the head triangle it touched last (a collision shortcut).
@@ -218,6 +222,7 @@ impl Strands {
             previous_positions: positions.clone(),
             previous_velocities: velocities.clone(),
             history_step: vec![0.0; rest.strand_count()],
+            rest_lanes: RestLanes::new(&rest),
             rest,
             positions,
             velocities,
@@ -239,6 +244,7 @@ impl Strands {
         let n = self.rest.particles_per_strand;
         if root.is_finite() && strand < self.rest.strand_count() {
             self.rest.positions[strand * n] = root;
+            self.rest_lanes.set_root(strand, root);
         }
     }
 
@@ -331,7 +337,7 @@ impl Strands {
                 |(c, ((((positions, velocities), hints), (previous_positions, previous_velocities)), history_step))| {
                     StrandChunk {
                         first_strand: c * strands,
-                        rest: &self.rest,
+                        rest: step::Rest { shape: &self.rest, lanes: &self.rest_lanes },
                         roles: roles.map(|r| &r[c * strands..((c + 1) * strands).min(r.len())]),
                         state: ChunkState {
                             positions,
@@ -506,7 +512,7 @@ impl Strands {
 /// A contiguous run of strands borrowed from [`Strands`], steppable on its own thread.
 pub struct StrandChunk<'a> {
     first_strand: usize,
-    rest: &'a RestShape,
+    rest: step::Rest<'a>,
     /// Per strand of the chunk, its role at the level of detail; `None`: all simulated.
     roles: Option<&'a [Role]>,
     state: ChunkState<'a>,

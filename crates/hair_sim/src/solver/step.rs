@@ -17,6 +17,7 @@
 use super::detail::Role;
 use super::lanes::{Baseline, M3, MAX_LANES, Mask, PoseLanes, Simd, V3, Wide};
 use super::params::{CollisionResponse, LengthMode, SimParams, stiffness_per_application};
+use super::rest_lanes::{RestLanes, Row};
 use super::wind::wind_at;
 use super::{ChunkState, RestShape, StepInput, StepReport};
 #[cfg(target_arch = "x86_64")]
@@ -279,25 +280,49 @@ impl<S: Simd> GroupState<S> {
     /// Loads the strands `strands` (chunk-local) of the chunk into the lanes, and their
     /// spring memory if `history`.
     #[inline(always)]
-    fn load(&mut self, strands: &[usize], first_strand: usize, rest: &RestShape, state: &ChunkState, history: bool) {
+    fn load(&mut self, strands: &[usize], first_strand: usize, rest: Rest, state: &ChunkState, history: bool) {
         let n = self.positions.len();
+        let lanes = Wide::<S>::LANES;
         self.lanes = strands.len();
         // Empty lanes repeat the first strand: finite work whose result is dropped.
         self.strands = std::array::from_fn(|l| strands.get(l).copied().unwrap_or(strands[0]));
         // Strand by strand, so each reads its particles in order.
-        for (l, &k) in self.strands[..Wide::<S>::LANES].iter().enumerate() {
-            let (at, global) = (k * n, (first_strand + k) * n);
+        for (l, &k) in self.strands[..lanes].iter().enumerate() {
+            let at = k * n;
             let positions = state.positions[at..][..n].iter().zip(&state.velocities[at..][..n]);
-            let rest_values = rest.positions[global..][..n].iter().zip(&rest.local_directions[global..][..n]);
-            for (j, ((&x, &v), (&r, &d))) in positions.zip(rest_values).enumerate() {
+            for (j, (&x, &v)) in positions.enumerate() {
                 self.positions[j].set_lane(l, x);
                 self.velocities[j].set_lane(l, v);
-                self.rest_positions[j].set_lane(l, r);
-                self.rest_directions[j].set_lane(l, d);
-                self.lengths[j].set(l, rest.lengths[global + j]);
             }
         }
-        self.root_frames = self.strands.map(|k| rest.root_frames[first_strand + k]);
+        // The rest shape as whole vectors where the group is a run of strands that
+        // `RestLanes` keeps side by side, else strand by strand.
+        let first = first_strand + self.strands[0];
+        let run = self.lanes == lanes
+            && first.is_multiple_of(lanes)
+            && self.strands.windows(2).take(lanes - 1).all(|w| w[1] == w[0] + 1);
+        if run {
+            let row = |j, row| Wide::from_slice(rest.lanes.row(first, j, row));
+            for j in 0..n {
+                self.rest_positions[j] =
+                    V3 { x: row(j, Row::Position(0)), y: row(j, Row::Position(1)), z: row(j, Row::Position(2)) };
+                self.rest_directions[j] =
+                    V3 { x: row(j, Row::Direction(0)), y: row(j, Row::Direction(1)), z: row(j, Row::Direction(2)) };
+                self.lengths[j] = row(j, Row::Length);
+            }
+        } else {
+            let shape = rest.shape;
+            for (l, &k) in self.strands[..lanes].iter().enumerate() {
+                let global = (first_strand + k) * n;
+                let rest_values = shape.positions[global..][..n].iter().zip(&shape.local_directions[global..][..n]);
+                for (j, (&r, &d)) in rest_values.enumerate() {
+                    self.rest_positions[j].set_lane(l, r);
+                    self.rest_directions[j].set_lane(l, d);
+                    self.lengths[j].set(l, shape.lengths[global + j]);
+                }
+            }
+        }
+        self.root_frames = self.strands.map(|k| rest.shape.root_frames[first_strand + k]);
         self.seeds = self.strands.map(|k| (first_strand + k) as u32);
         self.history_step = Wide::zero();
         if history {
@@ -334,11 +359,19 @@ impl<S: Simd> GroupState<S> {
     }
 }
 
+/// The rest shape as a chunk's step reads it: strand by strand, and transposed for its
+/// SIMD groups.
+#[derive(Clone, Copy)]
+pub(super) struct Rest<'a> {
+    pub shape: &'a RestShape,
+    pub lanes: &'a RestLanes,
+}
+
 /// Steps the strands of a chunk on the SIMD path the settings ask for
 /// ([`SimParams::simd`]).
 pub(super) fn step_chunk(
     first_strand: usize,
-    rest: &RestShape,
+    rest: Rest,
     roles: Option<&[Role]>,
     state: &mut ChunkState,
     input: &StepInput,
@@ -360,7 +393,7 @@ pub(super) fn step_chunk(
 #[target_feature(enable = "avx512f")]
 fn step_chunk_avx512(
     first_strand: usize,
-    rest: &RestShape,
+    rest: Rest,
     roles: Option<&[Role]>,
     state: &mut ChunkState,
     input: &StepInput,
@@ -373,7 +406,7 @@ fn step_chunk_avx512(
 #[target_feature(enable = "avx2")]
 fn step_chunk_avx2(
     first_strand: usize,
-    rest: &RestShape,
+    rest: Rest,
     roles: Option<&[Role]>,
     state: &mut ChunkState,
     input: &StepInput,
@@ -386,12 +419,12 @@ fn step_chunk_avx2(
 #[inline(always)]
 fn step_chunk_on<S: Simd>(
     first_strand: usize,
-    rest: &RestShape,
+    rest: Rest,
     roles: Option<&[Role]>,
     state: &mut ChunkState,
     input: &StepInput,
 ) -> StepReport {
-    let n = rest.particles_per_strand;
+    let n = rest.shape.particles_per_strand;
     let mut report = StepReport::default();
     let Some(c) = Constants::<S>::new(input, n) else {
         return report;
@@ -407,7 +440,7 @@ fn step_chunk_on<S: Simd>(
     let mut lanes = 0;
     let strands = state.positions.len() / n;
     for k in 0..strands {
-        let rest_x = &rest.positions[(first_strand + k) * n..][..n];
+        let rest_x = &rest.shape.positions[(first_strand + k) * n..][..n];
         let jumped = || {
             let root_jump = (head_to.transform_point(rest_x[0]) - state.positions[k * n]).length();
             root_jump.is_nan() || root_jump > p.teleport_distance
@@ -428,7 +461,7 @@ fn step_chunk_on<S: Simd>(
             for &k in &group[..lanes] {
                 let (xs, vs) = (&state.positions[k * n..][..n], &state.velocities[k * n..][..n]);
                 if !xs.iter().chain(vs).all(|v| v.is_finite()) {
-                    reset_strand(state, k, n, &rest.positions[(first_strand + k) * n..][..n], &head_to);
+                    reset_strand(state, k, n, &rest.shape.positions[(first_strand + k) * n..][..n], &head_to);
                     report.nan_resets += 1;
                 }
             }
@@ -1368,9 +1401,9 @@ mod tests {
         let doubled: Vec<Vec3> = rest.positions.iter().map(|p| *p * 2.0).collect();
         let mut strands = strands_at(rest.clone(), &doubled);
         let mut chunks = strands.chunks_mut(2);
-        let state = &mut chunks[0].state;
+        let (rest, state) = (chunks[0].rest, &mut chunks[0].state);
         let mut g = GroupState::<Baseline>::new(n, false);
-        g.load(&[1], 0, &rest, state, false);
+        g.load(&[1], 0, rest, state, false);
         assert_eq!((g.lanes, g.strands), (1, [1; MAX_LANES]));
         assert!((0..Wide::<Baseline>::LANES).all(|l| g.positions[2].lane(l) == Vec3::new(0.0, -4.0, 0.0)));
         follow_the_leader(&mut g);

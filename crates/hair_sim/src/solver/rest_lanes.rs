@@ -1,0 +1,127 @@
+//! The rest shape as the SIMD groups read it: transposed once, when the strands are made,
+//! instead of strand by strand into every group at every step.
+//!
+//! A group of strands steps with each particle quantity one [`V3`](super::lanes::V3) (a
+//! strand per lane, [`lanes`](super::lanes)). [`RestShape`] keeps its particles strand by
+//! strand, so loading a group's rest positions, rest directions and lengths is seven
+//! scalar copies per particle and strand, each step. Here they are kept in blocks of
+//! [`MAX_LANES`] strands, every row of a block holding one component of one particle for
+//! all its strands side by side: a group whose strands run consecutively from a multiple
+//! of its width (every group of a groom at full detail) loads each row as whole vectors.
+
+use super::RestShape;
+use super::lanes::MAX_LANES;
+use crate::math::Vec3;
+
+/// The rows of a particle in a block: position x, y, z, local direction x, y, z, length.
+const ROWS: usize = 7;
+
+/// One row of [`RestLanes`]: which component of the rest shape it holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Row {
+    /// Component 0, 1 or 2 of the head-local rest position.
+    Position(usize),
+    /// Component 0, 1 or 2 of the rest direction in the parent segment's frame.
+    Direction(usize),
+    /// The rest length of the segment ending at the particle.
+    Length,
+}
+
+impl Row {
+    fn index(self) -> usize {
+        match self {
+            Row::Position(c) => c,
+            Row::Direction(c) => 3 + c,
+            Row::Length => 6,
+        }
+    }
+}
+
+/// [`RestShape`]'s per-particle data in blocks of [`MAX_LANES`] strands (module docs).
+#[derive(Clone, Debug)]
+pub(super) struct RestLanes {
+    particles_per_strand: usize,
+    /// Block `b`, particle `j`, row `r`, strand `k` of the block at
+    /// `((b · n + j) · ROWS + r) · MAX_LANES + k`; lanes past the last strand hold zeros.
+    values: Vec<f32>,
+}
+
+impl RestLanes {
+    /// `rest` transposed.
+    pub fn new(rest: &RestShape) -> Self {
+        let n = rest.particles_per_strand;
+        let blocks = rest.strand_count().div_ceil(MAX_LANES);
+        let mut lanes = RestLanes { particles_per_strand: n, values: vec![0.0; blocks * n * ROWS * MAX_LANES] };
+        for strand in 0..rest.strand_count() {
+            for j in 0..n {
+                let i = strand * n + j;
+                let (position, direction) = (rest.positions[i], rest.local_directions[i]);
+                for c in 0..3 {
+                    *lanes.value_mut(strand, j, Row::Position(c)) = position[c];
+                    *lanes.value_mut(strand, j, Row::Direction(c)) = direction[c];
+                }
+                *lanes.value_mut(strand, j, Row::Length) = rest.lengths[i];
+            }
+        }
+        lanes
+    }
+
+    /// Moves strand `strand`'s root, as [`super::Strands::set_rest_root`] moves it in the
+    /// rest shape.
+    pub fn set_root(&mut self, strand: usize, root: Vec3) {
+        for c in 0..3 {
+            *self.value_mut(strand, 0, Row::Position(c)) = root[c];
+        }
+    }
+
+    /// Row `row` of particle `j` from strand `strand` to the end of its block: lane `l`
+    /// is strand `strand + l`. A group of `w` lanes (`w` dividing [`MAX_LANES`]) whose
+    /// first strand is a multiple of `w` finds all its lanes here.
+    #[inline(always)]
+    pub fn row(&self, strand: usize, j: usize, row: Row) -> &[f32] {
+        let (block, lane) = (strand / MAX_LANES, strand % MAX_LANES);
+        let start = ((block * self.particles_per_strand + j) * ROWS + row.index()) * MAX_LANES;
+        &self.values[start + lane..start + MAX_LANES]
+    }
+
+    fn value_mut(&mut self, strand: usize, j: usize, row: Row) -> &mut f32 {
+        let (block, lane) = (strand / MAX_LANES, strand % MAX_LANES);
+        let start = ((block * self.particles_per_strand + j) * ROWS + row.index()) * MAX_LANES;
+        &mut self.values[start + lane]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_row_holds_the_rest_shape_strand_by_strand() {
+        // 70 strands: a whole block and a part of one.
+        let n = 3;
+        let positions: Vec<Vec3> = (0..70 * n)
+            .map(|i| Vec3::new(i as f32, (i / n) as f32 * 0.5, 1.0 + (i % n) as f32 * (1.0 + i as f32 * 0.01)))
+            .collect();
+        let rest = RestShape::new(positions, n).unwrap();
+        let mut lanes = RestLanes::new(&rest);
+        lanes.set_root(65, Vec3::new(-1.0, -2.0, -3.0));
+        for strand in 0..70 {
+            for j in 0..n {
+                let i = strand * n + j;
+                let position = if i == 65 * n { Vec3::new(-1.0, -2.0, -3.0) } else { rest.positions[i] };
+                for c in 0..3 {
+                    assert_eq!(lanes.row(strand, j, Row::Position(c))[0], position[c]);
+                    assert_eq!(lanes.row(strand, j, Row::Direction(c))[0], rest.local_directions[i][c]);
+                }
+                assert_eq!(lanes.row(strand, j, Row::Length)[0], rest.lengths[i]);
+                // Lane `l` of a row is strand `strand + l`, within the block.
+                let row = lanes.row(strand, j, Row::Length);
+                assert_eq!(row.len(), MAX_LANES - strand % MAX_LANES);
+                for (l, &length) in row.iter().enumerate() {
+                    let expected = if strand + l < 70 { rest.lengths[(strand + l) * n + j] } else { 0.0 };
+                    assert_eq!(length, expected);
+                }
+            }
+        }
+    }
+}
