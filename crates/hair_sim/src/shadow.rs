@@ -23,6 +23,8 @@ use glam::Vec4;
 pub const MAP_SIZE: usize = 32;
 /// Slices along the light's rays.
 pub const MAP_LAYERS: usize = 16;
+/// A footprint's cell that lies off the grid.
+const OFF_GRID: usize = usize::MAX;
 
 /// Where a light is.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -143,47 +145,47 @@ impl OpacityMap {
         let depth = (high[2] - low[2]).max(1e-4);
         map.first_layer = depth / (MAP_LAYERS * (MAP_LAYERS + 1) / 2) as f32;
 
+        // Each sample's footprint and depth, worked out once for the two passes below.
+        let footprints: Vec<([(usize, f32); 4], f32, f32)> = projected
+            .iter()
+            .map(|&(uvd, area)| {
+                let [x, y] = map.cell_coordinates(uvd);
+                (Self::footprint(x, y), uvd[2], area / map.cell_area(uvd[2]))
+            })
+            .collect();
         // Where each cell's slices start: its first sample (bilinear footprints included).
-        for &(uvd, _) in &projected {
-            let [x, y] = map.cell_coordinates(uvd);
-            for (cell, _) in Self::footprint(x, y) {
-                map.nearest[cell] = map.nearest[cell].min(uvd[2]);
+        for (footprint, depth, _) in &footprints {
+            for &(cell, _) in footprint.iter().filter(|(cell, _)| *cell != OFF_GRID) {
+                map.nearest[cell] = map.nearest[cell].min(*depth);
             }
         }
         // Deposit each sample's coverage (bilinear across, linear along), then sum from the
-        // light.
+        // light. Cell by cell, so that a sample's two slices share a cache line.
         let mut deposits = vec![0.0f32; map.coverage.len()];
-        for &(uvd, area) in &projected {
-            let [x, y] = map.cell_coordinates(uvd);
-            let layers = area / map.cell_area(uvd[2]);
+        for &(footprint, depth, layers) in &footprints {
             // The four cells of the footprint side by side: their slice coordinates (a
             // square root each, which `slice_coordinate` spells out) in one vector.
-            let footprint: [(usize, f32); 4] = {
-                let mut cells = [(usize::MAX, 0.0); 4];
-                Self::footprint(x, y).enumerate().for_each(|(k, c)| cells[k] = c);
-                cells
-            };
             let nearest = Vec4::from_array(footprint.map(|(cell, _)| map.nearest.get(cell).copied().unwrap_or(0.0)));
             // Every cell of a sample's footprint starts at or before it (the pass above).
-            let behind = ((Vec4::splat(uvd[2]) - nearest) / map.first_layer).max(Vec4::ZERO);
+            let behind = ((Vec4::splat(depth) - nearest) / map.first_layer).max(Vec4::ZERO);
             let z = (((Vec4::ONE + behind * 8.0).sqrt() - Vec4::ONE) * 0.5).to_array();
             for ((cell, weight), z) in footprint.into_iter().zip(z) {
-                if cell == usize::MAX {
+                if cell == OFF_GRID {
                     continue;
                 }
                 let z0 = floor(z);
                 let fz = z - z0;
                 for (dz, wz) in [(0, 1.0 - fz), (1, fz)] {
                     let layer = (z0 as usize + dz).min(MAP_LAYERS - 1);
-                    deposits[layer * MAP_SIZE * MAP_SIZE + cell] += layers * weight * wz;
+                    deposits[cell * MAP_LAYERS + layer] += layers * weight * wz;
                 }
             }
         }
         let slice = MAP_SIZE * MAP_SIZE;
         for cell in 0..slice {
             let mut sum = 0.0;
-            for layer in 0..MAP_LAYERS {
-                sum += deposits[layer * slice + cell];
+            for (layer, deposit) in deposits[cell * MAP_LAYERS..][..MAP_LAYERS].iter().enumerate() {
+                sum += deposit;
                 map.coverage[layer * slice + cell] = sum;
             }
         }
@@ -198,7 +200,7 @@ impl OpacityMap {
         let Some(uvd) = self.project(p) else { return 0.0 };
         let [x, y] = self.cell_coordinates(uvd);
         let mut sum = 0.0;
-        for (cell, weight) in Self::footprint(x, y) {
+        for (cell, weight) in Self::footprint(x, y).into_iter().filter(|(cell, _)| *cell != OFF_GRID) {
             let z = self.slice_coordinate(uvd[2], cell) - 1.0;
             if z < -1.0 {
                 continue; // in front of the cell's first slice, or an empty cell
@@ -217,18 +219,19 @@ impl OpacityMap {
         sum
     }
 
-    /// The cells a point at cell coordinates `(x, y)` touches and their bilinear weights
-    /// (cell `i` is sampled at `i`; cells off the grid are left out).
-    fn footprint(x: f32, y: f32) -> impl Iterator<Item = (usize, f32)> {
+    /// The four cells a point at cell coordinates `(x, y)` touches and their bilinear
+    /// weights (cell `i` is sampled at `i`); a cell off the grid is [`OFF_GRID`].
+    #[inline]
+    fn footprint(x: f32, y: f32) -> [(usize, f32); 4] {
         let (x0, y0) = (floor(x), floor(y));
         let (fx, fy) = (x - x0, y - y0);
-        [(0, 0, (1.0 - fx) * (1.0 - fy)), (1, 0, fx * (1.0 - fy)), (0, 1, (1.0 - fx) * fy), (1, 1, fx * fy)]
-            .into_iter()
-            .filter_map(move |(dx, dy, w)| {
+        [(0, 0, (1.0 - fx) * (1.0 - fy)), (1, 0, fx * (1.0 - fy)), (0, 1, (1.0 - fx) * fy), (1, 1, fx * fy)].map(
+            |(dx, dy, w)| {
                 let (cx, cy) = (x0 as i64 + dx, y0 as i64 + dy);
                 let inside = |v: i64| (0..MAP_SIZE as i64).contains(&v);
-                (inside(cx) && inside(cy)).then(|| (cy as usize * MAP_SIZE + cx as usize, w))
-            })
+                (if inside(cx) && inside(cy) { cy as usize * MAP_SIZE + cx as usize } else { OFF_GRID }, w)
+            },
+        )
     }
 
     /// Where distance `d` along the rays falls among cell `cell`'s slices: slice `k` spans
