@@ -26,6 +26,9 @@ pub const MAP_LAYERS: usize = 16;
 /// A footprint's cell that lies off the grid.
 const OFF_GRID: usize = usize::MAX;
 
+/// The four cells around a point and their bilinear weights ([`OpacityMap::footprint`]).
+type Footprint = [(usize, f32); 4];
+
 /// Where a light is.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum LightSource {
@@ -146,7 +149,7 @@ impl OpacityMap {
         map.first_layer = depth / (MAP_LAYERS * (MAP_LAYERS + 1) / 2) as f32;
 
         // Each sample's footprint and depth, worked out once for the two passes below.
-        let footprints: Vec<([(usize, f32); 4], f32, f32)> = projected
+        let footprints: Vec<(Footprint, f32, f32)> = projected
             .iter()
             .map(|&(uvd, area)| {
                 let [x, y] = map.cell_coordinates(uvd);
@@ -222,7 +225,7 @@ impl OpacityMap {
     /// The four cells a point at cell coordinates `(x, y)` touches and their bilinear
     /// weights (cell `i` is sampled at `i`); a cell off the grid is [`OFF_GRID`].
     #[inline]
-    fn footprint(x: f32, y: f32) -> [(usize, f32); 4] {
+    fn footprint(x: f32, y: f32) -> Footprint {
         let (x0, y0) = (floor(x), floor(y));
         let (fx, fy) = (x - x0, y - y0);
         [(0, 0, (1.0 - fx) * (1.0 - fy)), (1, 0, fx * (1.0 - fy)), (0, 1, (1.0 - fx) * fy), (1, 1, fx * fy)].map(
