@@ -33,7 +33,7 @@ use bevy::shader::load_shader_library;
 use bevy::tasks::{ComputeTaskPool, TaskPool};
 use bevy::utils::Parallel;
 use hair_sim::draw_order::back_to_front;
-use hair_sim::groom::{ChildParams, MAX_CURVATURE, transport_frames};
+use hair_sim::groom::{ChildParams, MAX_CURVATURE, transport_frames_of_strands};
 use hair_sim::shadow::{Fibres, LightSource, MAP_LAYERS, MAP_SIZE, OpacityMap, fibre_areas};
 use hair_sim::solver::Strands;
 use std::borrow::Cow;
@@ -674,10 +674,10 @@ fn upload_guides(
             particles.extend(positions.iter().map(|p| p.extend(1.0)));
             // The frames are one root → tip pass per guide here, instead of a walk from the
             // root in every vertex of every child.
-            for (guide, root) in points.chunks_exact(n).zip(&drawing.roots) {
-                let frames = transport_frames(guide, to_sim(rotation * root.u));
-                particles.extend(frames.into_iter().map(|u| from_sim(u).extend(0.0)));
-            }
+            let mut frames = Vec::with_capacity(points.len());
+            let root_u = |guide: usize| drawing.roots.get(guide).map_or(Vec3::X, |root| rotation * root.u);
+            transport_frames_of_strands(&points, n, |guide| to_sim(root_u(guide)), &mut frames);
+            particles.extend(frames.into_iter().map(|u| from_sim(u).extend(0.0)));
             particles
         };
         let mut data: Vec<Vec4> = Vec::with_capacity(guide_buffer_len(&drawing.layout));

@@ -136,6 +136,31 @@ fn opacity_map(c: &mut Criterion) {
     group.finish();
 }
 
+/// The parallel-transport frames of a settled 2,048 × 16 groom (the renderer works them
+/// out for every guide particle every frame), strand by strand and side by side.
+fn frames(c: &mut Criterion) {
+    use hair_sim::groom::{transport_frames, transport_frames_of_strands};
+    let (_, rest) = settled_groom(2048, 60);
+    let n = rest.particles_per_strand;
+    let mut group = c.benchmark_group("transport frames 2048x16");
+    group.throughput(Throughput::Elements(rest.positions.len() as u64));
+    group.bench_function("strand by strand", |b| {
+        b.iter(|| {
+            let guides = black_box(&rest.positions).chunks_exact(n);
+            guides.map(|guide| transport_frames(guide, Vec3::X).len()).sum::<usize>()
+        })
+    });
+    group.bench_function("strands side by side", |b| {
+        let mut frames = Vec::with_capacity(rest.positions.len());
+        b.iter(|| {
+            frames.clear();
+            transport_frames_of_strands(black_box(&rest.positions), n, |_| Vec3::X, &mut frames);
+            frames.len()
+        })
+    });
+    group.finish();
+}
+
 /// The back-to-front order of a settled 2,048 × 16 groom's pieces of two segments (the
 /// plugin sorts them every frame while a groom's strands are blended).
 fn draw_order(c: &mut Criterion) {
@@ -157,6 +182,6 @@ fn config() -> Criterion {
 criterion_group! {
     name = benches;
     config = config();
-    targets = collider_build, collider_resolve, strand_step, groom, opacity_map, draw_order
+    targets = collider_build, collider_resolve, strand_step, groom, opacity_map, frames, draw_order
 }
 criterion_main!(benches);

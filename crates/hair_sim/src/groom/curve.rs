@@ -160,23 +160,68 @@ fn transport(v: Vec3, a: Vec3, b: Vec3) -> Vec3 {
 /// does not twist around the strand.
 ///
 /// The renderer computes these on the CPU each frame and uploads them with the particles
-/// (`src/render/strand.wgsl` reads them in `fn frame_u`); for a groom the GPU steps,
-/// `hair_gpu`'s drawing pass computes them on the GPU (`draw.wgsl`).
+/// (`src/render/strand.wgsl` reads them in `fn frame_u`, through
+/// [`transport_frames_of_strands`]); for a groom the GPU steps, `hair_gpu`'s drawing pass
+/// computes them on the GPU (`draw.wgsl`).
 pub fn transport_frames(points: &[Vec3], root_u: Vec3) -> Vec<Vec3> {
-    if points.is_empty() {
-        return Vec::new();
-    }
-    let mut tangent = knot_tangent(points, 0);
-    let mut u = perpendicular_unit(root_u, tangent);
-    let mut frames = Vec::with_capacity(points.len());
-    frames.push(u);
-    for j in 1..points.len() {
-        let next = knot_tangent(points, j);
-        u = transport(u, tangent, next);
-        tangent = next;
-        frames.push(u);
-    }
+    let mut frames = vec![Vec3::ZERO; points.len()];
+    frames_side_by_side([points], [root_u], &mut frames);
     frames
+}
+
+/// Strands side by side in [`transport_frames_of_strands`]: each frame waits on the one
+/// before it (a square root and two divisions), so one strand alone leaves the CPU idle
+/// between them, and four let it work on the others meanwhile.
+const STRANDS_SIDE_BY_SIDE: usize = 4;
+
+/// [`transport_frames`] of every strand of `points` (strand-major, `n` particles each;
+/// strand `s` starts from `root_u(s)`), appended to `frames` strand by strand: the same
+/// frames to the bit, [`STRANDS_SIDE_BY_SIDE`] strands at a time.
+pub fn transport_frames_of_strands(points: &[Vec3], n: usize, root_u: impl Fn(usize) -> Vec3, frames: &mut Vec<Vec3>) {
+    if n == 0 {
+        return;
+    }
+    let start = frames.len();
+    frames.resize(start + points.len(), Vec3::ZERO);
+    let out = &mut frames[start..];
+    let side_by_side = n * STRANDS_SIDE_BY_SIDE;
+    let whole = points.len() / side_by_side * side_by_side;
+    for (batch, (strands, out)) in
+        points[..whole].chunks_exact(side_by_side).zip(out.chunks_exact_mut(side_by_side)).enumerate()
+    {
+        let first = batch * STRANDS_SIDE_BY_SIDE;
+        let strands: [&[Vec3]; STRANDS_SIDE_BY_SIDE] = std::array::from_fn(|k| &strands[k * n..][..n]);
+        frames_side_by_side(strands, std::array::from_fn(|k| root_u(first + k)), out);
+    }
+    // The strands left over (and a last, short one), one at a time.
+    let first = whole / n;
+    for (k, (strand, out)) in points[whole..].chunks(n).zip(out[whole..].chunks_mut(n)).enumerate() {
+        frames_side_by_side([strand], [root_u(first + k)], out);
+    }
+}
+
+/// The frames of `K` strands of as many particles into `out` (strand by strand), stepped
+/// side by side so that their chains overlap.
+#[inline(always)]
+fn frames_side_by_side<const K: usize>(strands: [&[Vec3]; K], root_u: [Vec3; K], out: &mut [Vec3]) {
+    let n = strands[0].len();
+    if n == 0 {
+        return;
+    }
+    let mut tangents = strands.map(|strand| knot_tangent(strand, 0));
+    let mut us = [Vec3::ZERO; K];
+    for k in 0..K {
+        us[k] = perpendicular_unit(root_u[k], tangents[k]);
+        out[k * n] = us[k];
+    }
+    for j in 1..n {
+        for k in 0..K {
+            let next = knot_tangent(strands[k], j);
+            us[k] = transport(us[k], tangents[k], next);
+            tangents[k] = next;
+            out[k * n + j] = us[k];
+        }
+    }
 }
 
 /// [`evaluate`]`(points, j).tangent` at particle `j`, to the bit for finite particles, for
@@ -240,6 +285,37 @@ mod tests {
                 let (fast, slow) = (knot_tangent(&points, j), evaluate(&points, j as f32).tangent);
                 assert_eq!(fast.to_array().map(f32::to_bits), slow.to_array().map(f32::to_bits), "particle {j}");
             }
+        }
+    }
+
+    #[test]
+    fn strands_side_by_side_get_each_strands_own_frames_to_the_bit() {
+        // Eleven strands of 7 (two batches of four and three left over), each curled its
+        // own way, with repeated particles in one and a root direction along the strand in
+        // another; then the same with a last strand short of particles.
+        let n = 7;
+        let strand = |s: usize| -> Vec<Vec3> {
+            (0..n)
+                .map(|j| {
+                    let a = j as f32 * (0.3 + 0.1 * s as f32);
+                    if s == 5 && j < 3 {
+                        Vec3::ZERO
+                    } else {
+                        Vec3::new(a.cos() * 0.01, -0.02 * j as f32, a.sin() * 0.01)
+                    }
+                })
+                .collect()
+        };
+        let root_u = |s: usize| if s == 2 { Vec3::NEG_Y } else { Quat::from_rotation_y(s as f32).mul_vec3(Vec3::X) };
+        let points: Vec<Vec3> = (0..11).flat_map(strand).collect();
+        let bits = |v: &[Vec3]| v.iter().map(|u| u.to_array().map(f32::to_bits)).collect::<Vec<_>>();
+        for points in [&points[..], &points[..points.len() - 3]] {
+            let mut frames = vec![Vec3::NAN]; // appended after what is there
+            transport_frames_of_strands(points, n, root_u, &mut frames);
+            let one_by_one: Vec<Vec3> =
+                points.chunks(n).enumerate().flat_map(|(s, strand)| transport_frames(strand, root_u(s))).collect();
+            assert_eq!(frames.len(), 1 + points.len());
+            assert_eq!(bits(&frames[1..]), bits(&one_by_one));
         }
     }
 

@@ -17,7 +17,9 @@ pub use children::{
     ChildParams, ChildRoot, GOLDEN_ANGLE, MAX_CHILDREN_PER_GUIDE, MAX_CURVATURE, Spiral, child_curve, child_curves,
     child_offset, hash_unit, pcg_hash, spiral_offset,
 };
-pub use curve::{CurvePoint, bezier_controls, evaluate, frame_at, tessellate, transport_frames};
+pub use curve::{
+    CurvePoint, bezier_controls, evaluate, frame_at, tessellate, transport_frames, transport_frames_of_strands,
+};
 pub use hair_file::{HairFile, HairFileError};
 pub use labels::{labels_from_colors, triangle_weights};
 pub use poisson::sample_roots_poisson;
