@@ -176,7 +176,7 @@ const STRANDS_SIDE_BY_SIDE: usize = 4;
 
 /// [`transport_frames`] of every strand of `points` (strand-major, `n` particles each;
 /// strand `s` starts from `root_u(s)`), appended to `frames` strand by strand: the same
-/// frames to the bit, [`STRANDS_SIDE_BY_SIDE`] strands at a time.
+/// frames to the bit, four strands at a time (their chains overlap).
 pub fn transport_frames_of_strands(points: &[Vec3], n: usize, root_u: impl Fn(usize) -> Vec3, frames: &mut Vec<Vec3>) {
     if n == 0 {
         return;
