@@ -376,7 +376,12 @@ impl HeadCollider {
                     // Lifted off the face (or the ridge), too high to name the closest point,
                     // and too high to touch anything.
                     Certificate::Beyond(distance) if distance >= thickness => return Resolution::Clear(distance),
-                    _ => {}
+                    // Over the face (or the ridge), too high for its certificates and too low
+                    // to be clear: the neighbouring faces cannot settle it either (across a
+                    // convex edge the point is not over them, and beside a concave one they
+                    // have no clearance), so straight to the search.
+                    Certificate::Beyond(_) => return self.resolve_searching(p, thickness, hint),
+                    Certificate::Unsettled => {}
                 }
                 // Slid onto a neighbouring face: its own certificate may hold.
                 if let Some((neighbour, certified)) = self.triangles.certify_neighbours(triangle, p) {
