@@ -148,7 +148,8 @@ impl OpacityMap {
         let depth = (high[2] - low[2]).max(1e-4);
         map.first_layer = depth / (MAP_LAYERS * (MAP_LAYERS + 1) / 2) as f32;
 
-        // Each sample's footprint and depth, worked out once for the two passes below.
+        // Each sample's footprint, depth and layers of fibre, worked out once for the two
+        // passes below.
         let footprints: Vec<(Footprint, f32, f32)> = projected
             .iter()
             .map(|&(uvd, area)| {

@@ -79,15 +79,21 @@ impl RestLanes {
     /// first strand is a multiple of `w` finds all its lanes here.
     #[inline(always)]
     pub fn row(&self, strand: usize, j: usize, row: Row) -> &[f32] {
-        let (block, lane) = (strand / MAX_LANES, strand % MAX_LANES);
-        let start = ((block * self.particles_per_strand + j) * ROWS + row.index()) * MAX_LANES;
+        let (start, lane) = self.locate(strand, j, row);
         &self.values[start + lane..start + MAX_LANES]
     }
 
     fn value_mut(&mut self, strand: usize, j: usize, row: Row) -> &mut f32 {
-        let (block, lane) = (strand / MAX_LANES, strand % MAX_LANES);
-        let start = ((block * self.particles_per_strand + j) * ROWS + row.index()) * MAX_LANES;
+        let (start, lane) = self.locate(strand, j, row);
         &mut self.values[start + lane]
+    }
+
+    /// Where row `row` of particle `j` starts in the block holding strand `strand`, and
+    /// the strand's lane in it.
+    #[inline(always)]
+    fn locate(&self, strand: usize, j: usize, row: Row) -> (usize, usize) {
+        let (block, lane) = (strand / MAX_LANES, strand % MAX_LANES);
+        (((block * self.particles_per_strand + j) * ROWS + row.index()) * MAX_LANES, lane)
     }
 }
 
