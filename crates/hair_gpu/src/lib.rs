@@ -6,19 +6,22 @@
 //! ([`GpuStrands::positions`], or without waiting, [`GpuStrands::copy_positions`]), and
 //! drawn without a read-back: [`GpuDrawing`] writes them, as a renderer draws them in a
 //! frame, into the renderer's buffer. Without collision it follows the CPU solver operation for
-//! operation (the same integration, shape keeping, Follow-The-Leader, wind and resets);
-//! with collision the head is the collider's baked distance grid
-//! ([`HeadCollider::grid`]), sampled trilinearly with its gradient as the normal, where
-//! the CPU solver queries the exact mesh. The tests in `tests/against_cpu.rs` measure how
-//! far the two part.
+//! operation (the same integration, shape keeping, Follow-The-Leader, wind and resets).
+//! With collision the head is the collider's baked distance grid
+//! ([`HeadCollider::grid`]), sampled trilinearly, which rejects points far from the
+//! surface; near it the shader runs the collider's own exact query on the same tables
+//! ([`HeadCollider::near_query_tables`]: the grid cell's candidate triangles), so it finds
+//! the closest point the CPU solver finds. Deep inside the head, or in a cell with too many
+//! candidates for a list, the grid's value and gradient answer where the CPU solver walks
+//! its BVH. The tests in `tests/against_cpu.rs` measure how far the two part.
 //!
 //! Both length models (Follow-The-Leader and the implicit mass-spring model), both
 //! collision responses (along the surface normal, or along the ray from the head's centre),
 //! the extra colliders and the skin that moves against the head's frame (a skinned scalp's
-//! surface patch) are modelled. What differs is collision with the head: particles against
-//! the distance grid, where the CPU solver queries the exact mesh, and whole segments
-//! (`SimParams::segment_collision`) kept out of thin parts by sampling the grid along them
-//! every half cell, where the CPU solver tests them against the triangles.
+//! surface patch) are modelled. What differs is collision with the head away from the lists
+//! (above), and whole segments (`SimParams::segment_collision`), kept out of thin parts by
+//! sampling the distance along them every half grid cell, where the CPU solver tests them
+//! against the triangles.
 //!
 //! ```no_run
 //! # use hair_sim::prelude::*;
@@ -173,6 +176,8 @@ struct StepUniform {
     grid_origin: [f32; 4],
     grid_dims: [u32; 4],
     centre: [f32; 4],
+    near: [u32; 4],
+    near_bounds: [f32; 4],
     springs: [f32; 4],
     spring_flags: [u32; 4],
     ray_from: [f32; 4],
@@ -180,13 +185,53 @@ struct StepUniform {
     skin: [u32; 4],
 }
 
-/// The head's distance grid as the shader samples it.
+/// The head as the shader reads it: its distance grid, and where the exact near query's
+/// tables start in the same buffer.
 #[derive(Clone, Copy)]
 struct GridInfo {
     origin: Vec3,
     inverse_cell: f32,
     dims: [u32; 3],
     centre: Vec3,
+    /// `step.wgsl`'s `near`: where the cell ranges, blocks and triangles start, and the
+    /// bits of a range that count its blocks (0: no tables, the grid alone).
+    near: [u32; 4],
+    /// `step.wgsl`'s `near_bounds`: the grid's largest error, the bounds' slack, the cell.
+    near_bounds: [f32; 4],
+}
+
+impl GridInfo {
+    /// `collider` as `step.wgsl`'s `head` buffer holds it (words): the grid's samples,
+    /// then, if they fit in `limit` bytes, the exact near query's cell ranges, blocks and
+    /// triangles (ten vec4 each).
+    fn pack(collider: &HeadCollider, limit: u64) -> (Vec<u32>, GridInfo) {
+        let g = collider.grid();
+        let mut words: Vec<u32> = g.values().iter().map(|v| v.to_bits()).collect();
+        let mut info = GridInfo {
+            origin: g.origin(),
+            inverse_cell: 1.0 / g.cell_size(),
+            dims: g.dims().map(|d| d as u32),
+            centre: collider.centre(),
+            near: [0; 4],
+            near_bounds: [g.max_error(), 0.0, g.cell_size(), 0.0],
+        };
+        let tables = collider.near_query_tables();
+        let extra = tables.cell_ranges.len() + 20 * tables.blocks.len() + 40 * tables.triangles.len();
+        if ((words.len() + extra) * 4) as u64 > limit {
+            return (words, info); // beyond the device: the grid alone still answers
+        }
+        let ranges = words.len() as u32;
+        words.extend(&tables.cell_ranges);
+        let blocks = words.len() as u32;
+        words.extend(tables.blocks.iter().flatten());
+        let triangles = words.len() as u32;
+        for triangle in &tables.triangles {
+            words.extend(triangle.iter().flat_map(|v| [v.x, v.y, v.z, 0.0]).map(f32::to_bits));
+        }
+        info.near = [ranges, blocks, triangles, tables.count_bits];
+        info.near_bounds[1] = tables.slack;
+        (words, info)
+    }
 }
 
 /// Strands stepped on the GPU; see the crate docs.
@@ -204,7 +249,8 @@ pub struct GpuStrands {
     root_frames: wgpu::Buffer,
     /// Extra colliders and the moving skin (see `step.wgsl`).
     colliders: wgpu::Buffer,
-    grid: wgpu::Buffer,
+    /// The head's distance grid and near query tables (`step.wgsl`'s `head`).
+    head: wgpu::Buffer,
     /// The spring model's memory and scratch: a placeholder until a step asks for springs.
     springs: wgpu::Buffer,
     /// Whether the last step used the spring model, so its memory is current.
@@ -262,7 +308,8 @@ const SPRINGS_BYTES: u64 = 6 * 16;
 
 impl GpuStrands {
     /// Uploads `rest`, placed at rest under `pose` and motionless (as
-    /// [`hair_sim::solver::Strands::new`]), and `collider`'s distance grid if given.
+    /// [`hair_sim::solver::Strands::new`]), and `collider`'s distance grid and near query
+    /// tables if given.
     pub fn new(
         gpu: &GpuContext,
         rest: &RestShape,
@@ -301,18 +348,12 @@ impl GpuStrands {
         let table_vec4s = 4 * (MAX_SUBSTEPS as usize + 1) + n.div_ceil(4);
         let tables = storage("hair_gpu tables", &vec![0u8; table_vec4s * 16], wgpu::BufferUsages::COPY_DST);
         let colliders = storage("hair_gpu colliders", &[0u8; 32], wgpu::BufferUsages::COPY_DST);
-        let (grid, grid_info) = match collider {
+        let (head, grid_info) = match collider {
             Some(collider) => {
-                let g = collider.grid();
-                let dims = g.dims().map(|d| d as u32);
-                let info =
-                    GridInfo { origin: g.origin(), inverse_cell: 1.0 / g.cell_size(), dims, centre: collider.centre() };
-                (
-                    storage("hair_gpu head grid", bytemuck::cast_slice(g.values()), wgpu::BufferUsages::empty()),
-                    Some(info),
-                )
+                let (words, info) = GridInfo::pack(collider, limit);
+                (storage("hair_gpu head", bytemuck::cast_slice(&words), wgpu::BufferUsages::empty()), Some(info))
             }
-            None => (storage("hair_gpu head grid", &[0u8; 16], wgpu::BufferUsages::empty()), None),
+            None => (storage("hair_gpu head", &[0u8; 16], wgpu::BufferUsages::empty()), None),
         };
         let uniform = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("hair_gpu step"),
@@ -367,7 +408,7 @@ impl GpuStrands {
         let bind_group = bind(
             device,
             &layout,
-            [&uniform, &tables, &positions, &motion, &rest_buffer, &root_frames, &colliders, &grid, &springs],
+            [&uniform, &tables, &positions, &motion, &rest_buffer, &root_frames, &colliders, &head, &springs],
         );
         let timestamps = gpu.timestamps.then(|| Timestamps::new(device));
         let published = draw::Published::new(device, &positions, particles);
@@ -385,7 +426,7 @@ impl GpuStrands {
             rest: rest_buffer,
             root_frames,
             colliders,
-            grid,
+            head,
             springs,
             springs_remembered: false,
             grid_info,
@@ -598,6 +639,8 @@ impl GpuStrands {
             grid_origin: grid.map_or([0.0; 4], |g| [g.origin.x, g.origin.y, g.origin.z, g.inverse_cell]),
             grid_dims: grid.map_or([0; 4], |g| [g.dims[0], g.dims[1], g.dims[2], 1]),
             centre: grid.map_or([0.0; 4], |g| [g.centre.x, g.centre.y, g.centre.z, 0.0]),
+            near: grid.map_or([0; 4], |g| g.near),
+            near_bounds: grid.map_or([0.0; 4], |g| g.near_bounds),
             springs: [p.spring_stiffness, p.spring_damping, 1.0 / p.particle_mass, p.length_tolerance],
             spring_flags: [
                 u32::from(p.length_mode == LengthMode::Springs),
@@ -690,7 +733,7 @@ impl GpuStrands {
                 &self.rest,
                 &self.root_frames,
                 &self.colliders,
-                &self.grid,
+                &self.head,
                 &self.springs,
             ],
         );

@@ -3,7 +3,9 @@
 // (`solver/step.rs`) for the inextensible length model, operation for operation where it
 // can, so that the two agree to rounding without collision. The head is the collider's
 // baked distance grid, sampled trilinearly, with its gradient as the normal, where the CPU
-// solver queries the exact mesh; whole segments are tested by sampling the grid along them.
+// solver queries the exact mesh; near the surface the collider's exact query takes over
+// (the same candidate triangles, the same closest point); whole segments are tested by
+// sampling that along them.
 
 struct Step {
     // Strands, particles per strand, substeps, shape iterations.
@@ -28,6 +30,11 @@ struct Step {
     grid_dims: vec4<u32>,
     // The collider's centre, head-local.
     centre: vec4<f32>,
+    // The exact near query's tables in `head`: where the cell ranges, blocks and triangles
+    // start, and the bits of a range that count its blocks (0: no tables).
+    near: vec4<u32>,
+    // The grid's largest error, the near query's slack, the grid's cell size.
+    near_bounds: vec4<f32>,
     // The spring model: stiffness, damping, 1 / particle mass, length tolerance.
     springs: vec4<f32>,
     // The spring model on (1/0); whether the strands remember the step before (1/0);
@@ -66,8 +73,17 @@ struct Step {
 fn collider(i: u32) -> vec4<f32> {
     return bitcast<vec4<f32>>(colliders[i]);
 }
-// The collider's signed distances, x fastest.
-@group(0) @binding(7) var<storage, read> grid: array<f32>;
+// The head, as float bits and indices: the collider's signed distances (x fastest), then
+// hair_sim's `NearQueryTables` (see `exact_surface`).
+@group(0) @binding(7) var<storage, read> head: array<u32>;
+
+fn head_f32(i: u32) -> f32 {
+    return bitcast<f32>(head[i]);
+}
+
+fn head_vec3(i: u32) -> vec3<f32> {
+    return vec3<f32>(head_f32(i), head_f32(i + 1u), head_f32(i + 2u));
+}
 // The spring model's memory and scratch, six vec4 per particle (see `springs_*` below);
 // the root's first holds, in w, the substep length the memory was taken at (0: none).
 @group(0) @binding(8) var<storage, read_write> springs: array<vec4<f32>>;
@@ -197,35 +213,39 @@ fn wind_at(strand: u32, time: f32) -> vec3<f32> {
     return step.wind.xyz * step.wind.w * max(1.0 + step.gusts.x * gust, 0.0);
 }
 
-// --- The head: the baked distance grid ---
+// --- The head: the baked distance grid, and the exact query near the surface ---
 
 struct Surface {
     distance: f32,
     normal: vec3<f32>,
+    // Within the grid's error of the true distance, either way (false: exact).
+    approximate: bool,
 }
 
 fn sample_index(x: u32, y: u32, z: u32) -> u32 {
     return (z * step.grid_dims.y + y) * step.grid_dims.x + x;
 }
 
-// Signed distance and gradient at head-local `p` by trilinear interpolation; far beyond the
-// grid's margin outside it.
+// Signed distance and outward normal at head-local `p`: by trilinear interpolation of the
+// grid, with its gradient as the normal; far beyond the grid's margin outside it; and where
+// the grid cannot tell `p` from the shell, the exact closest point of the mesh, as the CPU
+// solver finds it.
 fn head_surface(p: vec3<f32>) -> Surface {
     let g = (p - step.centre.xyz - step.grid_origin.xyz) * step.grid_origin.w;
     let upper = vec3<f32>(step.grid_dims.xyz - vec3<u32>(1u));
     if step.grid_dims.w == 0u || !(all(g >= vec3<f32>(0.0)) && all(g < upper)) {
-        return Surface(1e30, vec3<f32>(0.0, 1.0, 0.0));
+        return Surface(1e30, vec3<f32>(0.0, 1.0, 0.0), false);
     }
     let c = vec3<u32>(g);
     let t = g - vec3<f32>(c);
-    let v000 = grid[sample_index(c.x, c.y, c.z)];
-    let v100 = grid[sample_index(c.x + 1u, c.y, c.z)];
-    let v010 = grid[sample_index(c.x, c.y + 1u, c.z)];
-    let v110 = grid[sample_index(c.x + 1u, c.y + 1u, c.z)];
-    let v001 = grid[sample_index(c.x, c.y, c.z + 1u)];
-    let v101 = grid[sample_index(c.x + 1u, c.y, c.z + 1u)];
-    let v011 = grid[sample_index(c.x, c.y + 1u, c.z + 1u)];
-    let v111 = grid[sample_index(c.x + 1u, c.y + 1u, c.z + 1u)];
+    let v000 = head_f32(sample_index(c.x, c.y, c.z));
+    let v100 = head_f32(sample_index(c.x + 1u, c.y, c.z));
+    let v010 = head_f32(sample_index(c.x, c.y + 1u, c.z));
+    let v110 = head_f32(sample_index(c.x + 1u, c.y + 1u, c.z));
+    let v001 = head_f32(sample_index(c.x, c.y, c.z + 1u));
+    let v101 = head_f32(sample_index(c.x + 1u, c.y, c.z + 1u));
+    let v011 = head_f32(sample_index(c.x, c.y + 1u, c.z + 1u));
+    let v111 = head_f32(sample_index(c.x + 1u, c.y + 1u, c.z + 1u));
     let y0 = mix(v000, v100, t.x);
     let y1 = mix(v010, v110, t.x);
     let y2 = mix(v001, v101, t.x);
@@ -236,7 +256,77 @@ fn head_surface(p: vec3<f32>) -> Surface {
     let gx = mix(mix(v100 - v000, v110 - v010, t.y), mix(v101 - v001, v111 - v011, t.y), t.z);
     let gy = mix(y1 - y0, y3 - y2, t.z);
     let gz = z1 - z0;
-    return Surface(distance, normalize_or(vec3<f32>(gx, gy, gz), vec3<f32>(0.0, 1.0, 0.0)));
+    let by_grid = Surface(distance, normalize_or(vec3<f32>(gx, gy, gz), vec3<f32>(0.0, 1.0, 0.0)), true);
+    let error = step.near_bounds.x;
+    if step.near.w == 0u || distance > step.limits.y + error {
+        return by_grid;
+    }
+    let range = head[step.near.x + sample_index(c.x, c.y, c.z)];
+    if range == 0xffffffffu {
+        return by_grid; // deep inside, or too many candidates for a list
+    }
+    return exact_surface(p - step.centre.xyz, t, range, by_grid);
+}
+
+// hair_sim's exact near query (`HeadCollider::near_query_tables`) for `p` relative to the
+// collider's centre, at `fraction` across its cell, whose list is `range`: the cell's
+// candidate triangles nearest its centre first, each skipped where its distance from the
+// centre less `p`'s, or its tangent-plane bound, is already beyond the best found, the walk
+// ending at the first block whose nearest is. Signed by the pseudo-normal of the feature
+// the closest point lies on; the normal is the face's over a face, else along the offset.
+fn exact_surface(p: vec3<f32>, fraction: vec3<f32>, range: u32, by_grid: Surface) -> Surface {
+    let error = step.near_bounds.x;
+    let slack = step.near_bounds.y;
+    let offset = (fraction - vec3<f32>(0.5)) * step.near_bounds.z;
+    let from_centre = length(offset);
+    // Where the grid proves `p` outside, the closest triangle is within its value plus
+    // the error; inside or unsure, anywhere.
+    var best = 3.4e38;
+    if by_grid.distance > error {
+        best = by_grid.distance + error;
+    }
+    var best_base = 0xffffffffu;
+    var best_on = OnTriangle(p, 0u);
+    let first = range >> step.near.w;
+    let blocks = range & ((1u << step.near.w) - 1u);
+    for (var b = first; b < first + blocks; b++) {
+        let block = step.near.y + 20u * b;
+        if head_f32(block) - (from_centre + slack) >= best {
+            break; // sorted: no later triangle can be nearer
+        }
+        for (var lane = 0u; lane < 4u; lane++) {
+            let centre_distance = head_f32(block + lane);
+            let gradient = vec3<f32>(head_f32(block + 4u + lane), head_f32(block + 8u + lane), head_f32(block + 12u + lane));
+            let bound = max(centre_distance - (from_centre + slack), centre_distance + dot(gradient, offset) - slack);
+            if bound < best {
+                let base = step.near.z + 40u * head[block + 16u + lane];
+                let on = closest_on_triangle(p, head_vec3(base), head_vec3(base + 4u), head_vec3(base + 8u));
+                let squared = dot(p - on.point, p - on.point);
+                if squared < best * best {
+                    best = sqrt(squared);
+                    best_base = base;
+                    best_on = on;
+                }
+            }
+        }
+    }
+    if best_base == 0xffffffffu {
+        return Surface(best, by_grid.normal, false); // nothing within reach: at least that far
+    }
+    let face = head_vec3(best_base + 12u);
+    let feature_normal = head_vec3(best_base + 4u * feature_slot(best_on.feature));
+    let away = p - best_on.point;
+    var signed = best;
+    if any(feature_normal != vec3<f32>(0.0)) && dot(away, feature_normal) <= 0.0 {
+        signed = -best;
+    }
+    var normal = face;
+    if (best_on.feature != 0u || all(face == vec3<f32>(0.0))) && abs(signed) > 1e-7 {
+        normal = away / signed;
+    } else if all(face == vec3<f32>(0.0)) {
+        normal = vec3<f32>(0.0, 1.0, 0.0);
+    }
+    return Surface(signed, normal, false);
 }
 
 // Friction takes back part of the slide along the surface since the substep's start.
@@ -246,139 +336,412 @@ fn with_friction(position: vec3<f32>, normal: vec3<f32>, origin: vec3<f32>) -> v
     return position - tangential * step.limits.z;
 }
 
-// Head-local `p` pushed out to the collision shell along the grid's normal or out of the
-// moving skin, whichever is deeper, or `p`.
-fn out_of_head(p: vec3<f32>) -> vec3<f32> {
-    let surface = head_surface(p);
-    let skin = patch_contact(p);
-    let head_depth = step.limits.y - surface.distance;
-    if skin.hit && skin.depth > head_depth {
-        return skin.position;
-    }
-    if head_depth > 0.0 {
-        return p + surface.normal * head_depth;
-    }
-    return p;
-}
-
-// Where the head pushes head-local `p` (if `hit`), and the direction it pushes along.
+// Where a collider pushes a point (if `hit`), along which normal, and how deep the point
+// was in the collider's shell; world space, or head-local where said.
 struct Contact {
     hit: bool,
     position: vec3<f32>,
     normal: vec3<f32>,
+    depth: f32,
 }
 
-// The head's contact for head-local `p`, by the response asked for: out along the grid's
-// normal to the shell, or along the ray from `step.ray_from` (inside, to where the ray
+// The head's contact for head-local `p` (head-local), by the response asked for: out along
+// the normal to the shell, or along the ray from `step.ray_from` (inside, to where the ray
 // leaves the surface, plus the thickness; in the shell, by the shell's depth).
 fn head_contact(p: vec3<f32>) -> Contact {
     let thickness = step.limits.y;
-    let surface = head_surface(p);
-    let depth = thickness - surface.distance;
-    if !(depth > 0.0) {
-        return Contact(false, p, surface.normal);
-    }
-    let normal_contact = Contact(true, p + surface.normal * depth, surface.normal);
+    let normal_contact = head_push(p);
+    let depth = normal_contact.depth;
     let direction = normalize_or(p - step.ray_from.xyz, vec3<f32>(0.0));
-    if step.ray_from.w == 0.0 || all(direction == vec3<f32>(0.0)) {
+    if !normal_contact.hit || step.ray_from.w == 0.0 || all(direction == vec3<f32>(0.0)) {
         return normal_contact;
     }
     if depth <= thickness {
-        return Contact(true, p + direction * depth, direction);
+        return Contact(true, p + direction * depth, direction, depth);
     }
     // Inside: march out along the ray. Inside the head the distance to the surface is at
-    // least the grid's value less its error, so steps of that size cannot cross it.
+    // least the grid's value less its error, so steps of that size cannot cross it; the
+    // shortest step may, and the last one is halved back to the surface.
     var t = 0.0;
+    var inside = 0.0;
     for (var march = 0u; march < 64u; march++) {
         let d = head_surface(p + direction * t).distance;
         if d >= 0.0 {
-            return Contact(true, p + direction * (t + thickness), direction);
+            for (var k = 0u; k < 8u; k++) {
+                let middle = 0.5 * (inside + t);
+                if head_surface(p + direction * middle).distance < 0.0 {
+                    inside = middle;
+                } else {
+                    t = middle;
+                }
+            }
+            return Contact(true, p + direction * (t + thickness), direction, depth);
         }
+        inside = t;
         t += max(-d, 1e-4);
     }
     return normal_contact; // never left (a ray along a sliver): along the normal
+}
+
+// Where extra collider `e` pushes world `x`: out onto its shell along the normal from its
+// centre (or axis), as hair_sim's `ExtraCollider::resolve`.
+fn extra_contact(e: u32, x: vec3<f32>) -> Contact {
+    let a = collider(2u * e);
+    let b = collider(2u * e + 1u);
+    var centre = a.xyz;
+    if b.w == 1.0 {
+        let ab = b.xyz - a.xyz;
+        let t = clamp(dot(x - a.xyz, ab) / max(dot(ab, ab), 1e-12), 0.0, 1.0);
+        centre = a.xyz + ab * t;
+    }
+    let offset = x - centre;
+    let distance = length(offset);
+    let reach = a.w + step.limits.y;
+    if !(distance < reach) {
+        return Contact(false, x, vec3<f32>(0.0), 0.0);
+    }
+    var normal = vec3<f32>(0.0, 1.0, 0.0);
+    if distance > 1e-7 {
+        normal = offset / distance;
+    }
+    return Contact(true, centre + normal * reach, normal, reach - distance);
 }
 
 // World `x` pushed out of the extra colliders, with friction against `origin`.
 fn out_of_extras(x_in: vec3<f32>, origin: vec3<f32>) -> vec3<f32> {
     var x = x_in;
     for (var e = 0u; e < step.flags.y; e++) {
-        let a = collider(2u * e);
-        let b = collider(2u * e + 1u);
-        var centre = a.xyz;
-        if b.w == 1.0 {
-            let ab = b.xyz - a.xyz;
-            let t = clamp(dot(x - a.xyz, ab) / max(dot(ab, ab), 1e-12), 0.0, 1.0);
-            centre = a.xyz + ab * t;
-        }
-        let offset = x - centre;
-        let distance = length(offset);
-        let reach = a.w + step.limits.y;
-        if distance < reach {
-            var normal = vec3<f32>(0.0, 1.0, 0.0);
-            if distance > 1e-7 {
-                normal = offset / distance;
-            }
-            x = with_friction(centre + normal * reach, normal, origin);
+        let contact = extra_contact(e, x);
+        if contact.hit {
+            x = with_friction(contact.position, contact.normal, origin);
         }
     }
     return x;
 }
 
-// Whether head-local `local` lies deeper than half the shell in the head or the skin
-// that moves against it.
-fn too_deep(local: vec3<f32>) -> bool {
-    let skin = patch_contact(local);
-    return head_surface(local).distance < 0.5 * step.limits.y || (skin.hit && skin.depth > 0.5 * step.limits.y);
-}
-
-// --- Whole segments: hair_sim's `keep_segments_outside`, on the grid ---
-
-// The deepest point of the segment between head-local `a` (`a_distance` from the surface)
-// and `b`, with its signed distance in w: the grid sampled every half cell along the
-// segment. A segment whose ends both clear half its length cannot reach the surface (every
-// point of it is within half its length of an end); it is not sampled, and w is that
-// clearance.
-fn deepest_between(a: vec3<f32>, a_distance: f32, b: vec3<f32>) -> vec4<f32> {
-    let span = length(b - a);
-    let ends = min(a_distance, head_surface(b).distance);
-    if ends > 0.5 * span {
-        return vec4<f32>(a, ends);
-    }
-    let samples = clamp(u32(ceil(2.0 * span * step.grid_origin.w)), 1u, 32u);
-    var deepest = vec4<f32>(a, ends);
-    for (var k = 0u; k < samples; k++) {
-        let x = mix(a, b, (f32(k) + 0.5) / f32(samples));
-        let d = head_surface(x).distance;
-        if d < deepest.w {
-            deepest = vec4<f32>(x, d);
+// The deepest contact at world `x` with the head as baked or the skin that moved against
+// it, else the first extra collider it is in; along the normal whatever the response
+// (turning a segment onto the tangent plane needs the plane). hair_sim's `contact_at`.
+fn contact_at(x: vec3<f32>, now: Pose) -> Contact {
+    if step.grid_dims.w == 1u {
+        let local = local_point(now, x);
+        var head = head_push(local);
+        let skin = patch_contact(local);
+        if skin.hit && (!head.hit || skin.depth > head.depth) {
+            head = Contact(true, skin.position, skin.normal, skin.depth);
+        }
+        if head.hit {
+            return Contact(true, world_point(now, head.position), now.rotation * head.normal, head.depth);
         }
     }
-    return deepest;
+    for (var e = 0u; e < step.flags.y; e++) {
+        let contact = extra_contact(e, x);
+        if contact.hit {
+            return contact;
+        }
+    }
+    return Contact(false, x, vec3<f32>(0.0), 0.0);
 }
 
-// Where to put world `placed`, `length` from world `parent`, so that the segment between them
-// no longer runs through the head or deep into its shell: turned about the parent toward its
-// deepest point pushed out onto the shell, a few turns at most (as on the CPU). `placed`
-// itself where the segment stays out.
-fn turn_segment_out(parent: vec3<f32>, placed: vec3<f32>, length: f32, now: Pose) -> vec3<f32> {
-    let down = vec3<f32>(0.0, -1.0, 0.0);
-    let local_parent = local_point(now, parent);
-    let parent_distance = head_surface(local_parent).distance;
-    var turned = placed;
-    for (var turn = 0u; turn < 4u; turn++) {
-        // Within a tenth of the shell of the surface counts as through: the grid is not
-        // exact, and reads a segment cut by an ear's rim a little above zero. Over the
-        // scalp a segment between two particles on the shell sags a fraction of a
-        // millimetre below its ends, nowhere near that.
-        let deepest = deepest_between(local_parent, parent_distance, local_point(now, turned));
-        if deepest.w >= 0.1 * step.limits.y {
+// The baked head's push for head-local `p` (head-local): out along the normal onto the
+// shell, `reach` thick, if nearer than that.
+fn head_push_within(p: vec3<f32>, reach: f32) -> Contact {
+    let surface = head_surface(p);
+    let depth = reach - surface.distance;
+    if !(depth > 0.0) {
+        return Contact(false, p, surface.normal, 0.0);
+    }
+    return Contact(true, p + surface.normal * depth, surface.normal, depth);
+}
+
+// `head_push_within` the collision shell.
+fn head_push(p: vec3<f32>) -> Contact {
+    return head_push_within(p, step.limits.y);
+}
+
+// --- Whole segments: hair_sim's `keep_segments_outside`, by sampling ---
+
+// The shortest step of the trace along a segment, metres: far thinner than any part of a head.
+const MIN_TRACE_STEP: f32 = 2e-5;
+
+// Where the segment from head-local `a` (`a_distance` from the surface) to `b` runs inside the
+// head: the fractions of the way at which it first enters and last leaves (x, y), with 1 in z;
+// z is 0 where it stays out. hair_sim's `segment_crossing`, which intersects the triangles.
+// A segment whose ends both clear half its length cannot reach the surface (every point of it
+// is within half its length of an end); it is not traced.
+fn crossed_stretch(a: vec3<f32>, a_distance: f32, b: vec3<f32>) -> vec3<f32> {
+    let span = length(b - a);
+    if min(a_distance, head_surface(b).distance) > 0.5 * span {
+        return vec3<f32>(0.0);
+    }
+    let enters = first_inside(a, b, span);
+    if enters > 1.0 {
+        return vec3<f32>(0.0);
+    }
+    return vec3<f32>(enters, 1.0 - first_inside(b, a, span), 1.0);
+}
+
+// The fraction of the way from head-local `start_at` to `to` (`span` apart) at which the segment
+// first goes inside the head, or 2 where it stays out: sphere tracing, each step the distance
+// to the surface (less the grid's error, where the grid answers), which cannot step over any
+// part of the surface, and at least `MIN_TRACE_STEP`; the crossing refined by bisection.
+fn first_inside(start_at: vec3<f32>, to: vec3<f32>, span: f32) -> f32 {
+    let direction = (to - start_at) / span;
+    var outside = 0.0;
+    var t = 0.0;
+    for (var k = 0u; k < 256u && t <= span; k++) {
+        let surface = head_surface(start_at + direction * t);
+        let d = surface.distance;
+        if d < 0.0 {
+            var inside = t;
+            for (var halving = 0u; halving < 12u; halving++) {
+                let middle = 0.5 * (outside + inside);
+                if head_surface(start_at + direction * middle).distance < 0.0 {
+                    inside = middle;
+                } else {
+                    outside = middle;
+                }
+            }
+            return 0.5 * (outside + inside) / span;
+        }
+        outside = t;
+        t += max(d - select(0.0, step.near_bounds.x, surface.approximate), MIN_TRACE_STEP);
+    }
+    return 2.0;
+}
+
+// Whether the segment between head-local `a` and `b` runs through the head.
+fn crosses(a: vec3<f32>, b: vec3<f32>) -> bool {
+    return crossed_stretch(a, head_surface(a).distance, b).z == 1.0;
+}
+
+// How many times a segment turns before collision simply wins (hair_sim's `MAX_TURNS`).
+const MAX_TURNS: u32 = 4u;
+// Halvings of the angle between a crossing direction and a clear one in `turn_out_of`.
+const BISECTIONS: u32 = 5u;
+// Directions `clear_direction` tries over the whole sphere as its last resort.
+const SPHERE_DIRECTIONS: u32 = 96u;
+
+// Where to put head-local `child`, `segment` from head-local `parent`, so that the segment
+// between them no longer runs through the head: turned about the parent until the middle of
+// the stretch it runs inside is out on the shell, a few turns at most; where that does not
+// clear it (a fold, an ear's rim seen edge-on), turned toward the surface's normal at the
+// parent instead, as little as bisection finds enough. `child` where it crosses nothing.
+// hair_sim's `turn_out_of`.
+fn turn_out_of(parent: vec3<f32>, child: vec3<f32>, segment: f32) -> vec3<f32> {
+    let parent_distance = head_surface(parent).distance;
+    var turned = child;
+    for (var turn = 0u; turn < MAX_TURNS; turn++) {
+        let stretch = crossed_stretch(parent, parent_distance, turned);
+        if stretch.z == 0.0 {
+            return turned;
+        }
+        let contact = head_push(mix(parent, turned, 0.5 * (stretch.x + stretch.y)));
+        if !contact.hit {
             break;
         }
-        let through = world_point(now, out_of_head(deepest.xyz));
-        turned = parent + normalize_or(through - parent, down) * length;
+        turned = parent + normalize_or(contact.position - parent, vec3<f32>(0.0, 1.0, 0.0)) * segment;
     }
-    return turned;
+    if !crosses(parent, turned) {
+        return turned;
+    }
+    // The parent is outside, so within `segment` of the surface a contact that reaches that
+    // far has the outward normal nearest it.
+    let out = head_push_within(parent, segment);
+    if !out.hit {
+        return turned;
+    }
+    var crossing = (turned - parent) / segment;
+    let found = clear_direction(parent, out.normal, crossing, segment);
+    if found.w == 0.0 {
+        return turned;
+    }
+    var clear = found.xyz;
+    for (var k = 0u; k < BISECTIONS; k++) {
+        let middle = normalize_or(crossing + clear, clear);
+        if crosses(parent, parent + middle * segment) {
+            crossing = middle;
+        } else {
+            clear = middle;
+        }
+    }
+    return parent + clear * segment;
+}
+
+// A direction from head-local `parent` in which a segment of `segment` crosses nothing (w 1;
+// w 0: none): `out` itself, else the nearest to `wanted` of those tilted around it, else the
+// nearest to `wanted` of `SPHERE_DIRECTIONS` spread over the sphere (a pocket of the
+// surface, an eye socket). hair_sim's `clear_direction`.
+fn clear_direction(parent: vec3<f32>, out: vec3<f32>, wanted: vec3<f32>, segment: f32) -> vec4<f32> {
+    if !crosses(parent, parent + out * segment) {
+        return vec4<f32>(out, 1.0);
+    }
+    var best = vec4<f32>(0.0, 0.0, 0.0, -2.0);
+    for (var k = 0u; k < TILTED; k++) {
+        let d = tilted(out, k);
+        if dot(d, wanted) > best.w && !crosses(parent, parent + d * segment) {
+            best = vec4<f32>(d, dot(d, wanted));
+        }
+    }
+    for (var k = 0u; k < SPHERE_DIRECTIONS && best.w == -2.0; k++) {
+        let d = sphere_direction(k);
+        if dot(d, wanted) > best.w && !crosses(parent, parent + d * segment) {
+            best = vec4<f32>(d, dot(d, wanted));
+        }
+    }
+    // (No best found: the loop over the sphere ran to its end and w is still -2.)
+    return vec4<f32>(best.xyz, select(1.0, 0.0, best.w == -2.0));
+}
+
+// Directions tilted from `out` by 30°, 60° and 90°, eight around each (hair_sim's `around`,
+// before its sort by nearness to a wanted direction).
+const TILTED: u32 = 24u;
+
+fn tilted(out: vec3<f32>, k: u32) -> vec3<f32> {
+    let tilt = radians(30.0 * f32(k / 8u + 1u));
+    let around = f32(k % 8u) * 0.7853982;
+    let basis = orthonormal_pair(out);
+    return out * cos(tilt) + (basis[0] * cos(around) + basis[1] * sin(around)) * sin(tilt);
+}
+
+// The `k`-th of `SPHERE_DIRECTIONS` unit vectors spread evenly over the sphere (a Fibonacci
+// lattice, as hair_sim's `sphere_direction`).
+fn sphere_direction(k: u32) -> vec3<f32> {
+    let golden_angle = 3.14159265 * (3.0 - sqrt(5.0));
+    let y = 1.0 - 2.0 * (f32(k) + 0.5) / f32(SPHERE_DIRECTIONS);
+    let radius = sqrt(1.0 - y * y);
+    let angle = golden_angle * f32(k);
+    return vec3<f32>(radius * cos(angle), y, radius * sin(angle));
+}
+
+// Two unit vectors that make a right-handed orthonormal basis with unit `n` (Duff et al.
+// 2017, as glam's `any_orthonormal_pair`; the second is its `any_orthonormal_vector`).
+fn orthonormal_pair(n: vec3<f32>) -> array<vec3<f32>, 2> {
+    let sign = select(1.0, -1.0, (bitcast<u32>(n.z) >> 31u) == 1u);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    return array<vec3<f32>, 2>(
+        vec3<f32>(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
+        vec3<f32>(b, sign + n.y * n.y * a, -n.y),
+    );
+}
+
+// --- The final length pass: hair_sim's `keep_outside` and `outside_at_length` ---
+
+// The final length pass may move a particle by this share of the thickness unchecked
+// (hair_sim's `LENGTH_SLACK`): collision left it at least three quarters of the thickness
+// above every surface, so it cannot reach one.
+const LENGTH_SLACK: f32 = 0.75;
+
+// Particle `i` placed at its segment's length from its (placed) parent, toward world
+// `toward`; where that is more than `unchecked` from `toward`, turned out of whatever
+// collider it is in (`outside_at_length`). FTL's correction counts the move.
+fn place_at_length(i: u32, toward: vec3<f32>, unchecked: f32, now: Pose) {
+    let parent = positions[i - 1u].xyz;
+    let segment = final_length(i, toward - parent);
+    var placed = parent + normalize_or(toward - parent, vec3<f32>(0.0, -1.0, 0.0)) * segment;
+    if distance(placed, toward) > unchecked {
+        placed = outside_at_length(placed, parent, segment, now);
+    }
+    set_final(i, placed);
+}
+
+// Moves particle `i` to `placed` in the final pass; FTL's velocity correction counts the move.
+fn set_final(i: u32, placed: vec3<f32>) {
+    if step.spring_flags.x == 0u {
+        motion[3u * i + 2u] = vec4<f32>(correction(i) + placed - positions[i].xyz, 0.0);
+    }
+    positions[i] = vec4<f32>(placed, 0.0);
+}
+
+// Where to put world `placed_in`, which should sit `segment` from world `parent` (itself
+// outside) but may be within the shell of a collider: turned about the parent toward the
+// contact's normal until it lies on the tangent plane of the shell there (1 µm above), a few
+// turns at most, or straight out along the normal where the parent lies behind that plane.
+// Where that ends inside a collider itself, the nearest direction around the normal that is
+// outside and reached without passing through the head; failing that, onto the surface,
+// stretching the segment. hair_sim's `outside_at_length`.
+fn outside_at_length(placed_in: vec3<f32>, parent: vec3<f32>, segment: f32, now: Pose) -> vec3<f32> {
+    var placed = placed_in;
+    for (var turn = 0u; turn < MAX_TURNS; turn++) {
+        let contact = contact_at(placed, now);
+        if !contact.hit {
+            return placed;
+        }
+        let normal = contact.normal;
+        let direction = (placed - parent) / segment;
+        let lowest = (dot(normal, contact.position - parent) + 1e-6) / segment;
+        let along = dot(normal, direction);
+        if !(lowest < 1.0 && lowest > along) {
+            placed = parent + normal * segment;
+            continue;
+        }
+        let across = normalize_or(direction - normal * along, orthonormal_pair(normal)[1]);
+        placed = parent + (normal * lowest + across * sqrt(1.0 - lowest * lowest)) * segment;
+    }
+    let deep = contact_at(placed, now);
+    if !deep.hit || deep.depth <= step.limits.y {
+        return placed; // inside the shell, outside the collider: the length stands
+    }
+    let wanted = (placed - parent) / segment;
+    if outside_and_reached(parent, parent + deep.normal * segment, now) {
+        return parent + deep.normal * segment;
+    }
+    var best = vec4<f32>(0.0, 0.0, 0.0, -2.0);
+    for (var k = 0u; k < TILTED; k++) {
+        let d = tilted(deep.normal, k);
+        if dot(d, wanted) > best.w && outside_and_reached(parent, parent + d * segment, now) {
+            best = vec4<f32>(d, dot(d, wanted));
+        }
+    }
+    if best.w > -2.0 {
+        return parent + best.xyz * segment;
+    }
+    return deep.position - deep.normal * (step.limits.y - 1e-6);
+}
+
+// Whether world `x` is outside every collider (within a shell counts) and the segment to it
+// from world `parent` passes through no part of the head.
+fn outside_and_reached(parent: vec3<f32>, x: vec3<f32>, now: Pose) -> bool {
+    let contact = contact_at(x, now);
+    if contact.hit && contact.depth > step.limits.y {
+        return false;
+    }
+    return step.grid_dims.w == 0u || !crosses(local_point(now, parent), local_point(now, x));
+}
+
+// On the step's last substep, segments (below the root's, which starts on the scalp) that run
+// through the head between two particles outside it, as across an ear's rim: each turns
+// about its parent until it is out (`turn_out_of`), the strand below follows it as a leader
+// and is placed again, every particle checked; where placing the turned particle on the
+// shell takes the segment back through (a fold), the turned segment stands. hair_sim's
+// `keep_segments_outside`.
+fn keep_segments_outside(first: u32, n: u32, now: Pose) {
+    for (var j = 2u; j < n; j++) {
+        let i = first + j;
+        let parent = positions[i - 1u].xyz;
+        let child = positions[i].xyz;
+        let local_parent = local_point(now, parent);
+        let local_child = local_point(now, child);
+        let local_turned = turn_out_of(local_parent, local_child, distance(parent, child));
+        if all(local_turned == local_child) {
+            continue;
+        }
+        let turned = world_point(now, local_turned);
+        place_at_length(i, turned, -1.0, now);
+        for (var k = j + 1u; k < n; k++) {
+            place_at_length(first + k, positions[first + k].xyz, -1.0, now);
+        }
+        let placed = local_point(now, positions[i].xyz);
+        let turned_contact = contact_at(turned, now);
+        let turned_outside = !turned_contact.hit || turned_contact.depth <= step.limits.y;
+        if any(placed != local_turned) && crosses(local_parent, placed) && turned_outside {
+            set_final(i, turned);
+            for (var k = j + 1u; k < n; k++) {
+                place_at_length(first + k, positions[first + k].xyz, -1.0, now);
+            }
+        }
+    }
 }
 
 // --- The skin that moves against the head: hair_sim's `SurfacePatch::resolve` ---
@@ -399,6 +762,18 @@ fn patch_u32(start: u32, k: u32) -> u32 {
 struct OnTriangle {
     point: vec3<f32>,
     feature: u32,
+}
+
+// Where a triangle's ten-vec4 record (corners, face normal, edge normals ab bc ca, corner
+// normals a b c) holds the normal of `OnTriangle` feature `feature`.
+fn feature_slot(feature: u32) -> u32 {
+    if feature >= 4u {
+        return feature; // an edge
+    }
+    if feature >= 1u {
+        return 6u + feature; // a corner
+    }
+    return 3u; // the face
 }
 
 fn closest_on_triangle(p: vec3<f32>, a: vec3<f32>, b: vec3<f32>, c: vec3<f32>) -> OnTriangle {
@@ -483,12 +858,7 @@ fn patch_contact(p: vec3<f32>) -> PatchContact {
         return none;
     }
     // The face's normal, an edge's (the two faces'), or a corner's: the feature's.
-    var normal = collider(best_triangle + 3u).xyz;
-    if best.feature >= 4u {
-        normal = collider(best_triangle + best.feature).xyz;
-    } else if best.feature >= 1u {
-        normal = collider(best_triangle + 6u + best.feature).xyz;
-    }
+    let normal = collider(best_triangle + feature_slot(best.feature)).xyz;
     let offset = p - best.point;
     var signed = distance;
     if dot(offset, normal) < 0.0 {
@@ -608,32 +978,10 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
             positions[i] = vec4<f32>(out_of_extras(x, start(i)), 0.0);
         }
         for (var j = 1u; j < n; j++) {
-            let i = first + j;
-            let parent = positions[i - 1u].xyz;
-            let towards = positions[i].xyz - parent;
-            let length = final_length(i, towards);
-            var placed = parent + normalize_or(towards, down) * length;
-            for (var turn = 0u; turn < 4u && step.grid_dims.w == 1u; turn++) {
-                let local = local_point(now, placed);
-                if !too_deep(local) {
-                    break;
-                }
-                let out = world_point(now, out_of_head(local));
-                placed = parent + normalize_or(out - parent, down) * length;
-            }
-            // On the step's last substep, a segment must not cut through a thin part either
-            // (the root's, which starts on the scalp, is the head's own business).
-            if step.spring_flags.z == 1u && k == step.counts.z && j >= 2u && step.grid_dims.w == 1u {
-                placed = turn_segment_out(parent, placed, length, now);
-            }
-            let local = local_point(now, placed);
-            if step.grid_dims.w == 1u && too_deep(local) {
-                placed = world_point(now, out_of_head(local)); // collision wins over length
-            }
-            if step.spring_flags.x == 0u {
-                motion[3u * i + 2u] = vec4<f32>(correction(i) + placed - positions[i].xyz, 0.0);
-            }
-            positions[i] = vec4<f32>(placed, 0.0);
+            place_at_length(first + j, positions[first + j].xyz, LENGTH_SLACK * step.limits.y, now);
+        }
+        if step.spring_flags.z == 1u && k == step.counts.z && step.grid_dims.w == 1u {
+            keep_segments_outside(first, n, now);
         }
     }
 

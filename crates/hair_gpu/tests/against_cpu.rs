@@ -171,12 +171,12 @@ fn with_collision_the_gpu_stays_near_the_cpu_and_out_of_the_head() {
         ExtraCollider::Sphere { center: Vec3::new(0.12, 1.28, 0.0), radius: 0.08 },
         ExtraCollider::Capsule { a: Vec3::new(0.0, 1.3, 0.0), b: Vec3::new(0.0, 1.48, 0.0), radius: 0.055 },
     ];
-    // With the share of particles allowed more than 5 mm from the CPU's.
+    // With how far apart the two may end, metres.
     let responses = [
         ("normal", CollisionResponse::SurfaceNormal, 1e-3),
-        ("centre ray", CollisionResponse::CentreRay { offset: [0.0, 0.0, 0.0] }, 1e-2),
+        ("centre ray", CollisionResponse::CentreRay { offset: [0.0, 0.0, 0.0] }, 0.025),
     ];
-    for (name, collision_response, far_share) in responses {
+    for (name, collision_response, max_apart) in responses {
         let params = SimParams { collision_response, ..SimParams::default() };
         let (cpu, on_gpu) = run_both_with(&gpu, &rest, &collider, &params, &extras, steps, head_pose);
         let (mean, max, far) = apart(&cpu, &on_gpu);
@@ -189,7 +189,7 @@ fn with_collision_the_gpu_stays_near_the_cpu_and_out_of_the_head() {
         let stretch = max_stretch(&on_gpu, &rest);
         let crossing = crossing_segments(&on_gpu, n, &collider, pose);
         eprintln!(
-            "{name} response, after {steps} steps: mean {:.2} mm, max {:.2} mm apart, {:.2} % over 5 mm; \
+            "{name} response, after {steps} steps: mean {:.4} mm, max {:.2} mm apart, {:.2} % over 5 mm; \
              deepest {:.3} mm in the head, {:.3} mm in the extras; stretch {stretch:.1e}; \
              {crossing} segments through the head ({} on the CPU)",
             mean * 1e3,
@@ -200,14 +200,14 @@ fn with_collision_the_gpu_stays_near_the_cpu_and_out_of_the_head() {
             crossing_segments(&cpu, n, &collider, pose)
         );
         assert!(on_gpu.iter().all(|p| p.is_finite()));
-        // The grid is not the mesh, and a strand sliding over the scalp can take another
-        // way round an ear: a few strands part by more than the rest (lavapipe,
-        // 2026-12-03: normal response mean 0.09 mm, max 12 mm, 0.05 % of the particles
-        // over 5 mm; centre ray 0.09 mm, 22 mm, 0.16 %; without the GPU's whole-segment
-        // test 0.09 mm, 15 mm, 0.02 % and 0.11 mm, 13 mm, 0.44 %). The CPU alone is not
-        // chaotic here: a 0.17 µm nudge of every particle ends at most 0.012 mm apart.
-        assert!(mean < 1e-3, "mean {mean} m apart");
-        assert!(far < far_share && max < 0.025, "{} % over 5 mm, max {max} m", far * 100.0);
+        // The GPU finds the closest points the CPU finds (the same candidate lists) and
+        // places and turns segments by the same rules, so the two part by rounding, which
+        // contact grows along a strand (lavapipe, 2026-12-04: normal response mean 0.1 µm,
+        // max 0.30 mm). Under the centre ray one strand of 512 parts at step 112, where the
+        // CPU lifts a particle 10 mm off the surface and the GPU leaves it on the shell
+        // (mean 8 µm, max 13.5 mm, 0.05 % of the particles over 5 mm).
+        assert!(mean < 5e-5, "mean {mean} m apart");
+        assert!(far < 1e-3 && max < max_apart, "{} % over 5 mm, max {max} m", far * 100.0);
         // Without the whole-segment test, 1 and 5 of the 7,168 segments below the roots cut
         // an ear's rim.
         assert_eq!(crossing, 0, "segments through the head");
@@ -326,7 +326,7 @@ fn a_one_second_hitch_is_taken_as_on_the_cpu() {
     let stretch = max_stretch(&positions, &rest);
     let crossing = crossing_segments(&positions, n, &collider, turned(time));
     eprintln!(
-        "after a 1 s hitch: mean {:.3} mm, max {:.2} mm apart, {:.2} % > 5 mm; depth {depth:e} m, stretch {stretch:e}; \
+        "after a 1 s hitch: mean {:.4} mm, max {:.2} mm apart, {:.2} % > 5 mm; depth {depth:e} m, stretch {stretch:e}; \
          {crossing} segments through the head ({} on the CPU)",
         mean * 1e3,
         max * 1e3,
@@ -334,7 +334,8 @@ fn a_one_second_hitch_is_taken_as_on_the_cpu() {
         crossing_segments(cpu.positions(), n, &collider, turned(time))
     );
     assert!(positions.iter().all(|p| p.is_finite()));
-    assert!(mean < 1e-3, "mean {mean} m apart");
+    // lavapipe, 2026-12-04: mean 0.007 mm, max 3.2 mm.
+    assert!(mean < 1e-4 && max < 5e-3, "mean {mean} m, max {max} m apart");
     assert!(depth <= 5e-4, "{depth} m inside the head");
     assert!(stretch <= 1e-4, "stretch {stretch}");
     assert_eq!(crossing, 0, "segments through the head");
@@ -437,7 +438,7 @@ fn the_skin_moving_against_the_head_pushes_as_on_the_cpu() {
     let (mean, max, far) = apart(cpu.positions(), &on_gpu);
     let (push, ..) = apart(cpu.positions(), unpushed.positions());
     eprintln!(
-        "moving skin, after {steps} steps: mean {:.2} mm, max {:.2} mm apart, {:.2} % over 5 mm (the skin moved the \
+        "moving skin, after {steps} steps: mean {:.4} mm, max {:.2} mm apart, {:.2} % over 5 mm (the skin moved the \
          hair {:.2} mm on average); deepest behind the skin {:.3} mm",
         mean * 1e3,
         max * 1e3,
@@ -446,8 +447,8 @@ fn the_skin_moving_against_the_head_pushes_as_on_the_cpu() {
         deepest * 1e3
     );
     assert!(push > 10.0 * mean, "the skin pushes: {push} m on average");
-    // lavapipe, 2026-12-03: mean 0.06 mm, max 13 mm, 0.11 % over 5 mm.
-    assert!(mean < 1e-3 && far < 1e-2, "mean {mean} m apart, {} % over 5 mm", far * 100.0);
+    // lavapipe, 2026-12-04: mean 0.01 mm, max 2.5 mm.
+    assert!(mean < 1e-4 && max < 5e-3, "mean {mean} m, max {max} m apart");
     assert!(deepest <= 5e-4, "{deepest} m behind the moving skin");
 }
 

@@ -46,14 +46,14 @@ const MAX_CANDIDATES: usize = 96;
 /// holds a few times the triangles its ball does.
 const BOX_LIMIT: usize = 4 * MAX_CANDIDATES;
 /// Absorbs f32 rounding in the bake-time distances and the run-time bounds, metres.
-const SLACK: f32 = 1e-5;
+pub(super) const SLACK: f32 = 1e-5;
 /// How far beyond a particle's distance the gap certificate looks for rising triangles,
 /// metres: the room it leaves the particle to move before the next search.
 const GAP_MARGIN: f32 = 0.002;
 /// Marks a cell without a list.
 const NONE: u32 = u32::MAX;
 /// Bits of a cell's range word that count its blocks: enough for [`MAX_CANDIDATES`].
-const COUNT_BITS: u32 = 5;
+pub(super) const COUNT_BITS: u32 = 5;
 const _: () = assert!(MAX_CANDIDATES.div_ceil(4) < 1 << COUNT_BITS);
 
 #[derive(Clone, Copy, Debug)]
@@ -155,6 +155,22 @@ impl CandidateGrid {
             }
         }
         out
+    }
+
+    /// The lists as plain words for a copy of the query elsewhere (see
+    /// [`super::NearQueryTables`]): the cell ranges, and each block as its distances,
+    /// gradients (x, y, z; f32 bits) and triangles.
+    pub fn words(&self) -> (Vec<u32>, Vec<[u32; 20]>) {
+        let blocks = self.blocks.iter().map(|b| {
+            let floats = [b.centre_distance, b.gradient[0], b.gradient[1], b.gradient[2]];
+            let mut words = [0; 20];
+            for (k, v) in floats.iter().enumerate() {
+                words[4 * k..][..4].copy_from_slice(&v.to_array().map(f32::to_bits));
+            }
+            words[16..].copy_from_slice(&b.triangles);
+            words
+        });
+        (self.ranges.clone(), blocks.collect())
     }
 
     /// The exact closest point of `mesh` to `p` (in the cell `at`) if it is nearer than

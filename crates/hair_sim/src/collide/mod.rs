@@ -98,6 +98,39 @@ pub enum Resolution {
     Clear(f32),
 }
 
+/// What [`HeadCollider`]'s exact near query reads, as plain numbers (from
+/// [`HeadCollider::near_query_tables`]), for a copy of the query on another processor.
+///
+/// Near the surface (where the distance grid cannot reject a point), the collider finds
+/// the closest triangle among its grid cell's candidates: sorted by their distance `D`
+/// from the cell's centre `c`, a candidate is skipped when `D − |p − c|`, or its
+/// tangent-plane bound `D + g · (p − c)`, is already beyond the best distance found (each
+/// less [`Self::slack`]), and the walk stops at the first block whose nearest candidate
+/// is. The sign comes from the pseudo-normal of the feature the closest point lies on.
+#[derive(Clone, Debug)]
+pub struct NearQueryTables {
+    /// Per triangle of the collider's mesh (relative to [`HeadCollider::centre`], without
+    /// duplicate corners or triangles without area): corners a, b, c; the unit face
+    /// normal; the edges' pseudo-normals (ab, bc, ca); the corners' pseudo-normals (a, b,
+    /// c). A point closest to a feature is inside where it lies on or behind the feature's
+    /// normal; zero normals (a mesh parry could not orient) read every point as outside.
+    pub triangles: Vec<[Vec3; 10]>,
+    /// Per grid cell, by the index of its lowest sample in [`DistanceGrid::values`]: the
+    /// cell's first block, shifted left by [`Self::count_bits`], with its block count in
+    /// the low bits; `u32::MAX` for a cell without a list (deep inside the head, or too many
+    /// candidates), where the collider walks its BVH.
+    pub cell_ranges: Vec<u32>,
+    /// The lists' candidates, four per block, nearest the cell's centre first: their
+    /// distances from the centre (infinity in a list's padding lanes), the unit vectors
+    /// from their closest points to the centre (x, then y, then z), as f32 bits, four
+    /// words each; then the four triangles.
+    pub blocks: Vec<[u32; 20]>,
+    /// The low bits of a cell range that count its blocks.
+    pub count_bits: u32,
+    /// Taken off both skip bounds for f32 rounding, metres.
+    pub slack: f32,
+}
+
 /// The head as a collision shape, in head-local space: a parry3d `TriMesh` (its BVH
 /// answers exact closest-point queries) and a signed distance grid baked from it.
 pub struct HeadCollider {
@@ -210,6 +243,25 @@ impl HeadCollider {
     /// The baked distance grid, relative to [`Self::centre`].
     pub fn grid(&self) -> &DistanceGrid {
         &self.grid
+    }
+
+    /// The exact near query's tables as plain numbers, for a copy of the query elsewhere
+    /// (the GPU solver's), which then finds the same closest points as this collider.
+    pub fn near_query_tables(&self) -> NearQueryTables {
+        let pseudo = self.mesh.pseudo_normals_if_oriented();
+        let triangles = (0..self.mesh.indices().len())
+            .map(|t| {
+                let corners = self.mesh.indices()[t].map(|v| self.mesh.vertices()[v as usize]);
+                let face = self.triangles.get(t as u32).normal().unwrap_or(Vec3::ZERO);
+                let edges = pseudo.and_then(|p| p.edges_pseudo_normal.get(t).copied()).unwrap_or([Vec3::ZERO; 3]);
+                let vertex = |v: u32| pseudo.and_then(|p| p.vertices_pseudo_normal.get(v as usize).copied());
+                let at_corners = self.mesh.indices()[t].map(|v| vertex(v).unwrap_or(Vec3::ZERO));
+                let [[a, b, c], [e0, e1, e2], [v0, v1, v2]] = [corners, edges, at_corners];
+                [a, b, c, face, e0, e1, e2, v0, v1, v2]
+            })
+            .collect();
+        let (cell_ranges, blocks) = self.candidates.words();
+        NearQueryTables { triangles, cell_ranges, blocks, count_bits: candidates::COUNT_BITS, slack: candidates::SLACK }
     }
 
     /// Exact signed distance from a head-local point to the surface (negative inside).
@@ -550,6 +602,77 @@ mod tests {
         assert!(worst(&skull) < 1.1, "on the skull the ray is close to the normal");
         assert!(worst(&ears) > 1.5, "by the ears the ray push slides");
         assert_eq!(over_2(&skull) + over_2(&ears), 0, "star-shaped: the ray always leaves nearby");
+    }
+
+    /// [`NearQueryTables`] walked as their docs say (as the GPU solver walks them), with
+    /// nothing of the collider's own code, give every point near the procedural head (ears
+    /// included, 6 mm inside to 6 mm out) the signed distance the independent inside test
+    /// measures.
+    #[test]
+    fn the_near_query_tables_find_the_exact_distance() {
+        use crate::groom::SplitMix64;
+        use crate::mesh::InsideTest;
+        let head = test_head(4);
+        let collider = HeadCollider::new(&head, 64).unwrap();
+        let inside = InsideTest::new(&head);
+        let tables = collider.near_query_tables();
+        let grid = collider.grid();
+        let f = |word: u32| f32::from_bits(word);
+        // The closest listed triangle to `p` (relative to the centre): distance, closest
+        // point, the feature's pseudo-normal. `None` for a cell without a list.
+        let walk = |p: Vec3| -> Option<(f32, Vec3, Vec3)> {
+            let g = (p - grid.origin()) / grid.cell_size();
+            let [x, y, z] = g.to_array().map(|v| v.floor() as usize);
+            let [dx, dy, _] = grid.dims();
+            let range = tables.cell_ranges[(z * dy + y) * dx + x];
+            if range == u32::MAX {
+                return None;
+            }
+            let offset = (g - g.floor() - Vec3::splat(0.5)) * grid.cell_size();
+            let (first, count) = (range >> tables.count_bits, range & ((1 << tables.count_bits) - 1));
+            let mut best: (f32, Vec3, Vec3) = (f32::INFINITY, Vec3::ZERO, Vec3::ZERO);
+            for block in &tables.blocks[first as usize..][..count as usize] {
+                if f(block[0]) - (offset.length() + tables.slack) >= best.0 {
+                    break;
+                }
+                for lane in 0..4 {
+                    let gradient = Vec3::new(f(block[4 + lane]), f(block[8 + lane]), f(block[12 + lane]));
+                    let by_centre = f(block[lane]) - (offset.length() + tables.slack);
+                    if by_centre.max(f(block[lane]) + gradient.dot(offset) - tables.slack) >= best.0 {
+                        continue;
+                    }
+                    let t = &tables.triangles[block[16 + lane] as usize];
+                    let triangle = parry3d::shape::Triangle::new(t[0], t[1], t[2]);
+                    let (projection, location) = triangle.project_local_point_and_get_location(p, false);
+                    let distance = (p - projection.point).length();
+                    if distance < best.0 {
+                        let normal = match location {
+                            TrianglePointLocation::OnEdge(i, _) => t[4 + i as usize],
+                            TrianglePointLocation::OnVertex(i) => t[7 + i as usize],
+                            _ => t[3],
+                        };
+                        best = (distance, projection.point, normal);
+                    }
+                }
+            }
+            Some(best)
+        };
+        let mut rng = SplitMix64::new(5);
+        let (mut walked, mut inside_count) = (0, 0);
+        for k in 0..4000 {
+            let t = k * 7919 % head.triangles.len();
+            let [u, v, h] = [rng.next_f32(), rng.next_f32(), rng.next_f32()];
+            let bary = if u + v <= 1.0 { [u, v, 1.0 - u - v] } else { [1.0 - u, 1.0 - v, u + v - 1.0] };
+            let p = head.point_at(t, bary) + head.normal_at(t, bary) * (h * 0.012 - 0.006);
+            let Some((distance, closest, normal)) = walk(p - collider.centre()) else { continue };
+            let signed = if (p - collider.centre() - closest).dot(normal) <= 0.0 { -distance } else { distance };
+            let exact = if inside.contains(p) { -inside.distance(p) } else { inside.distance(p) };
+            assert!((signed - exact).abs() < 1e-6, "{p}: the tables give {signed}, the inside test {exact}");
+            walked += 1;
+            inside_count += usize::from(signed < 0.0);
+        }
+        println!("{walked} of 4000 points walked the tables, {inside_count} of them inside");
+        assert!(walked > 3600 && inside_count > 1000, "the tables answer near the surface, inside and out");
     }
 
     /// Whole-segment collision clears a segment from its ends' clearances, so a clearance
