@@ -462,7 +462,7 @@ fn head_push(p: vec3<f32>) -> Contact {
 // --- Whole segments: hair_sim's `keep_segments_outside`, by sampling ---
 
 // The shortest step of the trace along a segment, metres: far thinner than any part of a head.
-const MIN_TRACE_STEP: f32 = 2e-5;
+const MIN_TRACE_STEP: f32 = 1e-6;
 
 // Where the segment from head-local `a` (`a_distance` from the surface) to `b` runs inside the
 // head: the fractions of the way at which it first enters and last leaves (x, y), with 1 in z;
@@ -489,7 +489,7 @@ fn first_inside(start_at: vec3<f32>, to: vec3<f32>, span: f32) -> f32 {
     let direction = (to - start_at) / span;
     var outside = 0.0;
     var t = 0.0;
-    for (var k = 0u; k < 256u && t <= span; k++) {
+    for (var k = 0u; k < 1024u && t <= span; k++) {
         let surface = head_surface(start_at + direction * t);
         let d = surface.distance;
         if d < 0.0 {
