@@ -26,9 +26,9 @@ pub enum HairBackend {
     #[default]
     Cpu,
     /// `hair_gpu`'s compute pass on the app's render device (feature `render`): the same
-    /// model, its particles colliding with the head's distance grid instead of its mesh (and
-    /// whole segments, [`SimParams::segment_collision`], tested by sampling the grid along
-    /// them). The particles stay on the
+    /// model, colliding as the CPU does (the collider's exact query near the head, on the
+    /// same candidate lists; the distance grid far from it and deep inside, where the CPU
+    /// walks its BVH). The particles stay on the
     /// GPU and are drawn from there: each frame a second pass writes them, interpolated and
     /// placed on the drawn head, with their frames, into the drawing's buffer, and nothing
     /// waits for the GPU. The groom's [`HairState`] positions are copies that come back

@@ -178,6 +178,9 @@ struct StepUniform {
     centre: [f32; 4],
     near: [u32; 4],
     near_bounds: [f32; 4],
+    rise: [f32; 4],
+    rise_dims: [u32; 4],
+    rise_limits: [f32; 4],
     springs: [f32; 4],
     spring_flags: [u32; 4],
     ray_from: [f32; 4],
@@ -198,12 +201,18 @@ struct GridInfo {
     near: [u32; 4],
     /// `step.wgsl`'s `near_bounds`: the grid's largest error, the bounds' slack, the cell.
     near_bounds: [f32; 4],
+    /// `step.wgsl`'s `rise`, `rise_dims` and `rise_limits`: the curvature table's corner and
+    /// cells per metre, its cells along each axis and where it starts, the longest segment
+    /// it bounds (0: no table) and the most its normal may turn.
+    rise: [f32; 4],
+    rise_dims: [u32; 4],
+    rise_limits: [f32; 4],
 }
 
 impl GridInfo {
     /// `collider` as `step.wgsl`'s `head` buffer holds it (words): the grid's samples,
     /// then, if they fit in `limit` bytes, the exact near query's cell ranges, blocks and
-    /// triangles (ten vec4 each).
+    /// triangles (ten vec4 each), and the curvature table (two words a cell).
     fn pack(collider: &HeadCollider, limit: u64) -> (Vec<u32>, GridInfo) {
         let g = collider.grid();
         let mut words: Vec<u32> = g.values().iter().map(|v| v.to_bits()).collect();
@@ -214,9 +223,14 @@ impl GridInfo {
             centre: collider.centre(),
             near: [0; 4],
             near_bounds: [g.max_error(), 0.0, g.cell_size(), 0.0],
+            rise: [0.0; 4],
+            rise_dims: [0; 4],
+            rise_limits: [0.0; 4],
         };
         let tables = collider.near_query_tables();
-        let extra = tables.cell_ranges.len() + 20 * tables.blocks.len() + 40 * tables.triangles.len();
+        let rise = collider.rise_table();
+        let extra =
+            tables.cell_ranges.len() + 20 * tables.blocks.len() + 40 * tables.triangles.len() + 2 * rise.values.len();
         if ((words.len() + extra) * 4) as u64 > limit {
             return (words, info); // beyond the device: the grid alone still answers
         }
@@ -230,6 +244,12 @@ impl GridInfo {
         }
         info.near = [ranges, blocks, triangles, tables.count_bits];
         info.near_bounds[1] = tables.slack;
+        let [x, y, z] = rise.dims.map(|d| d as u32);
+        let origin = rise.cells.origin;
+        info.rise = [origin.x, origin.y, origin.z, rise.cells.inverse_cell];
+        info.rise_dims = [x, y, z, words.len() as u32];
+        info.rise_limits = [rise.max_length, rise.max_turn, 0.0, 0.0];
+        words.extend(rise.values.iter().flatten().map(|v| v.to_bits()));
         (words, info)
     }
 }
@@ -641,6 +661,9 @@ impl GpuStrands {
             centre: grid.map_or([0.0; 4], |g| [g.centre.x, g.centre.y, g.centre.z, 0.0]),
             near: grid.map_or([0; 4], |g| g.near),
             near_bounds: grid.map_or([0.0; 4], |g| g.near_bounds),
+            rise: grid.map_or([0.0; 4], |g| g.rise),
+            rise_dims: grid.map_or([0; 4], |g| g.rise_dims),
+            rise_limits: grid.map_or([0.0; 4], |g| g.rise_limits),
             springs: [p.spring_stiffness, p.spring_damping, 1.0 / p.particle_mass, p.length_tolerance],
             spring_flags: [
                 u32::from(p.length_mode == LengthMode::Springs),

@@ -35,6 +35,12 @@ struct Step {
     near: vec4<u32>,
     // The grid's largest error, the near query's slack, the grid's cell size.
     near_bounds: vec4<f32>,
+    // hair_sim's `RiseTable` in `head`: its corner (head-local) and cells per metre; cells
+    // along x, y, z and where they start; the longest segment it bounds (0: no table), the
+    // most the normal may turn under one.
+    rise: vec4<f32>,
+    rise_dims: vec4<u32>,
+    rise_limits: vec4<f32>,
     // The spring model: stiffness, damping, 1 / particle mass, length tolerance.
     springs: vec4<f32>,
     // The spring model on (1/0); whether the strands remember the step before (1/0);
@@ -510,6 +516,24 @@ fn first_inside(start_at: vec3<f32>, to: vec3<f32>, span: f32) -> f32 {
     return 2.0;
 }
 
+// How far the surface may rise above a straight segment `segment` long around head-local
+// `middle`, from the curvature baked around it (hair_sim's `HeadCollider::rise_under`): where
+// both ends clear more than that, the segment cannot cross the surface. Unbounded by an
+// ear's rim, and for segments longer than the table covers.
+fn rise_under(middle: vec3<f32>, segment: f32) -> f32 {
+    if !(segment <= step.rise_limits.x) {
+        return 3.4e38;
+    }
+    let last = vec3<f32>(step.rise_dims.xyz - vec3<u32>(1u));
+    let c = vec3<u32>(clamp((middle - step.rise.xyz) * step.rise.w, vec3<f32>(0.0), last));
+    let at = step.rise_dims.w + 2u * (c.x + step.rise_dims.x * (c.y + step.rise_dims.y * c.z));
+    let convex = head_f32(at);
+    if convex * segment > step.rise_limits.y {
+        return 3.4e38;
+    }
+    return convex * segment * segment / 8.0 + head_f32(at + 1u);
+}
+
 // Whether the segment between head-local `a` and `b` runs through the head.
 fn crosses(a: vec3<f32>, b: vec3<f32>) -> bool {
     return crossed_stretch(a, head_surface(a).distance, b).z == 1.0;
@@ -723,7 +747,13 @@ fn keep_segments_outside(first: u32, n: u32, now: Pose) {
         let child = positions[i].xyz;
         let local_parent = local_point(now, parent);
         let local_child = local_point(now, child);
-        let local_turned = turn_out_of(local_parent, local_child, distance(parent, child));
+        let span = distance(parent, child);
+        // Both ends clear more than the surface can rise between them (the skull): out.
+        let lowest = min(head_surface(local_parent).distance, head_surface(local_child).distance);
+        if lowest > rise_under(0.5 * (local_parent + local_child), span) {
+            continue;
+        }
+        let local_turned = turn_out_of(local_parent, local_child, span);
         if all(local_turned == local_child) {
             continue;
         }
@@ -984,8 +1014,12 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
             keep_segments_outside(first, n, now);
         }
     }
+    update_velocities(first, n, h, step_length);
+}
 
-    // 5. Velocities from where the particles ended up, less FTL's correction.
+// 5. Velocities from where the particles ended up, less FTL's correction; the integrator
+// advanced them `step_length` (the substep, or the spring model's).
+fn update_velocities(first: u32, n: u32, h: f32, step_length: f32) {
     let root_velocity = (positions[first].xyz - start(first)) * (1.0 / h);
     motion[3u * first] = vec4<f32>(clamp_length_max(root_velocity, step.limits.x), 0.0);
     let inverse_step = 1.0 / step_length;
@@ -1223,9 +1257,14 @@ fn step_strands(@builtin(global_invocation_id) id: vec3<u32>) {
     for (var k = 1u; k <= step.counts.z; k++) {
         substep(strand, first, n, k);
     }
+    reset_if_not_finite(first, n, last);
+}
+
+// A strand with a particle or velocity that is not finite starts over at rest under `pose`.
+fn reset_if_not_finite(first: u32, n: u32, at: Pose) {
     for (var j = 0u; j < n; j++) {
         if !(finite(positions[first + j].xyz) && finite(velocity(first + j))) {
-            reset_strand(first, n, last);
+            reset_strand(first, n, at);
             return;
         }
     }

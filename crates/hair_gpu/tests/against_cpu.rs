@@ -6,6 +6,7 @@
 use hair_gpu::{GpuContext, GpuError, GpuStrands};
 use hair_sim::collide::SurfacePatch;
 use hair_sim::prelude::*;
+use std::sync::{Mutex, MutexGuard};
 
 /// Head keyframes: (time s, yaw rad, pitch rad); a turn, a nod and a fast shake, as the
 /// CPU bench moves its head.
@@ -23,11 +24,27 @@ fn head_pose(time: f32) -> Pose {
     Pose::new(rotation, Vec3::new(0.0, 1.6, 0.0))
 }
 
-fn gpu() -> Option<GpuContext> {
+/// The adapter, held by one test at a time: lavapipe already runs a dispatch on every core,
+/// and tests that share them all slow each other down several times over.
+struct Gpu {
+    context: GpuContext,
+    _turn: MutexGuard<'static, ()>,
+}
+
+impl std::ops::Deref for Gpu {
+    type Target = GpuContext;
+    fn deref(&self) -> &GpuContext {
+        &self.context
+    }
+}
+
+fn gpu() -> Option<Gpu> {
+    static TURN: Mutex<()> = Mutex::new(());
+    let turn = TURN.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
     match GpuContext::headless() {
         Ok(gpu) => {
             eprintln!("adapter: {} ({:?})", gpu.adapter.name, gpu.adapter.backend);
-            Some(gpu)
+            Some(Gpu { context: gpu, _turn: turn })
         }
         Err(e) if std::env::var_os("BEVY_HAIR_REQUIRE_ADAPTER").is_some() => {
             panic!("BEVY_HAIR_REQUIRE_ADAPTER is set and there is {e}")

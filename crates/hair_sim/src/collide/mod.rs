@@ -131,6 +131,26 @@ pub struct NearQueryTables {
     pub slack: f32,
 }
 
+/// What [`HeadCollider::rise_under`] reads, as plain numbers (from
+/// [`HeadCollider::rise_table`]). For a segment of length `L` whose middle lies in cell `c`
+/// (located by [`Self::cells`]), with `[κ, f]` the cell's values: infinite where `L` exceeds
+/// [`Self::max_length`] or `κ L` exceeds [`Self::max_turn`], else `κ L² / 8 + f`.
+#[derive(Clone, Debug)]
+pub struct RiseTable {
+    /// Where the cells lie, head-local.
+    pub cells: SagCells,
+    /// Cells along x, y and z.
+    pub dims: [usize; 3],
+    /// Per cell, x fastest: the largest convex curvature near it, 1/m, and the largest
+    /// facet term, m.
+    pub values: Vec<[f32; 2]>,
+    /// Segments longer than this, metres, get no bound.
+    pub max_length: f32,
+    /// Where the surface's normal turns more than this many radians under a segment, no
+    /// bound.
+    pub max_turn: f32,
+}
+
 /// The head as a collision shape, in head-local space: a parry3d `TriMesh` (its BVH
 /// answers exact closest-point queries) and a signed distance grid baked from it.
 pub struct HeadCollider {
@@ -262,6 +282,18 @@ impl HeadCollider {
             .collect();
         let (cell_ranges, blocks) = self.candidates.words();
         NearQueryTables { triangles, cell_ranges, blocks, count_bits: candidates::COUNT_BITS, slack: candidates::SLACK }
+    }
+
+    /// [`Self::rise_under`]'s table as plain numbers, for a copy of the bound elsewhere (the
+    /// GPU solver's).
+    pub fn rise_table(&self) -> RiseTable {
+        RiseTable {
+            cells: self.rise_cells(),
+            dims: self.sag.dims(),
+            values: self.sag.values().iter().map(|&(convex, facet)| [convex, facet]).collect(),
+            max_length: 2.0 * sag::REACH,
+            max_turn: sag::MAX_TURN,
+        }
     }
 
     /// Exact signed distance from a head-local point to the surface (negative inside).

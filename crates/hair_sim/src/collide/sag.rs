@@ -33,7 +33,7 @@ const CELL: f32 = 0.008;
 const MAX_CELLS: f32 = 2.0e6;
 /// Where the surface's normal turns by more than this many radians under a segment, it is
 /// no longer a height field under it (an ear's rim), and the bound says nothing.
-const MAX_TURN: f32 = 1.0;
+pub(super) const MAX_TURN: f32 = 1.0;
 
 /// Per cell of a grid around the mesh, the largest convex curvature of the surface near
 /// it and the largest facet term.
@@ -160,6 +160,11 @@ impl SagGrid {
     /// The centre of cell `[x, y, z]`.
     pub fn cell_centre(&self, [x, y, z]: [usize; 3]) -> Vec3 {
         Vec3::from(self.origin) + (Vec3::new(x as f32, y as f32, z as f32) + Vec3::splat(0.5)) * self.cell_size()
+    }
+
+    /// Per cell (x-fastest order): the largest convex curvature, 1/m, and facet term, m.
+    pub fn values(&self) -> &[(f32, f32)] {
+        &self.cells
     }
 
     /// The largest convex curvature near cell `index` (x-fastest order), 1/m.
