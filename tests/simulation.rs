@@ -553,13 +553,13 @@ fn the_gpu_backend_steps_a_groom_as_the_cpu_does() {
     let mean = apart.iter().sum::<f32>() / apart.len() as f32;
     let max = apart.iter().copied().fold(0.0, f32::max);
     eprintln!(
-        "GPU backend beside the CPU after a 1.5 rad turn (60 steps): mean {:.3} mm, max {:.2} mm",
-        mean * 1e3,
-        max * 1e3
+        "GPU backend beside the CPU after a 1.5 rad turn (60 steps): mean {:.3} µm, max {:.3} µm",
+        mean * 1e6,
+        max * 1e6
     );
     assert!(on_gpu.iter().all(|p| p.is_finite()));
-    // The GPU collides with the distance grid, the CPU with the mesh (see hair_gpu's tests).
-    assert!(mean < 1e-3 && max < 0.025, "mean {mean} m, max {max} m apart");
+    // The GPU collides as the CPU does (see hair_gpu's tests): they part by rounding.
+    assert!(mean < 1e-5 && max < 1e-3, "mean {mean} m, max {max} m apart");
     // And it moved: the turn swings the tips by centimetres.
     let still = beside_the_cpu(app_with_render_device().unwrap(), HairBackend::Gpu, 1).exact;
     let swing = on_gpu.iter().zip(&still).map(|(a, b)| a.distance(*b)).fold(0.0, f32::max);
