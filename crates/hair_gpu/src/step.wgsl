@@ -467,8 +467,9 @@ fn head_push(p: vec3<f32>) -> Contact {
 
 // --- Whole segments: hair_sim's `keep_segments_outside`, by tracing ---
 
-// The shortest step of the trace along a segment, metres: a segment that clips an edge by
-// 20 µm is found (the CPU, which intersects the triangles, turns it).
+// The shortest step of the trace along a segment, metres: a stretch inside the head longer
+// than this is found (at 20 µm the trace stepped over one by an edge that the CPU, which
+// intersects the triangles, turned).
 const MIN_TRACE_STEP: f32 = 1e-6;
 
 // Where the segment from head-local `a` (`a_distance` from the surface) to `b` runs inside the
