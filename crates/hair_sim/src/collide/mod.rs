@@ -707,6 +707,34 @@ mod tests {
         assert!(walked > 3600 && inside_count > 1000, "the tables answer near the surface, inside and out");
     }
 
+    /// [`RiseTable`] read as its docs say gives the bound [`HeadCollider::rise_under`] gives,
+    /// for segments near the procedural head (ears included) and a few too long for it.
+    #[test]
+    fn the_rise_table_gives_the_colliders_bound() {
+        let head = test_head(4);
+        let collider = HeadCollider::new(&head, 64).unwrap();
+        let table = collider.rise_table();
+        let bound = |a: Vec3, b: Vec3| {
+            let length = (b - a).length();
+            let [x, y, z] = table.cells.locate(0.5 * (a + b)).to_array().map(|v| v as usize);
+            let [convex, facet] = table.values[x + table.dims[0] * (y + table.dims[1] * z)];
+            if length > table.max_length || convex * length > table.max_turn {
+                f32::INFINITY
+            } else {
+                convex * length * length / 8.0 + facet
+            }
+        };
+        let mut segments = segments_near(&head, 3, 2000);
+        segments.extend((0..20).map(|k| (Vec3::new(0.0, 0.1, 0.0), Vec3::new(0.03 + 0.001 * k as f32, 0.1, 0.0))));
+        let (mut finite, mut infinite) = (0, 0);
+        for (a, b) in segments {
+            let (ours, theirs) = (bound(a, b), collider.rise_under(0.5 * (a + b), (b - a).length()));
+            assert_eq!(ours.to_bits(), theirs.to_bits(), "{a} to {b}: the table gives {ours}, the collider {theirs}");
+            if ours.is_finite() { finite += 1 } else { infinite += 1 }
+        }
+        assert!(finite > 1000 && infinite > 20, "bounded and unbounded segments: {finite}, {infinite}");
+    }
+
     /// Whole-segment collision clears a segment from its ends' clearances, so a clearance
     /// must never exceed the true distance. Particles wander around the procedural head
     /// (ears included, from inside to 6 cm out) carrying their hints; every clearance the
