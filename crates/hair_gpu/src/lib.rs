@@ -768,7 +768,7 @@ impl GpuStrands {
     }
 
     /// Starts copying the positions back to the CPU, without waiting: they arrive when the
-    /// GPU has run what was queued before ([`PositionsCopy::take`]).
+    /// GPU has run what was queued before ([`PositionsCopy::arrived`], [`PositionsCopy::into_positions`]).
     pub fn copy_positions(&self) -> PositionsCopy {
         PositionsCopy(BufferCopy::start(&self.device, &self.queue, &self.positions))
     }
