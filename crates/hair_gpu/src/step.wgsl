@@ -503,6 +503,9 @@ fn first_inside(start_at: vec3<f32>, to: vec3<f32>, span: f32) -> f32 {
         let surface = head_surface(start_at + direction * t);
         let d = surface.distance;
         if d < 0.0 {
+            // (The same bisection as `head_contact`'s, written out: one function for both,
+            // its count an argument, made the tests against the CPU run 325 s instead of 86
+            // on lavapipe, 2026-12-04.)
             var inside = t;
             for (var halving = 0u; halving < 12u; halving++) {
                 let middle = 0.5 * (outside + inside);
