@@ -19,9 +19,9 @@
 //! collision responses (along the surface normal, or along the ray from the head's centre),
 //! the extra colliders and the skin that moves against the head's frame (a skinned scalp's
 //! surface patch) are modelled. What differs is collision with the head away from the lists
-//! (above), and whole segments (`SimParams::segment_collision`), kept out of thin parts by
-//! sampling the distance along them every half grid cell, where the CPU solver tests them
-//! against the triangles.
+//! (above), and whole segments (`SimParams::segment_collision`), whose crossings of thin parts
+//! are found by sphere tracing the exact distance along them (down to 1 µm steps), where the
+//! CPU solver intersects them with the triangles; they are turned out by the CPU's rules.
 //!
 //! ```no_run
 //! # use hair_sim::prelude::*;

@@ -5,7 +5,7 @@
 // baked distance grid, sampled trilinearly, with its gradient as the normal, where the CPU
 // solver queries the exact mesh; near the surface the collider's exact query takes over
 // (the same candidate triangles, the same closest point); whole segments are tested by
-// sampling that along them.
+// sphere tracing that along them.
 
 struct Step {
     // Strands, particles per strand, substeps, shape iterations.
