@@ -367,24 +367,37 @@ fn head_contact(p: vec3<f32>) -> Contact {
     }
     // Inside: march out along the ray. Inside the head the distance to the surface is at
     // least the grid's value less its error, so steps of that size cannot cross it; the
-    // shortest step may, and the last one is halved back to the surface.
+    // shortest step may, and the last one is halved back to the surface: 8 halvings once
+    // outside. (One query in one loop for both: every call is inlined, and a GPU compiler's
+    // time grows with the code; see `first_inside`.)
     var t = 0.0;
     var inside = 0.0;
-    for (var march = 0u; march < 64u; march++) {
-        let d = head_surface(p + direction * t).distance;
-        if d >= 0.0 {
-            for (var k = 0u; k < 8u; k++) {
-                let middle = 0.5 * (inside + t);
-                if head_surface(p + direction * middle).distance < 0.0 {
-                    inside = middle;
-                } else {
-                    t = middle;
-                }
-            }
-            return Contact(true, p + direction * (t + thickness), direction, depth);
+    var march = 0u;
+    var halvings = 0u;
+    loop {
+        let bisecting = halvings > 0u;
+        if !bisecting && march == 64u {
+            break;
         }
-        inside = t;
-        t += max(-d, 1e-4);
+        let at = select(t, 0.5 * (inside + t), bisecting);
+        let d = head_surface(p + direction * at).distance;
+        if bisecting {
+            if d < 0.0 {
+                inside = at;
+            } else {
+                t = at;
+            }
+            halvings++;
+            if halvings == 9u {
+                return Contact(true, p + direction * (t + thickness), direction, depth);
+            }
+        } else if d >= 0.0 {
+            halvings = 1u;
+        } else {
+            inside = t;
+            t += max(-d, 1e-4);
+            march++;
+        }
     }
     return normal_contact; // never left (a ray along a sliver): along the normal
 }
@@ -482,11 +495,19 @@ fn crossed_stretch(a: vec3<f32>, a_distance: f32, b: vec3<f32>) -> vec3<f32> {
     if min(a_distance, head_surface(b).distance) > 0.5 * span {
         return vec3<f32>(0.0);
     }
-    let enters = first_inside(a, b, span);
-    if enters > 1.0 {
-        return vec3<f32>(0.0);
+    // From `a` to `b`, then (where it goes in) back from `b`.
+    var enters = 0.0;
+    for (var way = 0u; way < 2u; way++) {
+        let found = first_inside(select(a, b, way == 1u), select(b, a, way == 1u), span);
+        if way == 1u {
+            return vec3<f32>(enters, 1.0 - found, 1.0);
+        }
+        if found > 1.0 {
+            return vec3<f32>(0.0);
+        }
+        enters = found;
     }
-    return vec3<f32>(enters, 1.0 - first_inside(b, a, span), 1.0);
+    return vec3<f32>(0.0);
 }
 
 // The fraction of the way from head-local `start_at` to `to` (`span` apart) at which the segment
@@ -495,30 +516,41 @@ fn crossed_stretch(a: vec3<f32>, a_distance: f32, b: vec3<f32>) -> vec3<f32> {
 // part of the surface, and at least `MIN_TRACE_STEP`; the crossing refined by bisection. A
 // trace not done in 1,024 steps (a segment along the surface within micrometres) counts as
 // staying out.
+//
+// The trace and the bisection share one query in one loop: a GPU compiler inlines every
+// call, and its time grows faster than the code (lavapipe took 208 s to compile this
+// shader with a query for each, cold, 2026-12-04).
 fn first_inside(start_at: vec3<f32>, to: vec3<f32>, span: f32) -> f32 {
     let direction = (to - start_at) / span;
     var outside = 0.0;
     var t = 0.0;
-    for (var k = 0u; k < 1024u && t <= span; k++) {
-        let surface = head_surface(start_at + direction * t);
-        let d = surface.distance;
-        if d < 0.0 {
-            // (The same bisection as `head_contact`'s, written out: one function for both,
-            // its count an argument, made the tests against the CPU run 325 s instead of 86
-            // on lavapipe, 2026-12-04.)
-            var inside = t;
-            for (var halving = 0u; halving < 12u; halving++) {
-                let middle = 0.5 * (outside + inside);
-                if head_surface(start_at + direction * middle).distance < 0.0 {
-                    inside = middle;
-                } else {
-                    outside = middle;
-                }
-            }
-            return 0.5 * (outside + inside) / span;
+    var steps = 0u;
+    var inside = -1.0; // where the bisection found the segment inside (< 0: tracing)
+    var halvings = 0u;
+    loop {
+        let bisecting = inside >= 0.0;
+        if !bisecting && (steps == 1024u || !(t <= span)) {
+            break;
         }
-        outside = t;
-        t += max(d - select(0.0, step.near_bounds.x, surface.approximate), MIN_TRACE_STEP);
+        let at = select(t, 0.5 * (outside + inside), bisecting);
+        let surface = head_surface(start_at + direction * at);
+        if bisecting {
+            if surface.distance < 0.0 {
+                inside = at;
+            } else {
+                outside = at;
+            }
+            halvings++;
+            if halvings == 12u {
+                return 0.5 * (outside + inside) / span;
+            }
+        } else if surface.distance < 0.0 {
+            inside = t;
+        } else {
+            outside = t;
+            t += max(surface.distance - select(0.0, step.near_bounds.x, surface.approximate), MIN_TRACE_STEP);
+            steps++;
+        }
     }
     return 2.0;
 }
@@ -562,19 +594,20 @@ const SPHERE_DIRECTIONS: u32 = 96u;
 fn turn_out_of(parent: vec3<f32>, child: vec3<f32>, segment: f32) -> vec3<f32> {
     let parent_distance = head_surface(parent).distance;
     var turned = child;
-    for (var turn = 0u; turn < MAX_TURNS; turn++) {
+    // MAX_TURNS turns, each segment tested, the last turned one too.
+    for (var turn = 0u; turn <= MAX_TURNS; turn++) {
         let stretch = crossed_stretch(parent, parent_distance, turned);
         if stretch.z == 0.0 {
             return turned;
+        }
+        if turn == MAX_TURNS {
+            break;
         }
         let contact = head_push(mix(parent, turned, 0.5 * (stretch.x + stretch.y)));
         if !contact.hit {
             break;
         }
         turned = parent + normalize_or(contact.position - parent, vec3<f32>(0.0, 1.0, 0.0)) * segment;
-    }
-    if !crosses(parent, turned) {
-        return turned;
     }
     // The parent is outside, so within `segment` of the surface a contact that reaches that
     // far has the outward normal nearest it.
@@ -604,19 +637,23 @@ fn turn_out_of(parent: vec3<f32>, child: vec3<f32>, segment: f32) -> vec3<f32> {
 // nearest to `wanted` of `SPHERE_DIRECTIONS` spread over the sphere (a pocket of the
 // surface, an eye socket). hair_sim's `clear_direction`.
 fn clear_direction(parent: vec3<f32>, out: vec3<f32>, wanted: vec3<f32>, segment: f32) -> vec4<f32> {
-    if !crosses(parent, parent + out * segment) {
-        return vec4<f32>(out, 1.0);
-    }
     var best = vec4<f32>(0.0, 0.0, 0.0, -2.0);
-    for (var k = 0u; k < TILTED; k++) {
-        let d = tilted(out, k);
-        if dot(d, wanted) > best.w && !crosses(parent, parent + d * segment) {
-            best = vec4<f32>(d, dot(d, wanted));
+    // Direction 0 is `out`, then the tilted ones, then (while none is clear) the sphere's.
+    for (var k = 0u; k < 1u + TILTED + SPHERE_DIRECTIONS; k++) {
+        let on_sphere = k > TILTED;
+        if on_sphere && best.w != -2.0 {
+            break;
         }
-    }
-    for (var k = 0u; k < SPHERE_DIRECTIONS && best.w == -2.0; k++) {
-        let d = sphere_direction(k);
-        if dot(d, wanted) > best.w && !crosses(parent, parent + d * segment) {
+        var d = out;
+        if on_sphere {
+            d = sphere_direction(k - 1u - TILTED);
+        } else if k > 0u {
+            d = tilted(out, k - 1u);
+        }
+        if (k == 0u || dot(d, wanted) > best.w) && !crosses(parent, parent + d * segment) {
+            if k == 0u {
+                return vec4<f32>(out, 1.0);
+            }
             best = vec4<f32>(d, dot(d, wanted));
         }
     }
@@ -694,10 +731,15 @@ fn set_final(i: u32, placed: vec3<f32>) {
 // stretching the segment. hair_sim's `outside_at_length`.
 fn outside_at_length(placed_in: vec3<f32>, parent: vec3<f32>, segment: f32, now: Pose) -> vec3<f32> {
     var placed = placed_in;
-    for (var turn = 0u; turn < MAX_TURNS; turn++) {
-        let contact = contact_at(placed, now);
+    // MAX_TURNS turns, each place tested, the last turned one too.
+    var contact: Contact;
+    for (var turn = 0u; turn <= MAX_TURNS; turn++) {
+        contact = contact_at(placed, now);
         if !contact.hit {
             return placed;
+        }
+        if turn == MAX_TURNS {
+            break;
         }
         let normal = contact.normal;
         let direction = (placed - parent) / segment;
@@ -710,18 +752,22 @@ fn outside_at_length(placed_in: vec3<f32>, parent: vec3<f32>, segment: f32, now:
         let across = normalize_or(direction - normal * along, orthonormal_pair(normal)[1]);
         placed = parent + (normal * lowest + across * sqrt(1.0 - lowest * lowest)) * segment;
     }
-    let deep = contact_at(placed, now);
-    if !deep.hit || deep.depth <= step.limits.y {
+    let deep = contact;
+    if deep.depth <= step.limits.y {
         return placed; // inside the shell, outside the collider: the length stands
     }
     let wanted = (placed - parent) / segment;
-    if outside_and_reached(parent, parent + deep.normal * segment, now) {
-        return parent + deep.normal * segment;
-    }
     var best = vec4<f32>(0.0, 0.0, 0.0, -2.0);
-    for (var k = 0u; k < TILTED; k++) {
-        let d = tilted(deep.normal, k);
-        if dot(d, wanted) > best.w && outside_and_reached(parent, parent + d * segment, now) {
+    // Direction 0 is the normal itself, taken if it will do; then the tilted ones.
+    for (var k = 0u; k <= TILTED; k++) {
+        var d = deep.normal;
+        if k > 0u {
+            d = tilted(deep.normal, k - 1u);
+        }
+        if (k == 0u || dot(d, wanted) > best.w) && outside_and_reached(parent, parent + d * segment, now) {
+            if k == 0u {
+                return parent + d * segment;
+            }
             best = vec4<f32>(d, dot(d, wanted));
         }
     }
@@ -765,18 +811,25 @@ fn keep_segments_outside(first: u32, n: u32, now: Pose) {
             continue;
         }
         let turned = world_point(now, local_turned);
-        place_at_length(i, turned, -1.0, now);
-        for (var k = j + 1u; k < n; k++) {
-            place_at_length(first + k, positions[first + k].xyz, -1.0, now);
-        }
-        let placed = local_point(now, positions[i].xyz);
-        let turned_contact = contact_at(turned, now);
-        let turned_outside = !turned_contact.hit || turned_contact.depth <= step.limits.y;
-        if any(placed != local_turned) && crosses(local_parent, placed) && turned_outside {
-            set_final(i, turned);
-            for (var k = j + 1u; k < n; k++) {
-                place_at_length(first + k, positions[first + k].xyz, -1.0, now);
+        // The strand placed again from the turned particle; where placing it on the shell
+        // took the segment back through (a fold), once more from the turned particle as it
+        // was turned.
+        var from_particle = j;
+        for (var round = 0u; round < 2u; round++) {
+            for (var k = from_particle; k < n; k++) {
+                place_at_length(first + k, select(positions[first + k].xyz, turned, k == j), -1.0, now);
             }
+            if round == 1u {
+                break;
+            }
+            let placed = local_point(now, positions[i].xyz);
+            let turned_contact = contact_at(turned, now);
+            let turned_outside = !turned_contact.hit || turned_contact.depth <= step.limits.y;
+            if !(any(placed != local_turned) && crosses(local_parent, placed) && turned_outside) {
+                break;
+            }
+            set_final(i, turned);
+            from_particle = j + 1u;
         }
     }
 }
@@ -991,19 +1044,26 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
             let i = first + j;
             var x = positions[i].xyz;
             if step.grid_dims.w == 1u {
-                let contact = head_contact(local_point(now, x));
-                if contact.hit {
-                    // Friction slides back along the tangent plane, which in a hollow dips
-                    // under the surface: out again from there, unless the slide is too
-                    // short to reach the surface (a quarter of the shell, as on the CPU).
-                    var held = with_friction(contact.position, contact.normal, local_point(before, start(i)));
-                    if length(held - contact.position) > 0.25 * step.limits.y {
-                        let again = head_contact(held);
-                        if again.hit {
-                            held = again.position;
-                        }
+                // Friction slides back along the tangent plane, which in a hollow dips
+                // under the surface: out again from there (a second query), unless the
+                // slide is too short to reach the surface (a quarter of the shell, as on
+                // the CPU).
+                var query = local_point(now, x);
+                for (var again = 0u; again < 2u; again++) {
+                    let contact = head_contact(query);
+                    if !contact.hit {
+                        break;
                     }
+                    if again == 1u {
+                        x = world_point(now, contact.position);
+                        break;
+                    }
+                    let held = with_friction(contact.position, contact.normal, local_point(before, start(i)));
                     x = world_point(now, held);
+                    if !(length(held - contact.position) > 0.25 * step.limits.y) {
+                        break;
+                    }
+                    query = held;
                 }
                 // The skin that moved against the head's frame, as it is now.
                 let local = local_point(now, x);
