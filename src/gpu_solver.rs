@@ -6,13 +6,15 @@
 //! positions a frame or two late, copied back without waiting whenever the last copy has
 //! arrived, for what the CPU still computes from them (the drawing's bounds, the blended
 //! draw order, opacity maps, [`HairState`](crate::HairState)'s positions);
-//! [`HairState::read_back_gpu`](crate::HairState::read_back_gpu) waits for the latest.
+//! [`HairState::read_back_gpu`](crate::HairState::read_back_gpu) waits for the latest. The
+//! steps' report (resets, contacts) comes back the same way, summed over the steps since
+//! the last copy of it.
 //! What moves the strands from outside a step (the solver's origin following the head, a
 //! skinned scalp's roots, a reset) is applied to both.
 
 use bevy::prelude::*;
 use hair_sim::math::{Pose, Vec3 as SimVec3};
-use hair_sim::solver::{StepInput, Strands};
+use hair_sim::solver::{StepInput, StepReport, Strands};
 
 /// The render device's GPU solver context, made once a groom asks for the GPU; `Err` says
 /// why there is none. Never inserted without the `render` feature.
@@ -27,6 +29,11 @@ pub(crate) struct GpuSolver {
     /// The copy of the positions on its way back to the CPU, if one is.
     #[cfg(feature = "render")]
     copy: Option<PositionsCopy>,
+    /// The report of the steps since the last one, on its way back, if it is.
+    #[cfg(feature = "render")]
+    report: Option<hair_gpu::ReportCopy>,
+    /// Reports that have arrived and were not taken yet ([`Self::take_report`]), summed.
+    arrived: Option<StepReport>,
     /// Why the GPU last could not step the groom, as reported (`None`: it could, or was
     /// not asked to).
     pub issue: Option<String>,
@@ -69,16 +76,34 @@ impl GpuSolver {
             return Err(e.to_string());
         }
         gpu.publish(input.head_to);
-        // The copy that has arrived, if any, into the CPU mirror; then the next.
+        // The copies that have arrived, if any, into the CPU mirror and the report; then
+        // the next.
         self.take_copy(strands, false);
+        self.take_arrived_report(false);
         self.send();
         Ok(())
     }
 
-    /// Copies the positions toward the CPU, unless a copy is on its way already.
+    /// Copies the positions and the report toward the CPU, unless copies are on their way
+    /// already.
     fn send(&mut self) {
-        if let (Some(gpu), None) = (&self.strands, &self.copy) {
+        let Some(gpu) = &self.strands else { return };
+        if self.copy.is_none() {
             self.copy = Some(PositionsCopy { copy: gpu.copy_positions(), moved: SimVec3::ZERO });
+        }
+        if self.report.is_none() {
+            self.report = Some(gpu.copy_report());
+        }
+    }
+
+    /// Adds the report on its way to those arrived if it has arrived (waiting for it when
+    /// `wait`).
+    fn take_arrived_report(&mut self, wait: bool) {
+        if !self.report.as_ref().is_some_and(|r| r.arrived(wait)) {
+            return;
+        }
+        if let Some(Ok(report)) = self.report.take().map(hair_gpu::ReportCopy::into_report) {
+            self.arrived.get_or_insert_default().merge(report);
         }
     }
 
@@ -101,9 +126,11 @@ impl GpuSolver {
         if self.strands.is_none() {
             return false;
         }
-        // The copy on its way may predate the last step: wait for it, then copy again.
+        // The copies on their way may predate the last step: wait for them, then copy again.
         self.take_copy(strands, true);
+        self.take_arrived_report(true);
         self.send();
+        self.take_arrived_report(true);
         self.take_copy(strands, true)
     }
 
@@ -117,6 +144,7 @@ impl GpuSolver {
     pub fn release(&mut self) {
         self.strands = None;
         self.copy = None;
+        self.report = None;
     }
 
     /// The solver's origin moved by `-offset`: see [`Strands::translate`].
@@ -143,6 +171,14 @@ impl GpuSolver {
         }
         // A copy from before the reset would undo it on the CPU.
         self.copy = None;
+    }
+}
+
+impl GpuSolver {
+    /// The reports of the GPU's steps that came back since this was last called, summed
+    /// (a frame or two after their steps; `None`: none came back).
+    pub fn take_report(&mut self) -> Option<StepReport> {
+        self.arrived.take()
     }
 }
 

@@ -90,7 +90,7 @@ pub mod prelude {
         ChildParams, CollisionResponse, GroomStatus, Hair, HairBackend, HairCollider, HairDiagnostics, HairError,
         HairErrorKind, HairGroom, HairLod, HairPlugin, HairPreset, HairSchedule, HairSettings, HairSettingsOverride,
         HairState, HairSystems, HairTime, LengthMode, RootDistribution, ScalpPredicate, ScalpSource, SimParams,
-        SimdPath, Spiral, Wind,
+        SimdPath, Spiral, StepReport, Wind,
     };
     #[cfg(feature = "render")]
     pub use crate::{HairAntialias, HairLook, HairRenderStats, HairShading, SpecularLobe};

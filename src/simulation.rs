@@ -285,7 +285,11 @@ impl HairState {
         self.strands.set_detail_level(level, fade_steps);
     }
 
-    /// What the last step did: contacts, resets.
+    /// What the last step did: contacts, resets. For a groom the GPU steps
+    /// ([`HairBackend::Gpu`]), what the GPU's steps did that came back during the last step
+    /// (reports come back a frame or two late, without waiting, summed over the steps they
+    /// cover; zero when none came back): summed over every step, they count every step.
+    /// [`Self::read_back_gpu`] waits for the rest.
     pub fn last_report(&self) -> StepReport {
         self.last_report
     }
@@ -311,13 +315,15 @@ impl HairState {
 
     /// For a groom the GPU steps ([`HairBackend::Gpu`]): waits for the GPU and makes this
     /// state's positions ([`Self::current_positions`] and the rest) the last step's, which
-    /// otherwise arrive a frame or two late. Returns `false`, changing nothing, when the
+    /// otherwise arrive a frame or two late, and [`Self::last_report`] what the steps did
+    /// that had not come back yet. Returns `false`, changing nothing, when the
     /// groom is not on the GPU. It stalls until the GPU has run everything queued before
     /// (the last frame's drawing included): for tests, tools and the odd gameplay query,
     /// not every frame.
     pub fn read_back_gpu(&mut self) -> bool {
         let read = self.gpu.read_back(&mut self.strands);
         if read {
+            self.last_report = self.gpu.take_report().unwrap_or_default();
             self.refresh(ComputeTaskPool::get_or_init(TaskPool::default));
         }
         read
@@ -615,7 +621,9 @@ pub(crate) fn simulate(
             state.gpu.issue = gpu_issue;
         }
         if on_gpu == Some(Ok(())) {
-            state.last_report = StepReport::default();
+            // What came back from the GPU's earlier steps during this one.
+            state.last_report = state.gpu.take_report().unwrap_or_default();
+            warn_of_resets(entity, &state.last_report);
             state.last_step_time = groom_started.elapsed();
             state.time += dt;
             guides += state.strands.strand_count();
@@ -640,10 +648,7 @@ pub(crate) fn simulate(
         }
     });
     for (entity, mut state, _, _, simulated) in on_cpu {
-        let report = state.last_report;
-        if report.nan_resets > 0 {
-            warn!("hair on {entity}: {} strands produced non-finite values and were reset", report.nan_resets);
-        }
+        warn_of_resets(entity, &state.last_report);
         state.time += dt;
         guides += simulated;
         particles += simulated * state.strands.particles_per_strand();
@@ -652,6 +657,14 @@ pub(crate) fn simulate(
     diagnostics.add_measurement(&HairDiagnostics::STEP_TIME, || elapsed_ms);
     diagnostics.add_measurement(&HairDiagnostics::GUIDES, || guides as f64);
     diagnostics.add_measurement(&HairDiagnostics::PARTICLES, || particles as f64);
+}
+
+/// Says when a groom's strands went non-finite and were put back at rest (which should not
+/// happen: a bug, or settings beyond what the solver can take).
+fn warn_of_resets(entity: Entity, report: &StepReport) {
+    if report.nan_resets > 0 {
+        warn!("hair on {entity}: {} strands produced non-finite values and were reset", report.nan_resets);
+    }
 }
 
 /// Steps `strands` once, split into chunks of whole SIMD groups on `pool`, as

@@ -520,6 +520,9 @@ struct Beside {
     on_cpu: Vec<Vec3>,
     /// The fallbacks the first app reported.
     fallbacks: Vec<String>,
+    /// Every step's `HairState::last_report` summed, the first app's (with what its last
+    /// read-back brought) and the plain app's.
+    reported: [StepReport; 2],
 }
 
 /// Grows `groom()` in `app` (with `backend`) and in a plain app on the CPU, turns both
@@ -530,24 +533,31 @@ fn beside_the_cpu(mut app: App, backend: HairBackend, frames: usize) -> Beside {
     app.world_mut().entity_mut(head).insert(backend);
     let (mut cpu, cpu_head) = grown(groom());
     wait_until_ready(&mut app, head);
+    // What the steps so far did, out of the way.
+    app.world_mut().get_mut::<HairState>(head).unwrap().read_back_gpu();
+    let mut reported = [StepReport::default(); 2];
     for k in 0..frames {
-        for (app, head) in [(&mut app, head), (&mut cpu, cpu_head)] {
+        for (i, (app, head)) in [(&mut app, head), (&mut cpu, cpu_head)].into_iter().enumerate() {
             *app.world_mut().get_mut::<Transform>(head).unwrap() = turning(k);
             app.update();
+            reported[i].merge(state(app, head).last_report());
         }
     }
     let positions = |app: &App, head| state(app, head).current_positions().to_vec();
     let copied = positions(&app, head);
     let read = app.world_mut().get_mut::<HairState>(head).unwrap().read_back_gpu();
     assert_eq!(read, backend == HairBackend::Gpu && app.world().contains_resource::<RenderDevice>());
+    if read {
+        reported[0].merge(state(&app, head).last_report());
+    }
     let fallbacks = std::mem::take(&mut app.world_mut().resource_mut::<GpuFallbacks>().0);
-    Beside { copied, exact: positions(&app, head), on_cpu: positions(&cpu, cpu_head), fallbacks }
+    Beside { copied, exact: positions(&app, head), on_cpu: positions(&cpu, cpu_head), fallbacks, reported }
 }
 
 #[test]
 fn the_gpu_backend_steps_a_groom_as_the_cpu_does() {
     let Some(app) = app_on_a_gpu() else { return };
-    let Beside { copied, exact: on_gpu, on_cpu, fallbacks } = beside_the_cpu(app, HairBackend::Gpu, 60);
+    let Beside { copied, exact: on_gpu, on_cpu, fallbacks, reported } = beside_the_cpu(app, HairBackend::Gpu, 60);
     assert!(fallbacks.is_empty(), "stepped on the GPU: {fallbacks:?}");
     let apart: Vec<f32> = on_gpu.iter().zip(&on_cpu).map(|(a, b)| a.distance(*b)).collect();
     let mean = apart.iter().sum::<f32>() / apart.len() as f32;
@@ -560,6 +570,14 @@ fn the_gpu_backend_steps_a_groom_as_the_cpu_does() {
     assert!(on_gpu.iter().all(|p| p.is_finite()));
     // The GPU collides as the CPU does (see hair_gpu's tests): they part by rounding.
     assert!(mean < 1e-5 && max < 1e-3, "mean {mean} m, max {max} m apart");
+    // And its reports, coming back late, add up to the CPU's.
+    let [gpu, cpu] = reported;
+    eprintln!("reported over 60 steps: GPU {gpu:?}, CPU {cpu:?}");
+    assert!(cpu.contacts > 0, "the hair touches the head");
+    assert_eq!((gpu.teleport_resets, gpu.nan_resets), (0, 0));
+    assert!(gpu.contacts.abs_diff(cpu.contacts) as f32 <= 1.0 + 1e-3 * cpu.contacts as f32, "contacts");
+    assert!(gpu.segment_turns.abs_diff(cpu.segment_turns) as f32 <= 1.0 + 1e-3 * cpu.segment_turns as f32);
+    assert!((gpu.max_depth - cpu.max_depth).abs() <= 1e-6, "deepest contact");
     // And it moved: the turn swings the tips by centimetres.
     let still = beside_the_cpu(app_with_render_device().unwrap(), HairBackend::Gpu, 1).exact;
     let swing = on_gpu.iter().zip(&still).map(|(a, b)| a.distance(*b)).fold(0.0, f32::max);
@@ -574,10 +592,12 @@ fn the_gpu_backend_steps_a_groom_as_the_cpu_does() {
 
 #[test]
 fn without_a_render_device_the_gpu_backend_says_why_once_and_steps_on_the_cpu() {
-    let Beside { copied, exact: fell_back, on_cpu, fallbacks } = beside_the_cpu(app(), HairBackend::Gpu, 30);
+    let Beside { copied, exact: fell_back, on_cpu, fallbacks, reported } = beside_the_cpu(app(), HairBackend::Gpu, 30);
     assert_eq!(copied, fell_back, "nothing to wait for on the CPU");
     assert_eq!(fallbacks.len(), 1, "reported once: {fallbacks:?}");
     assert!(fallbacks[0].contains("no render device"), "{}", fallbacks[0]);
     // The CPU solver stepped it: the same bits as a groom that asked for the CPU.
     assert_eq!(fell_back, on_cpu);
+    assert_eq!(reported[0], reported[1]);
+    assert!(reported[0].contacts > 0);
 }

@@ -38,7 +38,7 @@
 use bytemuck::{Pod, Zeroable};
 use hair_sim::collide::HeadCollider;
 use hair_sim::math::{Pose, Vec3};
-use hair_sim::solver::{LengthMode, RestShape, StepConstants, StepInput};
+use hair_sim::solver::{LengthMode, RestShape, StepConstants, StepInput, StepReport};
 use wgpu::util::DeviceExt;
 
 mod draw;
@@ -323,6 +323,9 @@ impl RootsUpload {
 
 /// Bytes per particle in `motion`: velocity, substep start and FTL correction.
 const MOTION_BYTES: u64 = 3 * 16;
+/// Bytes per strand of the step report after the particles in `motion` (`step.wgsl`'s
+/// `Tally`, added up).
+const REPORT_BYTES: u64 = 2 * 16;
 /// Bytes per particle in `springs` (see `step.wgsl`).
 const SPRINGS_BYTES: u64 = 6 * 16;
 
@@ -339,7 +342,7 @@ impl GpuStrands {
         let device = &gpu.device;
         let particles = rest.positions.len();
         let limit = device.limits().max_storage_buffer_binding_size;
-        let bytes = particles as u64 * MOTION_BYTES;
+        let bytes = particles as u64 * MOTION_BYTES + rest.strand_count() as u64 * REPORT_BYTES;
         if bytes > limit {
             return Err(GpuError::TooLarge { particles, bytes, limit });
         }
@@ -358,7 +361,11 @@ impl GpuStrands {
             bytemuck::cast_slice(&placed),
             wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
         );
-        let motion = storage("hair_gpu motion", &vec![0u8; bytes as usize], wgpu::BufferUsages::COPY_DST);
+        let motion = storage(
+            "hair_gpu motion",
+            &vec![0u8; bytes as usize],
+            wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+        );
         let rest_data: Vec<[f32; 4]> = (0..particles)
             .flat_map(|i| [vec4(rest.positions[i], rest.lengths[i]), vec4(rest.local_directions[i], 0.0)])
             .collect();
@@ -522,7 +529,8 @@ impl GpuStrands {
         self.queue.write_buffer(&self.positions, 0, bytemuck::cast_slice(&placed));
         let mut encoder =
             self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("hair_gpu reset") });
-        encoder.clear_buffer(&self.motion, 0, None);
+        // The particles' motion, not the report of the steps before.
+        encoder.clear_buffer(&self.motion, 0, Some(self.report_offset()));
         encoder.clear_buffer(&self.springs, 0, None);
         self.queue.submit([encoder.finish()]);
         self.springs_remembered = false;
@@ -773,6 +781,30 @@ impl GpuStrands {
         PositionsCopy(BufferCopy::start(&self.device, &self.queue, &self.positions))
     }
 
+    /// Starts copying back what the steps since the last copy of the report did (summed as
+    /// [`StepReport::merge`] sums chunks), without waiting, and starts the next report
+    /// afresh: [`ReportCopy::into_report`] gives it.
+    pub fn copy_report(&self) -> ReportCopy {
+        let offset = self.report_offset();
+        let copy = BufferCopy::start_range(&self.device, &self.queue, &self.motion, offset);
+        let mut encoder =
+            self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("hair_gpu report") });
+        encoder.clear_buffer(&self.motion, offset, None);
+        self.queue.submit([encoder.finish()]);
+        ReportCopy(copy)
+    }
+
+    /// Waits for the queued steps and gives what they did since the report was last taken
+    /// ([`Self::copy_report`]).
+    pub fn report(&self) -> Result<StepReport, GpuError> {
+        self.copy_report().into_report()
+    }
+
+    /// Where the report starts in `motion`, bytes.
+    fn report_offset(&self) -> u64 {
+        u64::from(self.strands * self.particles_per_strand) * MOTION_BYTES
+    }
+
     /// Waits for every step queued so far.
     pub fn finish(&self) -> Result<(), GpuError> {
         self.device.poll(wgpu::PollType::wait_indefinitely()).map(|_| ()).map_err(|e| GpuError::ReadBack(e.to_string()))
@@ -796,6 +828,34 @@ impl PositionsCopy {
     }
 }
 
+/// A step report on its way back to the CPU ([`GpuStrands::copy_report`]).
+pub struct ReportCopy(BufferCopy);
+
+impl ReportCopy {
+    /// Whether the copy has arrived (or failed), waiting for it when `wait`.
+    pub fn arrived(&self, wait: bool) -> bool {
+        self.0.arrived(wait)
+    }
+
+    /// The report of every strand, summed, waiting for it if it has not arrived.
+    pub fn into_report(self) -> Result<StepReport, GpuError> {
+        let bytes = self.0.into_bytes()?;
+        let per_strand: &[[[f32; 4]; 2]] = bytemuck::cast_slice(&bytes);
+        let mut report = StepReport::default();
+        for &[[teleports, nans, contacts, depth], [stretches, turns, ..]] in per_strand {
+            report.merge(StepReport {
+                teleport_resets: teleports as u32,
+                nan_resets: nans as u32,
+                contacts: contacts as u32,
+                max_depth: depth,
+                contact_stretches: stretches as u32,
+                segment_turns: turns as u32,
+            });
+        }
+        Ok(report)
+    }
+}
+
 /// A buffer copied into a mappable one, on its way to the CPU.
 struct BufferCopy {
     device: wgpu::Device,
@@ -807,15 +867,21 @@ struct BufferCopy {
 impl BufferCopy {
     /// Queues the copy of `buffer` (with `COPY_SRC` use) and asks for it mapped.
     fn start(device: &wgpu::Device, queue: &wgpu::Queue, buffer: &wgpu::Buffer) -> Self {
+        Self::start_range(device, queue, buffer, 0)
+    }
+
+    /// [`Self::start`] for the bytes of `buffer` from `offset` on.
+    fn start_range(device: &wgpu::Device, queue: &wgpu::Queue, buffer: &wgpu::Buffer, offset: u64) -> Self {
+        let size = buffer.size() - offset;
         let staging = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("hair_gpu read-back"),
-            size: buffer.size(),
+            size,
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
         let mut encoder =
             device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("hair_gpu read-back") });
-        encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, buffer.size());
+        encoder.copy_buffer_to_buffer(buffer, offset, &staging, 0, size);
         queue.submit([encoder.finish()]);
         let mapped = std::sync::Arc::new(std::sync::OnceLock::new());
         let arrived = mapped.clone();

@@ -61,7 +61,8 @@ struct Step {
 // 0..=substeps, then the global-shape alpha of each particle index, four per vec4.
 @group(0) @binding(1) var<storage, read> tables: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read_write> positions: array<vec4<f32>>;
-// Per particle: velocity, position at the substep's start, FTL correction.
+// Per particle: velocity, position at the substep's start, FTL correction. Then per strand
+// two vec4: what its steps did since the report was last taken (`Tally`, added up).
 @group(0) @binding(3) var<storage, read_write> motion: array<vec4<f32>>;
 // Per particle: head-local rest position with the rest length of the segment ending there
 // in w, and the rest direction in the parent segment's frame.
@@ -93,6 +94,41 @@ fn head_vec3(i: u32) -> vec3<f32> {
 // The spring model's memory and scratch, six vec4 per particle (see `springs_*` below);
 // the root's first holds, in w, the substep length the memory was taken at (0: none).
 @group(0) @binding(8) var<storage, read_write> springs: array<vec4<f32>>;
+
+// What one strand's step did, as hair_sim's `StepReport` counts it. Counts are floats:
+// exact to 2^24, and kept as values, not bits (small integers as float bits are
+// denormals, which a GPU may flush to zero).
+struct Tally {
+    teleport_resets: f32,
+    nan_resets: f32,
+    contacts: f32,
+    max_depth: f32,
+    contact_stretches: f32,
+    segment_turns: f32,
+}
+
+var<private> tally: Tally;
+
+// A contact `depth` into a collider's shell.
+fn touch(depth: f32) {
+    tally.contacts += 1.0;
+    tally.max_depth = max(tally.max_depth, depth);
+}
+
+// Adds this step's tally to the strand's report in `motion` (the deepest contact: the
+// deeper of the two).
+fn add_to_report(strand: u32) {
+    let at = 3u * step.counts.x * step.counts.y + 2u * strand;
+    let kept = motion[at];
+    motion[at] = vec4<f32>(
+        kept.x + tally.teleport_resets,
+        kept.y + tally.nan_resets,
+        kept.z + tally.contacts,
+        max(kept.w, tally.max_depth),
+    );
+    let more = motion[at + 1u];
+    motion[at + 1u] = vec4<f32>(more.x + tally.contact_stretches, more.y + tally.segment_turns, 0.0, 0.0);
+}
 
 struct Pose {
     rotation: mat3x3<f32>,
@@ -433,6 +469,7 @@ fn out_of_extras(x_in: vec3<f32>, origin: vec3<f32>) -> vec3<f32> {
         let contact = extra_contact(e, x);
         if contact.hit {
             x = with_friction(contact.position, contact.normal, origin);
+            touch(contact.depth);
         }
     }
     return x;
@@ -774,6 +811,7 @@ fn outside_at_length(placed_in: vec3<f32>, parent: vec3<f32>, segment: f32, now:
     if best.w > -2.0 {
         return parent + best.xyz * segment;
     }
+    tally.contact_stretches += 1.0;
     return deep.position - deep.normal * (step.limits.y - 1e-6);
 }
 
@@ -811,6 +849,7 @@ fn keep_segments_outside(first: u32, n: u32, now: Pose) {
             continue;
         }
         let turned = world_point(now, local_turned);
+        tally.segment_turns += 1.0;
         // The strand placed again from the turned particle; where placing it on the shell
         // took the segment back through (a fold), once more from the turned particle as it
         // was turned.
@@ -1058,6 +1097,7 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
                         x = world_point(now, contact.position);
                         break;
                     }
+                    touch(contact.depth);
                     let held = with_friction(contact.position, contact.normal, local_point(before, start(i)));
                     x = world_point(now, held);
                     if !(length(held - contact.position) > 0.25 * step.limits.y) {
@@ -1069,6 +1109,7 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
                 let local = local_point(now, x);
                 let skin = patch_contact(local);
                 if skin.hit {
+                    touch(skin.depth);
                     x = world_point(now, with_friction(skin.position, skin.normal, local_point(before, start(i))));
                 }
             }
@@ -1315,6 +1356,8 @@ fn step_strands(@builtin(global_invocation_id) id: vec3<u32>) {
     let jump = length(world_point(last, rest_position(first)) - positions[first].xyz);
     if !(jump <= step.limits.w) {
         reset_strand(first, n, last);
+        tally.teleport_resets = 1.0;
+        add_to_report(strand);
         return;
     }
     // The spring model's memory is stale after a step without it.
@@ -1325,6 +1368,7 @@ fn step_strands(@builtin(global_invocation_id) id: vec3<u32>) {
         substep(strand, first, n, k);
     }
     reset_if_not_finite(first, n, last);
+    add_to_report(strand);
 }
 
 // A strand with a particle or velocity that is not finite starts over at rest under `pose`.
@@ -1332,6 +1376,7 @@ fn reset_if_not_finite(first: u32, n: u32, at: Pose) {
     for (var j = 0u; j < n; j++) {
         if !(finite(positions[first + j].xyz) && finite(velocity(first + j))) {
             reset_strand(first, n, at);
+            tally.nan_resets = 1.0;
             return;
         }
     }
