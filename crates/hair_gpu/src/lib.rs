@@ -3,7 +3,8 @@
 //!
 //! [`GpuStrands`] mirrors [`hair_sim::solver::Strands`]: built from the same
 //! [`RestShape`] and head pose, stepped with the same [`StepInput`], read back on demand
-//! ([`GpuStrands::positions`], or without waiting, [`GpuStrands::copy_positions`]), and
+//! ([`GpuStrands::positions`], or without waiting, [`GpuStrands::copy_positions`]) with
+//! what the steps did (the CPU's [`StepReport`] counts: [`GpuStrands::report`]), and
 //! drawn without a read-back: [`GpuDrawing`] writes them, as a renderer draws them in a
 //! frame, into the renderer's buffer. Without collision it follows the CPU solver operation for
 //! operation (the same integration, shape keeping, Follow-The-Leader, wind and resets).
