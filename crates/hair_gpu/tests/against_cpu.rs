@@ -253,7 +253,7 @@ fn with_collision_the_gpu_stays_near_the_cpu_and_out_of_the_head() {
         // places and turns segments by the same rules, so the two part by rounding, which
         // contact grows along a strand (lavapipe, 2026-12-04: normal response mean 0.1 µm,
         // max 0.04 mm; centre ray 0.1 µm and 0.01 mm).
-        assert!(mean < 1e-5 && max < 1e-3, "mean {mean} m, max {max} m apart");
+        assert!(mean < 1e-5 && max < 1e-4, "mean {mean} m, max {max} m apart");
         // Without the whole-segment test, 1 and 5 of the 7,168 segments below the roots cut
         // an ear's rim.
         assert_eq!(crossing, 0, "segments through the head");
@@ -399,14 +399,16 @@ fn a_one_second_hitch_is_taken_as_on_the_cpu() {
     let stretch = max_stretch(&positions, &rest);
     let crossing = crossing_segments(&positions, n, &collider, turned(time));
     eprintln!(
-        "after a 1 s hitch: mean {:.4} mm, max {:.2} mm apart, depth {depth:e} m, stretch {stretch:e}; \
+        "after a 1 s hitch: mean {:.4} mm, max {:.4} mm apart, depth {depth:e} m, stretch {stretch:e}; \
          {crossing} segments through the head ({} on the CPU)",
         mean * 1e3,
         max * 1e3,
         crossing_segments(cpu.positions(), n, &collider, turned(time))
     );
     assert!(positions.iter().all(|p| p.is_finite()));
-    // lavapipe, 2026-12-04: mean 0.007 mm, max 3.2 mm.
+    // lavapipe, 2026-12-04: mean 0.007 mm, max 3.2 mm. The turn leaves particles deep inside
+    // the head, where no candidate list reaches and the grid's gradient stands in for the
+    // CPU's BVH walk: testing every triangle there instead gave max 1.6 µm.
     assert!(mean < 1e-4 && max < 5e-3, "mean {mean} m, max {max} m apart");
     assert!(depth <= 5e-4, "{depth} m inside the head");
     assert!(stretch <= 1e-4, "stretch {stretch}");
