@@ -100,25 +100,12 @@ fn run_both(
     steps: usize,
     pose_at: impl Fn(f32) -> Pose,
 ) -> (Vec<Vec3>, Vec<Vec3>) {
-    run_both_with(gpu, rest, collider, params, &[], steps, pose_at)
-}
-
-/// [`run_both`] with extra colliders.
-fn run_both_with(
-    gpu: &GpuContext,
-    rest: &RestShape,
-    collider: &HeadCollider,
-    params: &SimParams,
-    extra_colliders: &[ExtraCollider],
-    steps: usize,
-    pose_at: impl Fn(f32) -> Pose,
-) -> (Vec<Vec3>, Vec<Vec3>) {
-    let [(cpu, _), (on_gpu, _)] = run_both_reporting(gpu, rest, collider, params, extra_colliders, steps, pose_at);
+    let [(cpu, _), (on_gpu, _)] = run_both_reporting(gpu, rest, collider, params, &[], steps, pose_at);
     (cpu, on_gpu)
 }
 
-/// [`run_both_with`], with what each backend's steps reported, summed (the CPU's reports
-/// merged step by step, the GPU's taken once at the end).
+/// [`run_both`] with extra colliders, and what each backend's steps reported, summed (the
+/// CPU's reports merged step by step, the GPU's taken once at the end).
 fn run_both_reporting(
     gpu: &GpuContext,
     rest: &RestShape,
