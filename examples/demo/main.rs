@@ -42,7 +42,7 @@ const USAGE: &str = "usage: demo [--preset NAME] [--lights KIND] [--shading MODE
   --self-shadow X    how much light a layer of hair stops, 0 to 1 (0: no self-shadowing)
   --antialias MODE   how strands thinner than a pixel are drawn: auto (default: blended when the
                      whole groom is that thin), coverage (MSAA alpha-to-coverage), blended, off
-  --solver cpu|gpu   step the hair on the CPU (default) or with the GPU solver (each step read back)
+  --solver cpu|gpu   step the hair on the CPU (default) or with the GPU solver (drawn from the GPU)
   --camera Y,P,D     start the orbit camera at yaw Y and pitch P (radians), D metres away
   --screenshot FILE  render N frames once the hair is grown, save the last as FILE (PNG), check it, exit
   --frames N         frames of animation before the screenshot (default 60)
