@@ -517,7 +517,10 @@ impl HeadCollider {
         let closest = match self.candidates.closest(&self.triangles, &self.mesh, p, at, reach) {
             Near::Closest(closest) => closest,
             Near::Beyond => return Resolution::Clear(thickness),
-            Near::Unlisted => match self.closest_by_bvh(p, approx.abs() + error + thickness) {
+            // Beyond the grid's exact band its value only bounds the distance from below:
+            // inside, the search has no bound (a point deep in the head is still inside).
+            Near::Unlisted => match self.closest_by_bvh(p, if outside { approx + error + thickness } else { f32::MAX })
+            {
                 Some(closest) => closest,
                 None => return Resolution::Clear(thickness),
             },
@@ -580,6 +583,34 @@ mod tests {
         assert!(collider.signed_distance(Vec3::ZERO) < -0.07);
         let above = collider.signed_distance(Vec3::new(0.0, 0.2, 0.0));
         assert!((above - 0.09).abs() < 2e-3, "{above}");
+    }
+
+    /// Beyond the grid's exact band its values only bound the distance from below; a point
+    /// that deep in the head is still inside and still pushed out (the search for its
+    /// closest point once stopped at that bound and called points 5 cm deep clear).
+    #[test]
+    fn points_deep_in_the_head_are_pushed_out() {
+        use crate::mesh::InsideTest;
+        let head = test_head(4);
+        let collider = HeadCollider::new(&head, 64).unwrap();
+        let inside = InsideTest::new(&head);
+        let thickness = 0.001;
+        let mut tested = 0;
+        for k in 0..200 {
+            let t = k * 37 % head.triangles.len();
+            let (surface, normal) = (head.point_at(t, [0.3, 0.3, 0.4]), head.normal_at(t, [0.3, 0.3, 0.4]));
+            for depth in [0.001f32, 0.005, 0.01, 0.02, 0.03, 0.05] {
+                let p = surface - normal * depth;
+                // Measured by the independent inside test, not the collider's own distance.
+                let Some(true_depth) = inside.depth(p).filter(|&d| d > 5e-4) else { continue };
+                let contact =
+                    collider.resolve(p, thickness).unwrap_or_else(|| panic!("{p}, {true_depth} m deep: clear"));
+                assert!((contact.depth - thickness - true_depth).abs() < 1e-4, "{p}: depth {}", contact.depth);
+                assert!(!inside.contains(contact.position), "{p} pushed to {}, still inside", contact.position);
+                tested += 1;
+            }
+        }
+        assert!(tested > 1000, "{tested} points inside");
     }
 
     #[test]
