@@ -517,10 +517,9 @@ impl HeadCollider {
         let closest = match self.candidates.closest(&self.triangles, &self.mesh, p, at, reach) {
             Near::Closest(closest) => closest,
             Near::Beyond => return Resolution::Clear(thickness),
-            // Beyond the grid's exact band its value only bounds the distance from below:
-            // inside, the search has no bound (a point deep in the head is still inside).
-            Near::Unlisted => match self.closest_by_bvh(p, if outside { approx + error + thickness } else { f32::MAX })
-            {
+            // `reach`, not the grid's value, bounds the search inside: beyond the grid's exact
+            // band that value only bounds the distance from below.
+            Near::Unlisted => match self.closest_by_bvh(p, reach + thickness) {
                 Some(closest) => closest,
                 None => return Resolution::Clear(thickness),
             },
