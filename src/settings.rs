@@ -35,8 +35,8 @@ pub enum HairBackend {
     /// without waiting, a frame or two late; what the CPU computes from them (the drawing's
     /// bounds, the blended draw order, self-shadow maps, `.hair` files) is as late.
     /// [`HairState::read_back_gpu`] waits for the last step's. [`HairState::last_report`]
-    /// comes back the same way: each step's holds the reports that came back during it. Every guide is
-    /// simulated (levels of detail do not apply).
+    /// comes back the same way: each step's holds the reports that came back during it.
+    /// Every guide is simulated (levels of detail do not apply).
     /// Where the GPU cannot step the groom (no render device, an adapter without compute),
     /// it steps on the CPU and a [`HairError`](crate::HairError) says why, once.
     ///

@@ -532,7 +532,8 @@ fn crossed_stretch(a: vec3<f32>, a_distance: f32, b: vec3<f32>) -> vec3<f32> {
     if min(a_distance, head_surface(b).distance) > 0.5 * span {
         return vec3<f32>(0.0);
     }
-    // From `a` to `b`, then (where it goes in) back from `b`.
+    // From `a` to `b`, then (where it goes in) back from `b`: one call site for both ways
+    // (see `first_inside` on why).
     var enters = 0.0;
     for (var way = 0u; way < 2u; way++) {
         let found = first_inside(select(a, b, way == 1u), select(b, a, way == 1u), span);
