@@ -9,6 +9,11 @@ pub struct HairDiagnostics;
 impl HairDiagnostics {
     /// Wall time of the last fixed step's solver work, milliseconds, all grooms.
     pub const STEP_TIME: DiagnosticPath = DiagnosticPath::const_new("hair/step_ms");
+    /// GPU time of the GPU solver's step, milliseconds, summed over the grooms the GPU
+    /// steps ([`HairBackend::Gpu`](crate::HairBackend::Gpu)): for each, one of its latest
+    /// steps, timed with timestamp queries and read back with its report a frame or two
+    /// late. Published only where the render device has timestamp queries.
+    pub const GPU_STEP_TIME: DiagnosticPath = DiagnosticPath::const_new("hair/gpu_step_ms");
     /// Guide strands the solver stepped in the last fixed step, all grooms (a level of
     /// detail, [`HairLod`](crate::HairLod), leaves out the guides that follow).
     pub const GUIDES: DiagnosticPath = DiagnosticPath::const_new("hair/guides");
@@ -26,8 +31,9 @@ impl HairDiagnostics {
     pub const UPLOAD_TIME: DiagnosticPath = DiagnosticPath::const_new("hair/upload_ms");
 
     /// Every path above, for registration.
-    pub const ALL: [DiagnosticPath; 7] = [
+    pub const ALL: [DiagnosticPath; 8] = [
         Self::STEP_TIME,
+        Self::GPU_STEP_TIME,
         Self::GUIDES,
         Self::PARTICLES,
         Self::RENDERED_STRANDS,

@@ -34,6 +34,9 @@ pub(crate) struct GpuSolver {
     report: Option<hair_gpu::ReportCopy>,
     /// Reports that have arrived and were not taken yet ([`Self::take_report`]), summed.
     arrived: Option<StepReport>,
+    /// The GPU time of the last step before the latest report that arrived, milliseconds,
+    /// where the device times steps, until taken ([`Self::take_step_ms`]).
+    step_ms: Option<f64>,
     /// Why the GPU last could not step the groom, as reported (`None`: it could, or was
     /// not asked to).
     pub issue: Option<String>,
@@ -102,8 +105,9 @@ impl GpuSolver {
         if !self.report.as_ref().is_some_and(|r| r.arrived(wait)) {
             return;
         }
-        if let Some(Ok(report)) = self.report.take().map(hair_gpu::ReportCopy::into_report) {
+        if let Some(Ok((report, ms))) = self.report.take().map(hair_gpu::ReportCopy::into_timed_report) {
             self.arrived.get_or_insert_default().merge(report);
+            self.step_ms = ms.or(self.step_ms);
         }
     }
 
@@ -179,6 +183,12 @@ impl GpuSolver {
     /// (a frame or two after their steps; `None`: none came back).
     pub fn take_report(&mut self) -> Option<StepReport> {
         self.arrived.take()
+    }
+
+    /// The GPU time of one of the GPU's latest steps, milliseconds, if one came back since
+    /// this was last called (only where the device has timestamp queries).
+    pub fn take_step_ms(&mut self) -> Option<f64> {
+        self.step_ms.take()
     }
 }
 

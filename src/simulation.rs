@@ -571,6 +571,8 @@ pub(crate) fn simulate(
 ) {
     let started = Instant::now();
     let (mut guides, mut particles) = (0, 0);
+    // The GPU time of the grooms the GPU steps, where it came back.
+    let mut gpu_step_ms: Option<f64> = None;
     let dt = time.delta_secs();
     // A collider in a hierarchy belongs to the character at its root; a top-level one to all.
     let scoped: Vec<(Option<Entity>, ExtraCollider)> = colliders
@@ -624,6 +626,9 @@ pub(crate) fn simulate(
             // What came back from the GPU's earlier steps during this one.
             state.last_report = state.gpu.take_report().unwrap_or_default();
             warn_of_resets(entity, &state.last_report);
+            if let Some(ms) = state.gpu.take_step_ms() {
+                *gpu_step_ms.get_or_insert(0.0) += ms;
+            }
             state.last_step_time = groom_started.elapsed();
             state.time += dt;
             guides += state.strands.strand_count();
@@ -655,6 +660,9 @@ pub(crate) fn simulate(
     }
     let elapsed_ms = started.elapsed().as_secs_f64() * 1e3;
     diagnostics.add_measurement(&HairDiagnostics::STEP_TIME, || elapsed_ms);
+    if let Some(ms) = gpu_step_ms {
+        diagnostics.add_measurement(&HairDiagnostics::GPU_STEP_TIME, || ms);
+    }
     diagnostics.add_measurement(&HairDiagnostics::GUIDES, || guides as f64);
     diagnostics.add_measurement(&HairDiagnostics::PARTICLES, || particles as f64);
 }

@@ -523,6 +523,8 @@ struct Beside {
     /// Every step's `HairState::last_report` summed, the first app's (with what its last
     /// read-back brought) and the plain app's.
     reported: [StepReport; 2],
+    /// The first app's `HairDiagnostics::GPU_STEP_TIME`: every measurement, milliseconds.
+    gpu_step_ms: Vec<f64>,
 }
 
 /// Grows `groom()` in `app` (with `backend`) and in a plain app on the CPU, turns both
@@ -551,13 +553,24 @@ fn beside_the_cpu(mut app: App, backend: HairBackend, frames: usize) -> Beside {
         reported[0].merge(state(&app, head).last_report());
     }
     let fallbacks = std::mem::take(&mut app.world_mut().resource_mut::<GpuFallbacks>().0);
-    Beside { copied, exact: positions(&app, head), on_cpu: positions(&cpu, cpu_head), fallbacks, reported }
+    let diagnostics = app.world().resource::<bevy::diagnostic::DiagnosticsStore>();
+    let gpu_step_ms = diagnostics.get(&HairDiagnostics::GPU_STEP_TIME).map(|d| d.values().copied().collect());
+    Beside {
+        copied,
+        exact: positions(&app, head),
+        on_cpu: positions(&cpu, cpu_head),
+        fallbacks,
+        reported,
+        gpu_step_ms: gpu_step_ms.unwrap_or_default(),
+    }
 }
 
 #[test]
 fn the_gpu_backend_steps_a_groom_as_the_cpu_does() {
     let Some(app) = app_on_a_gpu() else { return };
-    let Beside { copied, exact: on_gpu, on_cpu, fallbacks, reported } = beside_the_cpu(app, HairBackend::Gpu, 60);
+    let timestamps = app.world().resource::<RenderDevice>().features().contains(wgpu::Features::TIMESTAMP_QUERY);
+    let Beside { copied, exact: on_gpu, on_cpu, fallbacks, reported, gpu_step_ms } =
+        beside_the_cpu(app, HairBackend::Gpu, 60);
     assert!(fallbacks.is_empty(), "stepped on the GPU: {fallbacks:?}");
     let apart: Vec<f32> = on_gpu.iter().zip(&on_cpu).map(|(a, b)| a.distance(*b)).collect();
     let mean = apart.iter().sum::<f32>() / apart.len() as f32;
@@ -578,6 +591,15 @@ fn the_gpu_backend_steps_a_groom_as_the_cpu_does() {
     assert!(gpu.contacts.abs_diff(cpu.contacts) as f32 <= 1.0 + 1e-3 * cpu.contacts as f32, "contacts");
     assert!(gpu.segment_turns.abs_diff(cpu.segment_turns) as f32 <= 1.0 + 1e-3 * cpu.segment_turns as f32);
     assert!((gpu.max_depth - cpu.max_depth).abs() <= 1e-6, "deepest contact");
+    // Where the device times passes, the steps' GPU time came back with the reports: a
+    // measurement for most of the 60 frames (a copy is on its way for a frame or two).
+    eprintln!("GPU time per step, timestamps {timestamps}: {gpu_step_ms:.3?} ms");
+    if timestamps {
+        assert!(gpu_step_ms.len() >= 20, "{} GPU step times", gpu_step_ms.len());
+        assert!(gpu_step_ms.iter().all(|ms| ms.is_finite() && *ms > 0.0 && *ms < 1e4), "{gpu_step_ms:?}");
+    } else {
+        assert!(gpu_step_ms.is_empty());
+    }
     // And it moved: the turn swings the tips by centimetres.
     let still = beside_the_cpu(app_with_render_device().unwrap(), HairBackend::Gpu, 1).exact;
     let swing = on_gpu.iter().zip(&still).map(|(a, b)| a.distance(*b)).fold(0.0, f32::max);
@@ -592,7 +614,8 @@ fn the_gpu_backend_steps_a_groom_as_the_cpu_does() {
 
 #[test]
 fn without_a_render_device_the_gpu_backend_says_why_once_and_steps_on_the_cpu() {
-    let Beside { copied, exact: fell_back, on_cpu, fallbacks, reported } = beside_the_cpu(app(), HairBackend::Gpu, 30);
+    let Beside { copied, exact: fell_back, on_cpu, fallbacks, reported, gpu_step_ms } =
+        beside_the_cpu(app(), HairBackend::Gpu, 30);
     assert_eq!(copied, fell_back, "nothing to wait for on the CPU");
     assert_eq!(fallbacks.len(), 1, "reported once: {fallbacks:?}");
     assert!(fallbacks[0].contains("no render device"), "{}", fallbacks[0]);
@@ -600,4 +623,5 @@ fn without_a_render_device_the_gpu_backend_says_why_once_and_steps_on_the_cpu() 
     assert_eq!(fell_back, on_cpu);
     assert_eq!(reported[0], reported[1]);
     assert!(reported[0].contacts > 0);
+    assert!(gpu_step_ms.is_empty(), "no GPU time without a GPU step");
 }

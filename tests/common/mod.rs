@@ -108,7 +108,12 @@ pub fn app_with_render_device() -> Result<App, String> {
     let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
     let adapter = bevy::tasks::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions::default()))
         .map_err(|e| format!("no GPU adapter ({e}); install mesa-vulkan-drivers and libvulkan1 for lavapipe"))?;
-    let (device, queue) = bevy::tasks::block_on(adapter.request_device(&wgpu::DeviceDescriptor::default()))
+    // Timestamp queries where the adapter has them, as Bevy's renderer asks for them.
+    let descriptor = wgpu::DeviceDescriptor {
+        required_features: adapter.features() & wgpu::Features::TIMESTAMP_QUERY,
+        ..Default::default()
+    };
+    let (device, queue) = bevy::tasks::block_on(adapter.request_device(&descriptor))
         .map_err(|e| format!("the adapter opened no device ({e})"))?;
     let mut app = app();
     app.insert_resource(RenderDevice::from(device))

@@ -146,12 +146,14 @@ impl GpuContext {
     }
 
     /// A device someone else opened (an engine's render device), if its limits let the
-    /// solver run: compute workgroups of 64 and eight storage buffers per stage.
+    /// solver run: compute workgroups of 64 and eight storage buffers per stage. Steps are
+    /// timed where it was opened with timestamp queries.
     pub fn new(device: wgpu::Device, queue: wgpu::Queue, adapter: wgpu::AdapterInfo) -> Result<Self, GpuError> {
         if !can_step(&device.limits()) {
             return Err(GpuError::NoCompute(adapter.name));
         }
-        Ok(GpuContext { device, queue, adapter, timestamps: false })
+        let timestamps = device.features().contains(wgpu::Features::TIMESTAMP_QUERY);
+        Ok(GpuContext { device, queue, adapter, timestamps })
     }
 }
 
@@ -581,21 +583,25 @@ impl GpuStrands {
 
     /// Queues one step of `input` (the same input a CPU [`hair_sim::solver::Strands`] takes;
     /// its collider must be the one these strands were built with). A step too short to
-    /// take, or with an invalid pose, changes nothing, as on the CPU.
+    /// take, or with an invalid pose, changes nothing, as on the CPU. Where the device has
+    /// timestamp queries the step is timed, for [`Self::step_timed`] and the report
+    /// ([`ReportCopy::into_timed_report`]).
     pub fn step(&mut self, input: &StepInput) -> Result<(), GpuError> {
-        self.encode_step(input, None)
+        let timestamps = self.timestamps.take();
+        let result = self.encode_step(input, timestamps.as_ref());
+        self.timestamps = timestamps;
+        result
     }
 
-    /// [`Self::step`], timed on the GPU with timestamp queries where the device has them:
-    /// the pass's duration in milliseconds, once it has run (this waits for it).
+    /// [`Self::step`], and the GPU time of the last step that ran, milliseconds, where the
+    /// device has timestamp queries (this waits for it).
     pub fn step_timed(&mut self, input: &StepInput) -> Result<Option<f64>, GpuError> {
-        let Some(timestamps) = self.timestamps.take() else {
-            self.step(input)?;
-            return Ok(None);
-        };
-        let result = self.encode_step(input, Some(&timestamps)).and_then(|()| timestamps.read(self));
-        self.timestamps = Some(timestamps);
-        result.map(Some)
+        self.step(input)?;
+        match &self.timestamps {
+            Some(timestamps) => read_buffer(&self.device, &self.queue, &timestamps.readback)
+                .map(|bytes| duration_ms(&bytes, self.queue.get_timestamp_period())),
+            None => Ok(None),
+        }
     }
 
     fn encode_step(&mut self, input: &StepInput, timestamps: Option<&Timestamps>) -> Result<(), GpuError> {
@@ -783,8 +789,8 @@ impl GpuStrands {
     }
 
     /// Starts copying back what the steps since the last copy of the report did (summed as
-    /// [`StepReport::merge`] sums chunks), without waiting, and starts the next report
-    /// afresh: [`ReportCopy::into_report`] gives it.
+    /// [`StepReport::merge`] sums chunks) and how long the last of them took, without
+    /// waiting, and starts the next report afresh: [`ReportCopy::into_report`] gives it.
     pub fn copy_report(&self) -> ReportCopy {
         let offset = self.report_offset();
         let copy = BufferCopy::start_range(&self.device, &self.queue, &self.motion, offset);
@@ -792,7 +798,11 @@ impl GpuStrands {
             self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("hair_gpu report") });
         encoder.clear_buffer(&self.motion, offset, None);
         self.queue.submit([encoder.finish()]);
-        ReportCopy(copy)
+        let time = self
+            .timestamps
+            .as_ref()
+            .map(|t| (BufferCopy::start(&self.device, &self.queue, &t.readback), self.queue.get_timestamp_period()));
+        ReportCopy { report: copy, time }
     }
 
     /// Waits for the queued steps and gives what they did since the report was last taken
@@ -830,18 +840,38 @@ impl PositionsCopy {
 }
 
 /// A step report on its way back to the CPU ([`GpuStrands::copy_report`]).
-pub struct ReportCopy(BufferCopy);
+pub struct ReportCopy {
+    report: BufferCopy,
+    /// The last step's timestamps and the queue's nanoseconds per tick, where it has them.
+    time: Option<(BufferCopy, f32)>,
+}
 
 impl ReportCopy {
     /// Whether the copy has arrived (or failed), waiting for it when `wait`.
     pub fn arrived(&self, wait: bool) -> bool {
-        self.0.arrived(wait)
+        // Both were queued together: the second arrives with the first.
+        self.report.arrived(wait) && self.time.as_ref().is_none_or(|(time, _)| time.arrived(wait))
+    }
+
+    /// The report and the GPU time of the last step before it, milliseconds (`None` where
+    /// the device has no timestamp queries, or no step was timed yet), waiting for them if
+    /// they have not arrived.
+    pub fn into_timed_report(self) -> Result<(StepReport, Option<f64>), GpuError> {
+        let ms = match self.time {
+            Some((time, period)) => duration_ms(&time.into_bytes()?, period),
+            None => None,
+        };
+        Ok((Self::sum(&self.report.into_bytes()?), ms))
     }
 
     /// The report of every strand, summed, waiting for it if it has not arrived.
     pub fn into_report(self) -> Result<StepReport, GpuError> {
-        let bytes = self.0.into_bytes()?;
-        let per_strand: &[[[f32; 4]; 2]] = bytemuck::cast_slice(&bytes);
+        Ok(Self::sum(&self.report.into_bytes()?))
+    }
+
+    /// Sums the strands' reports.
+    fn sum(bytes: &[u8]) -> StepReport {
+        let per_strand: &[[[f32; 4]; 2]] = bytemuck::cast_slice(bytes);
         let mut report = StepReport::default();
         for &[[teleports, nans, contacts, depth], [stretches, turns, ..]] in per_strand {
             report.merge(StepReport {
@@ -853,7 +883,7 @@ impl ReportCopy {
                 segment_turns: turns as u32,
             });
         }
-        Ok(report)
+        report
     }
 }
 
@@ -982,6 +1012,15 @@ fn read_buffer(device: &wgpu::Device, queue: &wgpu::Queue, buffer: &wgpu::Buffer
     BufferCopy::start(device, queue, buffer).into_bytes()
 }
 
+/// The milliseconds between a pass's two timestamps (`bytes`: two u64 ticks of `period`
+/// nanoseconds); `None` before any pass wrote them.
+fn duration_ms(bytes: &[u8], period: f32) -> Option<f64> {
+    let tick = |i: usize| Some(u64::from_le_bytes(bytes.get(8 * i..8 * i + 8)?.try_into().ok()?));
+    let (start, end) = (tick(0)?, tick(1)?);
+    let ticks = end.checked_sub(start).filter(|_| start != 0)?;
+    Some(ticks as f64 * f64::from(period) * 1e-6)
+}
+
 /// A pass's start and end timestamps, resolved and read back.
 struct Timestamps {
     queries: wgpu::QuerySet,
@@ -1012,14 +1051,6 @@ impl Timestamps {
                 wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
             ),
         }
-    }
-
-    /// The last timed pass's duration, milliseconds.
-    fn read(&self, strands: &GpuStrands) -> Result<f64, GpuError> {
-        let bytes = read_buffer(&strands.device, &strands.queue, &self.readback)?;
-        let ticks: &[u64] = bytemuck::cast_slice(&bytes);
-        let period = strands.queue.get_timestamp_period() as f64;
-        Ok(ticks[1].saturating_sub(ticks[0]) as f64 * period * 1e-6)
     }
 }
 
