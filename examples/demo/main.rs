@@ -6,7 +6,7 @@
 //! cargo run --release --example demo
 //! cargo run --example demo -- [--preset NAME] [--lights KIND] [--shading MODEL] [--self-shadow X]
 //!     [--antialias MODE] [--solver cpu|gpu] [--camera Y,P,D] [--screenshot FILE [--frames N] [--no-panel]
-//!     [--size WxH]]
+//!     [--size WxH] [--offscreen]]
 //! ```
 //!
 //! Mouse: drag to orbit, wheel to zoom; in "drag the head" mode the left button moves the
@@ -16,7 +16,8 @@
 //! `--screenshot FILE` (or `HAIR_DEMO_SCREENSHOT=FILE`) waits until the groom is grown,
 //! plays `--frames N` (or `HAIR_DEMO_FRAMES`, default 60) frames of the animation at a fixed
 //! 1/60 s per frame, saves the last one, checks that hair covers the scalp in it, and exits
-//! (status 0 on success). See `screenshot.rs`.
+//! (status 0 on success). See `screenshot.rs`. With `--offscreen` it draws into an image
+//! instead of a window, so it runs where there is no display (a GPU server, say).
 
 mod motion;
 mod panel;
@@ -24,17 +25,22 @@ mod presets;
 mod scene;
 mod screenshot;
 
+use bevy::app::ScheduleRunnerPlugin;
 use bevy::diagnostic::FrameTimeDiagnosticsPlugin;
 use bevy::gltf::GltfPlugin;
 use bevy::prelude::*;
 use bevy::render::RenderPlugin;
-use bevy::window::WindowResolution;
+use bevy::render::diagnostic::RenderDiagnosticsPlugin;
+use bevy::window::{ExitCondition, WindowResolution};
+use bevy::winit::WinitPlugin;
 use bevy_egui::EguiPlugin;
 use bevy_hair::prelude::*;
 use std::path::PathBuf;
+use std::time::Duration;
 
 const USAGE: &str = "usage: demo [--preset NAME] [--lights KIND] [--shading MODEL] [--self-shadow X] [--antialias MODE]
-            [--solver cpu|gpu] [--camera Y,P,D] [--screenshot FILE [--frames N] [--no-panel] [--size WxH]]
+            [--solver cpu|gpu] [--camera Y,P,D] [--screenshot FILE [--frames N] [--no-panel] [--size WxH]
+            [--offscreen]]
   --preset NAME      start with this hairstyle: Shoulder (default), Short, Long, Curly, Windy, Reference
   --lights KIND      studio (default: key, fill and rim lights), lamps (a point and a spot light),
                      above (one light from above), behind (one light from behind)
@@ -48,6 +54,8 @@ const USAGE: &str = "usage: demo [--preset NAME] [--lights KIND] [--shading MODE
   --frames N         frames of animation before the screenshot (default 60)
   --no-panel         hide the egui panel
   --size WxH         the window's size (default 1280x720)
+  --offscreen        with --screenshot: draw into an image of that size instead of a window (no
+                     display needed, no panel)
 environment: HAIR_DEMO_SCREENSHOT=FILE, HAIR_DEMO_FRAMES=N (the flags win)";
 
 /// What the command line asked for.
@@ -57,6 +65,7 @@ struct Options {
     panel: bool,
     preset: &'static str,
     size: UVec2,
+    offscreen: bool,
     stage: scene::Stage,
 }
 
@@ -73,6 +82,7 @@ fn parse_args() -> Result<Options, String> {
         panel: true,
         preset: presets::shoulder().name,
         size: UVec2::new(1280, 720),
+        offscreen: false,
         stage: scene::Stage::default(),
     };
     let mut args = std::env::args().skip(1);
@@ -81,6 +91,7 @@ fn parse_args() -> Result<Options, String> {
             "--screenshot" => options.screenshot = Some(args.next().ok_or("--screenshot needs a file name")?.into()),
             "--frames" => options.frames = parse_frames(&args.next().ok_or("--frames needs a number")?)?,
             "--no-panel" => options.panel = false,
+            "--offscreen" => options.offscreen = true,
             "--antialias" => {
                 let name = args.next().ok_or("--antialias needs a mode")?;
                 let mode = scene::ANTIALIAS_MODES.iter().find_map(|&(mode, n)| (n == name).then_some(mode));
@@ -133,11 +144,18 @@ fn parse_args() -> Result<Options, String> {
             other => return Err(format!("unknown argument {other:?}")),
         }
     }
+    if options.offscreen {
+        if options.screenshot.is_none() {
+            return Err("--offscreen draws only for --screenshot: nothing would be seen".into());
+        }
+        // egui draws into a window.
+        options.panel = false;
+    }
     Ok(options)
 }
 
 fn main() -> AppExit {
-    let options = match parse_args() {
+    let mut options = match parse_args() {
         Ok(options) => options,
         Err(e) => {
             eprintln!("demo: {e}\n{USAGE}");
@@ -152,26 +170,37 @@ fn main() -> AppExit {
         resizable: !screenshot_mode,
         ..default()
     };
+    let plugins = DefaultPlugins
+        // What a user with a `_SCALP` density attribute in their glTF would do; this head
+        // is painted in COLOR_0, which the default `ScalpSource::VertexColor` reads.
+        .set(GltfPlugin::default().add_custom_vertex_attribute("_SCALP", bevy_hair::ATTRIBUTE_SCALP))
+        // Compiling pipelines before the first draw keeps early screenshot frames from
+        // missing meshes; interactively, asynchronous compilation shows the window sooner.
+        .set(RenderPlugin { synchronous_pipeline_compilation: screenshot_mode, ..default() });
+    let plugins = if options.offscreen {
+        // No window and no windowing system: the app loops by itself (as fast as it can)
+        // and the camera draws into an image (`scene::Stage::offscreen`).
+        options.stage.offscreen = Some(options.size);
+        plugins
+            .disable::<WinitPlugin>()
+            .set(WindowPlugin { primary_window: None, exit_condition: ExitCondition::DontExit, ..default() })
+            .add(ScheduleRunnerPlugin::run_loop(Duration::ZERO))
+    } else {
+        plugins.set(WindowPlugin { primary_window: Some(window), ..default() })
+    };
     let mut app = App::new();
-    app.add_plugins(
-        DefaultPlugins
-            .set(WindowPlugin { primary_window: Some(window), ..default() })
-            // What a user with a `_SCALP` density attribute in their glTF would do; this head
-            // is painted in COLOR_0, which the default `ScalpSource::VertexColor` reads.
-            .set(GltfPlugin::default().add_custom_vertex_attribute("_SCALP", bevy_hair::ATTRIBUTE_SCALP))
-            // Compiling pipelines before the first draw keeps early screenshot frames from
-            // missing meshes; interactively, asynchronous compilation shows the window sooner.
-            .set(RenderPlugin { synchronous_pipeline_compilation: screenshot_mode, ..default() }),
-    )
-    .add_plugins((HairPlugin::default(), FrameTimeDiagnosticsPlugin::default()))
-    .insert_resource(scene::StartingPreset(options.preset))
-    .insert_resource(options.stage)
-    .add_plugins((scene::plugin, motion::plugin));
+    app.add_plugins(plugins)
+        .add_plugins((HairPlugin::default(), FrameTimeDiagnosticsPlugin::default()))
+        .insert_resource(scene::StartingPreset(options.preset))
+        .insert_resource(options.stage)
+        .add_plugins((scene::plugin, motion::plugin));
     // egui only with its panel: an egui context nothing draws into fails its frame.
     if options.panel {
         app.add_plugins((EguiPlugin::default(), panel::plugin));
     }
     if let Some(path) = options.screenshot {
+        // The render passes' times, for the run's summary of where a frame goes.
+        app.add_plugins(RenderDiagnosticsPlugin);
         app.add_plugins(screenshot::ScreenshotPlugin { path, frames: options.frames });
     }
     app.run()

@@ -45,7 +45,7 @@ fn panel(
     let ctx = contexts.ctx_mut()?;
     egui::Window::new("Hair").default_width(300.0).default_pos([12.0, 12.0]).show(ctx, |ui| {
         egui::ScrollArea::vertical().max_height(680.0).show(ui, |ui| {
-            stats_section(ui, &diagnostics, &stats, status, state.as_deref());
+            stats_section(ui, &diagnostics, &stats, status, state.as_deref(), **backend == HairBackend::Gpu);
             ui.horizontal_wrapped(|ui| {
                 ui.label("Presets:");
                 for preset in presets::all() {
@@ -126,6 +126,7 @@ fn stats_section(
     stats: &HairRenderStats,
     status: &GroomStatus,
     state: Option<&HairState>,
+    gpu_asked: bool,
 ) {
     let smoothed = |path: &DiagnosticPath| diagnostics.get(path).and_then(|d| d.smoothed()).unwrap_or(f64::NAN);
     let status = match status {
@@ -145,6 +146,13 @@ fn stats_section(
         row("groom", status);
         row("fps", format!("{:.0}", smoothed(&FrameTimeDiagnosticsPlugin::FPS)));
         row("simulation", format!("{:.2} ms / step", smoothed(&HairDiagnostics::STEP_TIME)));
+        // Only while the GPU steps the hair, where it times its passes.
+        if let Some(ms) = diagnostics.get(&HairDiagnostics::GPU_STEP_TIME).and_then(|d| d.smoothed())
+            && gpu_asked
+            && state.is_some_and(|s| s.gpu_fallback().is_none())
+        {
+            row("on the GPU", format!("{ms:.2} ms / step"));
+        }
         row("particles", format!("{:.0}", smoothed(&HairDiagnostics::PARTICLES)));
         if let Some(why) = state.and_then(HairState::gpu_fallback) {
             row("solver", format!("CPU: {why}"));

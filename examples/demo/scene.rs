@@ -3,10 +3,12 @@
 
 use crate::motion::Motion;
 use crate::presets;
+use bevy::camera::RenderTarget;
 use bevy::input::mouse::{AccumulatedMouseMotion, AccumulatedMouseScroll, MouseScrollUnit};
 use bevy::light::{CascadeShadowConfigBuilder, DirectionalLightShadowMap, NotShadowCaster};
 use bevy::mesh::skinning::SkinnedMesh;
 use bevy::prelude::*;
+use bevy::render::render_resource::{TextureFormat, TextureUsages};
 use bevy::world_serialization::{WorldAssetRoot, WorldInstanceReady};
 use bevy_egui::input::EguiWantsInput;
 use bevy_hair::prelude::*;
@@ -89,7 +91,14 @@ pub struct Stage {
     pub backend: HairBackend,
     /// `--camera`: where the orbit camera starts.
     pub camera: Option<OrbitCamera>,
+    /// `--offscreen`: the camera draws into an image of this size ([`OffscreenTarget`])
+    /// instead of the window.
+    pub offscreen: Option<UVec2>,
 }
+
+/// The image the camera draws into with `--offscreen`.
+#[derive(Resource, Clone, Debug)]
+pub struct OffscreenTarget(pub Handle<Image>);
 
 /// The preset the demo starts with, by name ([`presets::all`]).
 #[derive(Resource, Clone, Copy, Debug)]
@@ -109,6 +118,7 @@ pub fn plugin(app: &mut App) {
         // The scene is small: a fine shadow map keeps the head's shadow on the hair crisp.
         .insert_resource(DirectionalLightShadowMap { size: 4096 })
         .add_systems(Startup, setup)
+        .add_systems(PostStartup, draw_offscreen)
         .add_systems(Update, orbit_camera);
 }
 
@@ -151,6 +161,22 @@ pub fn setup(
 
     let orbit = stage.camera.unwrap_or(OrbitCamera { yaw: 0.45, pitch: 0.12, distance: 0.62 });
     commands.spawn((Camera3d::default(), orbit.transform(), orbit));
+}
+
+/// With `--offscreen`, points the camera at an image of that size instead of the window.
+fn draw_offscreen(
+    mut commands: Commands,
+    mut images: ResMut<Assets<Image>>,
+    stage: Res<Stage>,
+    camera: Single<Entity, With<OrbitCamera>>,
+) {
+    let Some(size) = stage.offscreen else { return };
+    let mut image = Image::new_target_texture(size.x, size.y, TextureFormat::Rgba8UnormSrgb, None);
+    // Screenshots copy from it.
+    image.texture_descriptor.usage |= TextureUsages::COPY_SRC;
+    let target = images.add(image);
+    commands.entity(*camera).insert(RenderTarget::Image(target.clone().into()));
+    commands.insert_resource(OffscreenTarget(target));
 }
 
 /// One short shadow cascade over the whole set.

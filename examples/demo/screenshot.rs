@@ -7,8 +7,9 @@
 //! run passes (exit status 0) when hair covers most of the scalp roots that face the
 //! camera, and fails with a reason otherwise.
 
-use crate::scene::Head;
+use crate::scene::{Head, OffscreenTarget};
 use bevy::app::AppExit;
+use bevy::diagnostic::DiagnosticsStore;
 use bevy::prelude::*;
 use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured};
 use bevy::time::TimeUpdateStrategy;
@@ -81,10 +82,15 @@ struct Shot {
 }
 
 impl Shot {
-    fn capture(&self, commands: &mut Commands) {
+    /// Captures the next frame of the window, or of the image with `--offscreen`.
+    fn capture(&self, commands: &mut Commands, offscreen: Option<&OffscreenTarget>) {
         let sink = self.captured.clone();
+        let screenshot = match offscreen {
+            Some(OffscreenTarget(image)) => Screenshot::image(image.clone()),
+            None => Screenshot::primary_window(),
+        };
         commands
-            .spawn(Screenshot::primary_window())
+            .spawn(screenshot)
             .observe(move |captured: On<ScreenshotCaptured>| *sink.lock().unwrap() = Some(captured.image.clone()));
     }
 
@@ -104,6 +110,8 @@ fn drive(
     head: Option<Single<HeadHair, With<Head>>>,
     camera: Single<(&Camera, &GlobalTransform)>,
     drawings: Query<&HairDrawing>,
+    offscreen: Option<Res<OffscreenTarget>>,
+    diagnostics: Res<DiagnosticsStore>,
     mut exit: MessageWriter<AppExit>,
 ) {
     let mut fail = |reason: String| {
@@ -147,7 +155,7 @@ fn drive(
             let (camera, camera_transform) = *camera;
             shot.roots = facing_root_pixels(state, camera, camera_transform);
             shot.blended = drawings.iter().any(HairDrawing::blended);
-            shot.capture(&mut commands);
+            shot.capture(&mut commands, offscreen.as_deref());
             shot.stage = Stage::CapturingHair;
         }
         Stage::CapturingHair => {
@@ -158,7 +166,7 @@ fn drive(
             }
         }
         Stage::Hiding(0) => {
-            shot.capture(&mut commands);
+            shot.capture(&mut commands, offscreen.as_deref());
             shot.stage = Stage::CapturingBare;
         }
         Stage::Hiding(n) => shot.stage = Stage::Hiding(n - 1),
@@ -172,12 +180,23 @@ fn drive(
                 Ok(summary) => {
                     info!("screenshot: {summary}");
                     println!("{summary}");
+                    println!("{}", averages(&diagnostics));
                     exit.write(AppExit::Success);
                 }
                 Err(reason) => fail(reason),
             }
         }
     }
+}
+
+/// Every diagnostic's average over its history (Bevy's frame time, the hair's step time,
+/// the render passes' CPU and GPU times where the adapter has timestamps), as one JSON line:
+/// where the frame's time goes.
+fn averages(diagnostics: &DiagnosticsStore) -> String {
+    let mut fields: Vec<String> =
+        diagnostics.iter().filter_map(|d| Some(format!("{:?}:{:.4}", d.path().as_str(), d.average()?))).collect();
+    fields.sort();
+    format!("{{\"diagnostics\":{{{}}}}}", fields.join(","))
 }
 
 /// Where the roots whose surface faces the camera land in the window, in physical pixels.
@@ -231,7 +250,7 @@ fn check_and_save(
     hair.save(path).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     let summary = format!(
         "{{\"screenshot\":{:?},\"facing_roots\":{},\"covered_roots\":{},\"hair_pixels\":{},\"width\":{},\"height\":{},\
-         \"frame_ms\":{frame_ms:.0},\"blended\":{blended}}}",
+         \"frame_ms\":{frame_ms:.2},\"blended\":{blended}}}",
         path.display().to_string(),
         inside.len(),
         covered,

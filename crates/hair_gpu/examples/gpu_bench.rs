@@ -5,12 +5,17 @@
 //! median milliseconds of the frame's drawing pass (`GpuDrawing`: the particles
 //! interpolated and placed, their frames), wall time with a wait for each.
 //!
+//! With `--skin` the whole head is also a moving skin (a [`SurfacePatch`] that swells by up
+//! to 6 mm and back), as a skinned character's neck and jaw are: what the patch's
+//! closest-point queries cost.
+//!
 //! ```text
 //! cargo run --release -p hair_gpu --example gpu_bench
-//! # also: --steps N (default 60), --sizes 2048x16,16384x16 (guides × particles)
+//! # also: --steps N (default 60), --sizes 2048x16,16384x16 (guides × particles), --skin
 //! ```
 
 use hair_gpu::{GpuContext, GpuDrawing, GpuStrands, wgpu};
+use hair_sim::collide::SurfacePatch;
 use hair_sim::prelude::*;
 use std::time::Instant;
 
@@ -44,6 +49,12 @@ fn main() {
     };
     let head = test_head(4);
     let collider = HeadCollider::new(&head, DEFAULT_GRID_RESOLUTION).expect("procedural head");
+    let swollen = |time: f32| -> Vec<Vec3> {
+        let out = 0.006 * (time * 4.0).sin().max(0.0);
+        head.positions.iter().map(|p| *p + p.normalize_or(Vec3::Y) * out).collect()
+    };
+    let mut skin =
+        std::env::args().any(|a| a == "--skin").then(|| SurfacePatch::new(head.triangles.clone(), swollen(0.0), 0.02));
     let scalp = test_scalp(&head);
     let params = SimParams::default();
     for (guides, particles) in sizes {
@@ -57,6 +68,9 @@ fn main() {
         let mut timed_on_gpu = true;
         for k in 0..steps {
             let time = k as f32 * dt;
+            if let Some(skin) = &mut skin {
+                skin.update(&swollen(time + dt));
+            }
             let input = StepInput {
                 dt,
                 time,
@@ -64,7 +78,7 @@ fn main() {
                 head_to: head_pose(time + dt),
                 collider: Some(&collider),
                 extra_colliders: &[],
-                surface_patch: None,
+                surface_patch: skin.as_ref(),
                 params: &params,
             };
             let start = Instant::now();
@@ -111,10 +125,11 @@ fn main() {
         times.sort_by(f64::total_cmp);
         println!(
             "{{\"guides\":{guides},\"particles_per_strand\":{particles},\"steps\":{steps},\"adapter\":\"{}\",\
-             \"backend\":\"{:?}\",\"timing\":\"{}\",\"ms_per_step\":{:.4},\"finite\":{},\"max_stretch\":{stretch:.6},\
+             \"backend\":\"{:?}\",\"skin\":{},\"timing\":\"{}\",\"ms_per_step\":{:.4},\"finite\":{},\"max_stretch\":{stretch:.6},\
              \"max_penetration_m\":{:.6},\"draw_ms_per_frame\":{:.4},\"draw_timing\":\"wall time, waiting for each draw\"}}",
             gpu.adapter.name.replace('"', "'"),
             gpu.adapter.backend,
+            skin.is_some(),
             if timed_on_gpu { "timestamp queries" } else { "wall time, waiting for each step" },
             times[times.len() / 2],
             positions.iter().all(|p| p.is_finite()),
