@@ -11,8 +11,9 @@ impl HairDiagnostics {
     pub const STEP_TIME: DiagnosticPath = DiagnosticPath::const_new("hair/step_ms");
     /// GPU time of the GPU solver's step, milliseconds, summed over the grooms the GPU
     /// steps ([`HairBackend::Gpu`](crate::HairBackend::Gpu)): for each, one of its latest
-    /// steps, timed with timestamp queries and read back with its report a frame or two
-    /// late. Published only where the render device has timestamp queries.
+    /// steps, from its pass's start to its end by timestamp queries (the GPU may run other
+    /// work beside it meanwhile), read back with its report a frame or two late. Published
+    /// only where the render device has timestamp queries.
     pub const GPU_STEP_TIME: DiagnosticPath = DiagnosticPath::const_new("hair/gpu_step_ms");
     /// Guide strands the solver stepped in the last fixed step, all grooms (a level of
     /// detail, [`HairLod`](crate::HairLod), leaves out the guides that follow).

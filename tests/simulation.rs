@@ -591,11 +591,12 @@ fn the_gpu_backend_steps_a_groom_as_the_cpu_does() {
     assert!(gpu.contacts.abs_diff(cpu.contacts) as f32 <= 1.0 + 1e-3 * cpu.contacts as f32, "contacts");
     assert!(gpu.segment_turns.abs_diff(cpu.segment_turns) as f32 <= 1.0 + 1e-3 * cpu.segment_turns as f32);
     assert!((gpu.max_depth - cpu.max_depth).abs() <= 1e-6, "deepest contact");
-    // Where the device times passes, the steps' GPU time came back with the reports: a
-    // measurement for most of the 60 frames (a copy is on its way for a frame or two).
+    // Where the device times passes, the steps' GPU time came back with the reports. How
+    // many depends on how far the GPU runs behind a loop that draws nothing: all 60 on
+    // lavapipe, 3 on an NVIDIA H200 (2026-12-04).
     eprintln!("GPU time per step, timestamps {timestamps}: {gpu_step_ms:.3?} ms");
     if timestamps {
-        assert!(gpu_step_ms.len() >= 20, "{} GPU step times", gpu_step_ms.len());
+        assert!(!gpu_step_ms.is_empty(), "no GPU step time came back");
         assert!(gpu_step_ms.iter().all(|ms| ms.is_finite() && *ms > 0.0 && *ms < 1e4), "{gpu_step_ms:?}");
     } else {
         assert!(gpu_step_ms.is_empty());

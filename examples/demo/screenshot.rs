@@ -180,7 +180,7 @@ fn drive(
                 Ok(summary) => {
                     info!("screenshot: {summary}");
                     println!("{summary}");
-                    println!("{}", averages(&diagnostics));
+                    println!("{}", medians(&diagnostics));
                     exit.write(AppExit::Success);
                 }
                 Err(reason) => fail(reason),
@@ -189,12 +189,20 @@ fn drive(
     }
 }
 
-/// Every diagnostic's average over its history (Bevy's frame time, the hair's step time,
+/// Every diagnostic's median over its history (Bevy's frame time, the hair's step time,
 /// the render passes' CPU and GPU times where the adapter has timestamps), as one JSON line:
-/// where the frame's time goes.
-fn averages(diagnostics: &DiagnosticsStore) -> String {
-    let mut fields: Vec<String> =
-        diagnostics.iter().filter_map(|d| Some(format!("{:?}:{:.4}", d.path().as_str(), d.average()?))).collect();
+/// where the frame's time goes. Medians, since the history holds the groom's first steps
+/// (the GPU solver's pipeline compiled on the first).
+fn medians(diagnostics: &DiagnosticsStore) -> String {
+    let mut fields: Vec<String> = diagnostics
+        .iter()
+        .filter_map(|d| {
+            let mut values: Vec<f64> = d.values().copied().collect();
+            values.sort_by(f64::total_cmp);
+            let median = values.get(values.len() / 2)?;
+            Some(format!("{:?}:{median:.4}", d.path().as_str()))
+        })
+        .collect();
     fields.sort();
     format!("{{\"diagnostics\":{{{}}}}}", fields.join(","))
 }
