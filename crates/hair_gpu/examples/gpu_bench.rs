@@ -11,7 +11,8 @@
 //!
 //! ```text
 //! cargo run --release -p hair_gpu --example gpu_bench
-//! # also: --steps N (default 60), --sizes 2048x16,16384x16 (guides × particles), --skin
+//! # also: --steps N (default 60), --sizes 2048x16,16384x16 (guides × particles), --skin,
+//! #       --no-segment-collision, --no-collision (what collision costs)
 //! ```
 
 use hair_gpu::{GpuContext, GpuDrawing, GpuStrands, wgpu};
@@ -31,6 +32,7 @@ fn arg(name: &str) -> Option<String> {
 }
 
 fn main() {
+    let flag = |name: &str| std::env::args().any(|a| a == name);
     let steps: usize = arg("--steps").map_or(60, |s| s.parse().expect("--steps takes a whole number"));
     let sizes: Vec<(usize, usize)> = arg("--sizes")
         .unwrap_or_else(|| "2048x16,16384x16,65536x32".into())
@@ -53,10 +55,20 @@ fn main() {
         let out = 0.006 * (time * 4.0).sin().max(0.0);
         head.positions.iter().map(|p| *p + p.normalize_or(Vec3::Y) * out).collect()
     };
-    let mut skin =
-        std::env::args().any(|a| a == "--skin").then(|| SurfacePatch::new(head.triangles.clone(), swollen(0.0), 0.02));
+    let mut skin = flag("--skin").then(|| SurfacePatch::new(head.triangles.clone(), swollen(0.0), 0.02));
     let scalp = test_scalp(&head);
-    let params = SimParams::default();
+    // What collision costs: `--no-segment-collision` leaves out the whole-segment pass,
+    // `--no-collision` all of it.
+    let params = SimParams {
+        collision: !flag("--no-collision"),
+        segment_collision: !flag("--no-segment-collision"),
+        ..SimParams::default()
+    };
+    let collision = match (params.collision, params.segment_collision) {
+        (false, _) => "none",
+        (true, false) => "particles",
+        (true, true) => "particles and segments",
+    };
     for (guides, particles) in sizes {
         let roots = sample_roots(&head, &scalp, guides, 1).expect("scalp");
         let guide_params = GuideParams { segments: particles - 1, length: 0.25, ..GuideParams::default() };
@@ -125,7 +137,7 @@ fn main() {
         times.sort_by(f64::total_cmp);
         println!(
             "{{\"guides\":{guides},\"particles_per_strand\":{particles},\"steps\":{steps},\"adapter\":\"{}\",\
-             \"backend\":\"{:?}\",\"skin\":{},\"timing\":\"{}\",\"ms_per_step\":{:.4},\"finite\":{},\"max_stretch\":{stretch:.6},\
+             \"backend\":\"{:?}\",\"skin\":{},\"collision\":\"{collision}\",\"timing\":\"{}\",\"ms_per_step\":{:.4},\"finite\":{},\"max_stretch\":{stretch:.6},\
              \"max_penetration_m\":{:.6},\"draw_ms_per_frame\":{:.4},\"draw_timing\":\"wall time, waiting for each draw\"}}",
             gpu.adapter.name.replace('"', "'"),
             gpu.adapter.backend,
