@@ -189,6 +189,7 @@ struct StepUniform {
     ray_from: [f32; 4],
     offset: [f32; 4],
     skin: [u32; 4],
+    deep: [u32; 4],
 }
 
 /// The head as the shader reads it: its distance grid, and where the exact near query's
@@ -210,6 +211,9 @@ struct GridInfo {
     rise: [f32; 4],
     rise_dims: [u32; 4],
     rise_limits: [f32; 4],
+    /// The triangles in the tables, tested one by one where a cell has no list (0: no
+    /// tables).
+    triangles: u32,
 }
 
 impl GridInfo {
@@ -229,6 +233,7 @@ impl GridInfo {
             rise: [0.0; 4],
             rise_dims: [0; 4],
             rise_limits: [0.0; 4],
+            triangles: 0,
         };
         let tables = collider.near_query_tables();
         let rise = collider.rise_table();
@@ -246,6 +251,7 @@ impl GridInfo {
             words.extend(triangle.iter().flat_map(|v| [v.x, v.y, v.z, 0.0]).map(f32::to_bits));
         }
         info.near = [ranges, blocks, triangles, tables.count_bits];
+        info.triangles = tables.triangles.len() as u32;
         info.near_bounds[1] = tables.slack;
         let [x, y, z] = rise.dims.map(|d| d as u32);
         let origin = rise.cells.origin;
@@ -689,6 +695,7 @@ impl GpuStrands {
             ray_from: c.ray_from.map_or([0.0; 4], |r| [r.x, r.y, r.z, 1.0]),
             offset: [0.0; 4],
             skin: [0; 4],
+            deep: grid.map_or([0; 4], |g| [g.triangles, 0, 0, 0]),
         };
         (uniform, tables)
     }
