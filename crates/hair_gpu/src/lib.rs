@@ -604,7 +604,7 @@ impl GpuStrands {
     pub fn step_timed(&mut self, input: &StepInput) -> Result<Option<f64>, GpuError> {
         self.step(input)?;
         match &self.timestamps {
-            Some(timestamps) => read_buffer(&self.device, &self.queue, &timestamps.readback)
+            Some(timestamps) => read_buffer(&self.device, &self.queue, &timestamps.resolved)
                 .map(|bytes| duration_ms(&bytes, self.queue.get_timestamp_period())),
             None => Ok(None),
         }
@@ -645,7 +645,6 @@ impl GpuStrands {
         }
         if let Some(t) = timestamps {
             encoder.resolve_query_set(&t.queries, 0..2, &t.resolved, 0);
-            encoder.copy_buffer_to_buffer(&t.resolved, 0, &t.readback, 0, 16);
         }
         self.queue.submit([encoder.finish()]);
         Ok(())
@@ -808,7 +807,7 @@ impl GpuStrands {
         let time = self
             .timestamps
             .as_ref()
-            .map(|t| (BufferCopy::start(&self.device, &self.queue, &t.readback), self.queue.get_timestamp_period()));
+            .map(|t| (BufferCopy::start(&self.device, &self.queue, &t.resolved), self.queue.get_timestamp_period()));
         ReportCopy { report: copy, time }
     }
 
@@ -1033,11 +1032,11 @@ fn duration_ms(bytes: &[u8], period: f32) -> Option<f64> {
     Some(ticks as f64 * f64::from(period) * 1e-6)
 }
 
-/// A pass's start and end timestamps, resolved and read back.
+/// A pass's start and end timestamps, and the buffer they are resolved into (the latest
+/// timed pass's, copied back from there).
 struct Timestamps {
     queries: wgpu::QuerySet,
     resolved: wgpu::Buffer,
-    readback: wgpu::Buffer,
 }
 
 impl Timestamps {
@@ -1047,22 +1046,13 @@ impl Timestamps {
             ty: wgpu::QueryType::Timestamp,
             count: 2,
         });
-        let buffer = |label, usage| {
-            device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size: 16,
-                usage,
-                mapped_at_creation: false,
-            })
-        };
-        Timestamps {
-            queries,
-            resolved: buffer("hair_gpu timestamps", wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC),
-            readback: buffer(
-                "hair_gpu timestamps read-back",
-                wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
-            ),
-        }
+        let resolved = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("hair_gpu timestamps"),
+            size: 16,
+            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        Timestamps { queries, resolved }
     }
 }
 
