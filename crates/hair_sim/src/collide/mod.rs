@@ -11,12 +11,14 @@
 mod candidates;
 mod crossing;
 mod distance_grid;
+mod flat_bvh;
 mod patch;
 mod sag;
 mod shapes;
 mod triangles;
 
 pub use distance_grid::DistanceGrid;
+pub use flat_bvh::{FlatBvh, FlatBvhNode};
 pub use patch::{PatchParts, SurfacePatch};
 pub use shapes::ExtraCollider;
 
@@ -129,6 +131,9 @@ pub struct NearQueryTables {
     pub count_bits: u32,
     /// Taken off both skip bounds for f32 rounding, metres.
     pub slack: f32,
+    /// A hierarchy over [`Self::triangles`], for what the lists do not answer: the closest
+    /// point deep inside, and where a segment crosses the surface.
+    pub bvh: FlatBvh,
 }
 
 /// What [`HeadCollider::rise_under`] reads, as plain numbers (from
@@ -279,9 +284,17 @@ impl HeadCollider {
                 let [[a, b, c], [e0, e1, e2], [v0, v1, v2]] = [corners, edges, at_corners];
                 [a, b, c, face, e0, e1, e2, v0, v1, v2]
             })
-            .collect();
+            .collect::<Vec<[Vec3; 10]>>();
+        let bvh = FlatBvh::new(&triangles.iter().map(|t| [t[0], t[1], t[2]]).collect::<Vec<_>>());
         let (cell_ranges, blocks) = self.candidates.words();
-        NearQueryTables { triangles, cell_ranges, blocks, count_bits: candidates::COUNT_BITS, slack: candidates::SLACK }
+        NearQueryTables {
+            triangles,
+            cell_ranges,
+            blocks,
+            count_bits: candidates::COUNT_BITS,
+            slack: candidates::SLACK,
+            bvh,
+        }
     }
 
     /// [`Self::rise_under`]'s table as plain numbers, for a copy of the bound elsewhere (the
