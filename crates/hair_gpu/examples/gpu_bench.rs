@@ -1,7 +1,8 @@
 //! GPU benchmark: grooms of 2,048 × 16, 16,384 × 16 and 65,536 × 32 guides on the
 //! procedural head, stepped on the GPU while keyframes turn and nod it; one JSON line per
 //! size with the adapter's name and the median milliseconds per step, from timestamp
-//! queries where the adapter has them, else wall time with a wait for each step; then the
+//! queries where the adapter has them, else wall time with a wait for each step, after a
+//! second of untimed steps that brings the GPU's clocks up; then the
 //! median milliseconds of the frame's drawing pass (`GpuDrawing`: the particles
 //! interpolated and placed, their frames), wall time with a wait for each.
 //!
@@ -76,6 +77,26 @@ fn main() {
         let rest = RestShape::new(grown, particles).expect("guides");
         let mut strands = GpuStrands::new(&gpu, &rest, head_pose(0.0), Some(&collider)).expect("GPU strands");
         let dt = 1.0 / 60.0;
+        // A GPU idles at a low clock and raises it under load within a second or so (an
+        // NVIDIA H200 from 345 to 1,980 MHz, 2026-12-04; timed cold, small grooms took 5×
+        // longer): a second of steps under the first pose before any is timed.
+        let warm_up = Instant::now();
+        while warm_up.elapsed().as_secs_f32() < 1.0 {
+            let input = StepInput {
+                dt,
+                time: 0.0,
+                head_from: head_pose(0.0),
+                head_to: head_pose(0.0),
+                collider: Some(&collider),
+                extra_colliders: &[],
+                surface_patch: skin.as_ref(),
+                params: &params,
+            };
+            for _ in 0..8 {
+                strands.step(&input).expect("GPU step");
+            }
+            strands.finish().expect("GPU wait");
+        }
         let mut times = Vec::with_capacity(steps);
         let mut timed_on_gpu = true;
         for k in 0..steps {

@@ -189,7 +189,7 @@ struct StepUniform {
     ray_from: [f32; 4],
     offset: [f32; 4],
     skin: [u32; 4],
-    deep: [u32; 4],
+    bvh: [u32; 4],
 }
 
 /// The head as the shader reads it: its distance grid, and where the exact near query's
@@ -211,9 +211,10 @@ struct GridInfo {
     rise: [f32; 4],
     rise_dims: [u32; 4],
     rise_limits: [f32; 4],
-    /// The triangles in the tables, tested one by one where a cell has no list (0: no
-    /// tables).
-    triangles: u32,
+    /// `step.wgsl`'s `bvh`: the BVH over the tables' triangles, for the closest point where
+    /// a cell has no list and for segment crossings: its node count (0: no tables), where
+    /// its nodes and its triangle order start.
+    bvh: [u32; 4],
 }
 
 impl GridInfo {
@@ -233,12 +234,16 @@ impl GridInfo {
             rise: [0.0; 4],
             rise_dims: [0; 4],
             rise_limits: [0.0; 4],
-            triangles: 0,
+            bvh: [0; 4],
         };
         let tables = collider.near_query_tables();
         let rise = collider.rise_table();
-        let extra =
-            tables.cell_ranges.len() + 20 * tables.blocks.len() + 40 * tables.triangles.len() + 2 * rise.values.len();
+        let extra = tables.cell_ranges.len()
+            + 20 * tables.blocks.len()
+            + 40 * tables.triangles.len()
+            + 8 * tables.bvh.nodes.len()
+            + tables.bvh.order.len()
+            + 2 * rise.values.len();
         if ((words.len() + extra) * 4) as u64 > limit {
             return (words, info); // beyond the device: the grid alone still answers
         }
@@ -251,7 +256,14 @@ impl GridInfo {
             words.extend(triangle.iter().flat_map(|v| [v.x, v.y, v.z, 0.0]).map(f32::to_bits));
         }
         info.near = [ranges, blocks, triangles, tables.count_bits];
-        info.triangles = tables.triangles.len() as u32;
+        let nodes = words.len() as u32;
+        for node in &tables.bvh.nodes {
+            let corner = |v: Vec3, w: u32| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits(), w];
+            words.extend(corner(node.min, node.skip));
+            words.extend(corner(node.max, node.first * 8 + node.count));
+        }
+        info.bvh = [tables.bvh.nodes.len() as u32, nodes, words.len() as u32, 0];
+        words.extend(&tables.bvh.order);
         info.near_bounds[1] = tables.slack;
         let [x, y, z] = rise.dims.map(|d| d as u32);
         let origin = rise.cells.origin;
@@ -694,7 +706,7 @@ impl GpuStrands {
             ray_from: c.ray_from.map_or([0.0; 4], |r| [r.x, r.y, r.z, 1.0]),
             offset: [0.0; 4],
             skin: [0; 4],
-            deep: grid.map_or([0; 4], |g| [g.triangles, 0, 0, 0]),
+            bvh: grid.map_or([0; 4], |g| g.bvh),
         };
         (uniform, tables)
     }

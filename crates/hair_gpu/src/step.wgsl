@@ -54,10 +54,13 @@ struct Step {
     // The moving skin (`colliders` after the extras), vec4 indices: its header plus one
     // (0: no skin), its triangles, its bins' starts and lists.
     skin: vec4<u32>,
-    // The triangles in `head`'s tables, which a particle's contact without a list (deep
-    // inside, or in a cell with too many candidates) tests one by one where the CPU walks
-    // its BVH (`head_surface_from`; 0: the grid answers there).
-    deep: vec4<u32>,
+    // hair_sim's `FlatBvh` over the tables' triangles in `head`, walked where the CPU walks
+    // its BVH: for a particle's contact without a list (deep inside, or in a cell with too
+    // many candidates), and whether a segment hits the surface at all: its node count (0: no
+    // tables),
+    // where its nodes (eight words each: lowest corner and the node after its subtree,
+    // highest corner and a leaf's first triangle × 8 + count) and its triangle order start.
+    bvh: vec4<u32>,
 }
 
 @group(0) @binding(0) var<uniform> step: Step;
@@ -281,8 +284,8 @@ fn head_surface(p: vec3<f32>) -> Surface {
 }
 
 // `head_surface`, and with `deep` the exact closest point where no candidate list reaches
-// (deep inside, or a cell with too many candidates) too, by testing every triangle where
-// the CPU walks its BVH; otherwise the grid's gradient answers there. A particle's own
+// (deep inside, or a cell with too many candidates) too, by a walk of the BVH as the CPU
+// walks its own; otherwise the grid's gradient answers there. A particle's own
 // contact asks for it (`head_contact`: a particle deep inside after a hitch goes out where
 // the CPU's goes); the turns, traces and placements keep the grid there (with every
 // triangle in them too, near-root hair stayed 5.3 mm inside a skinned head blended into
@@ -319,7 +322,7 @@ fn head_surface_from(p: vec3<f32>, deep: bool) -> Surface {
         return by_grid;
     }
     let range = head[step.near.x + sample_index(c.x, c.y, c.z)];
-    if range == 0xffffffffu && (step.deep.x == 0u || !deep) {
+    if range == 0xffffffffu && (step.bvh.x == 0u || !deep) {
         return by_grid; // deep inside, or too many candidates for a list
     }
     return exact_surface(p - step.centre.xyz, t, range, by_grid);
@@ -330,8 +333,8 @@ fn head_surface_from(p: vec3<f32>, deep: bool) -> Surface {
 // candidate triangles nearest its centre first, each skipped where its distance from the
 // centre less `p`'s, or its tangent-plane bound, is already beyond the best found, the walk
 // ending at the first block whose nearest is. A cell without a list (`range` all ones)
-// tests every triangle, unbounded (beyond its band the grid holds only a bound), as the
-// CPU's BVH walk finds the closest.
+// walks the BVH instead, unbounded at first (beyond its band the grid holds only a bound),
+// into the boxes nearer than the best found, as the CPU's BVH walk finds the closest.
 // Signed by the pseudo-normal of the feature the closest point lies on; the normal is the
 // face's over a face, else along the offset.
 fn exact_surface(p: vec3<f32>, fraction: vec3<f32>, range: u32, by_grid: Surface) -> Surface {
@@ -353,13 +356,20 @@ fn exact_surface(p: vec3<f32>, fraction: vec3<f32>, range: u32, by_grid: Surface
     var best_on = OnTriangle(p, 0u);
     let first = range >> step.near.w;
     let blocks = range & ((1u << step.near.w) - 1u);
-    // The list's candidates, four to a block, or every triangle.
-    let candidates = select(step.deep.x, 4u * blocks, listed);
-    for (var k = 0u; k < candidates; k++) {
-        var triangle = k;
+    // The next candidate in the list; or the BVH's next node and the leaf's triangles left.
+    var k = 0u;
+    var node = 0u;
+    var leaf_next = 0u;
+    var leaf_end = 0u;
+    loop {
+        var triangle: u32;
         if listed {
+            if k == 4u * blocks {
+                break;
+            }
             let block = step.near.y + 20u * (first + k / 4u);
             let lane = k % 4u;
+            k++;
             if lane == 0u && head_f32(block) - (from_centre + slack) >= best {
                 break; // sorted: no later triangle can be nearer
             }
@@ -370,6 +380,27 @@ fn exact_surface(p: vec3<f32>, fraction: vec3<f32>, range: u32, by_grid: Surface
                 continue;
             }
             triangle = head[block + 16u + lane];
+        } else {
+            // Down to the next leaf whose box is nearer than the best found.
+            while leaf_next == leaf_end && node < step.bvh.x {
+                let at = step.bvh.y + 8u * node;
+                let gap = length(max(max(head_vec3(at) - p, p - head_vec3(at + 4u)), vec3<f32>(0.0)));
+                let leaf = head[at + 7u];
+                if !(gap < best) || (leaf & 7u) != 0u {
+                    node = head[at + 3u];
+                } else {
+                    node++;
+                }
+                if gap < best && (leaf & 7u) != 0u {
+                    leaf_next = leaf >> 3u;
+                    leaf_end = leaf_next + (leaf & 7u);
+                }
+            }
+            if leaf_next == leaf_end {
+                break;
+            }
+            triangle = head[step.bvh.z + leaf_next];
+            leaf_next++;
         }
         let base = step.near.z + 40u * triangle;
         let on = closest_on_triangle(p, head_vec3(base), head_vec3(base + 4u), head_vec3(base + 8u));
@@ -561,7 +592,7 @@ const MIN_TRACE_STEP: f32 = 1e-6;
 // is within half its length of an end); it is not traced.
 fn crossed_stretch(a: vec3<f32>, a_distance: f32, b: vec3<f32>) -> vec3<f32> {
     let span = length(b - a);
-    if min(a_distance, head_surface(b).distance) > 0.5 * span {
+    if !(span > 0.0) || min(a_distance, head_surface(b).distance) > 0.5 * span {
         return vec3<f32>(0.0);
     }
     // From `a` to `b`, then (where it goes in) back from `b`: one call site for both ways
@@ -580,31 +611,111 @@ fn crossed_stretch(a: vec3<f32>, a_distance: f32, b: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(0.0);
 }
 
+// The distance along the ray from `origin` (relative to the collider's centre) along unit
+// `direction` to the nearest triangle it hits, either side, from `beyond` to `reach`; beyond
+// `reach` where it hits none. A walk of the BVH into the boxes the ray enters within that
+// stretch before the nearest hit found (a box it runs along a face of: by whether it lies
+// in that face's slab).
+fn first_hit(origin: vec3<f32>, direction: vec3<f32>, beyond: f32, reach: f32) -> f32 {
+    let along = direction == vec3<f32>(0.0);
+    let inverse = select(vec3<f32>(1.0) / select(direction, vec3<f32>(1.0), along), vec3<f32>(0.0), along);
+    var nearest = 2.0 * reach + 1.0;
+    var node = 0u;
+    while node < step.bvh.x {
+        let at = step.bvh.y + 8u * node;
+        let low = head_vec3(at);
+        let high = head_vec3(at + 4u);
+        let t0 = (low - origin) * inverse;
+        let t1 = (high - origin) * inverse;
+        let all = select(vec3<f32>(3.4e38), vec3<f32>(-3.4e38), (origin >= low) & (origin <= high));
+        let near = select(min(t0, t1), all, along);
+        let far = select(max(t0, t1), -all, along);
+        let enters = max(max(near.x, near.y), near.z);
+        let leaves = min(min(far.x, far.y), far.z);
+        let open = enters <= min(leaves, min(nearest, reach)) && leaves >= beyond;
+        let leaf = head[at + 7u];
+        if open && (leaf & 7u) == 0u {
+            node++;
+            continue;
+        }
+        node = head[at + 3u];
+        for (var l = leaf >> 3u; open && l < (leaf >> 3u) + (leaf & 7u); l++) {
+            let base = step.near.z + 40u * head[step.bvh.z + l];
+            let t = ray_on_triangle(origin, direction, head_vec3(base), head_vec3(base + 4u), head_vec3(base + 8u));
+            if t >= beyond && t <= min(nearest, reach) {
+                nearest = t;
+            }
+        }
+    }
+    return nearest;
+}
+
+// How far along the ray from `origin` along `direction` it hits triangle `a`, `b`, `c`, from
+// either side; negative where it misses (Möller and Trumbore 1997). A ray grazing an edge
+// hits (as hair_sim's crossing lists count it): rounding lets no crossing through unseen.
+const EDGE_SLACK: f32 = 1e-5;
+
+fn ray_on_triangle(origin: vec3<f32>, direction: vec3<f32>, a: vec3<f32>, b: vec3<f32>, c: vec3<f32>) -> f32 {
+    let e1 = b - a;
+    let e2 = c - a;
+    let q = cross(direction, e2);
+    let det = dot(e1, q);
+    if abs(det) < 1e-20 {
+        return -1.0; // along the triangle's plane
+    }
+    let s = origin - a;
+    let u = dot(s, q) / det;
+    let r = cross(s, e1);
+    let v = dot(direction, r) / det;
+    if !(u >= -EDGE_SLACK && v >= -EDGE_SLACK && u + v <= 1.0 + EDGE_SLACK) {
+        return -1.0;
+    }
+    return dot(e2, r) / det;
+}
+
 // The fraction of the way from head-local `start_at` to `to` (`span` apart) at which the segment
-// first goes inside the head, or 2 where it stays out: sphere tracing, each step the distance
-// to the surface (less the grid's error, where the grid answers), which cannot step over any
-// part of the surface, and at least `MIN_TRACE_STEP`; the crossing refined by bisection. A
-// trace not done in 1,024 steps (a segment along the surface within micrometres) counts as
-// staying out.
+// first goes inside the head, or 2 where it stays out. With the BVH, from one triangle the
+// segment hits to the next until it is inside just beyond one (`MIN_TRACE_STEP`), by the
+// exact query: a segment that only touches the surface, or grazes an edge, stays out.
+// Without it, sphere tracing: each step the distance to the surface (less the grid's error,
+// where the grid answers), which cannot step over any part of the surface, and at least
+// `MIN_TRACE_STEP`; the crossing refined by bisection. A walk not done in 1,024 steps (a
+// trace along the surface within micrometres: a trace grazing the surface took that many
+// in the demo, where the BVH takes a few boxes) counts as staying out.
 //
-// The trace and the bisection share one query in one loop: a GPU compiler inlines every
-// call, and its time grows faster than the code (lavapipe took 208 s to compile this
-// shader with a query for each, cold, 2026-12-04).
+// Every way shares one query in one loop: a GPU compiler inlines every call, and its time
+// grows faster than the code (lavapipe took 208 s to compile this shader with a query for
+// each, cold, 2026-12-04).
 fn first_inside(start_at: vec3<f32>, to: vec3<f32>, span: f32) -> f32 {
     let direction = (to - start_at) / span;
+    let by_hits = step.bvh.x > 0u;
     var outside = 0.0;
     var t = 0.0;
     var steps = 0u;
     var inside = -1.0; // where the bisection found the segment inside (< 0: tracing)
     var halvings = 0u;
+    var hit = 0.0; // by hits: the last triangle hit, whose far side is tested
     loop {
         let bisecting = inside >= 0.0;
         if !bisecting && (steps == 1024u || !(t <= span)) {
             break;
         }
+        if by_hits && steps > 0u {
+            hit = first_hit(start_at - step.centre.xyz, direction, t, span);
+            if hit > span {
+                break;
+            }
+            t = min(hit + MIN_TRACE_STEP, span);
+        }
         let at = select(t, 0.5 * (outside + inside), bisecting);
         let surface = head_surface(start_at + direction * at);
-        if bisecting {
+        if by_hits {
+            // The start inside (t = 0), or the far side of a hit.
+            if surface.distance < 0.0 {
+                return hit / span;
+            }
+            steps++;
+        } else if bisecting {
             if surface.distance < 0.0 {
                 inside = at;
             } else {

@@ -541,17 +541,19 @@ fn the_skin_moving_against_the_head_pushes_as_on_the_cpu() {
         deepest * 1e3
     );
     assert!(push > 10.0 * mean, "the skin pushes: {push} m on average");
-    // The skin's contacts are counted: lavapipe, 2026-12-04, 610,883 on the GPU, 617,897 on
+    // The skin's contacts are counted: lavapipe, 2026-12-04, 610,877 on the GPU, 617,897 on
     // the CPU and 486,364 without the skin (hair resting on the moving shell, whose
     // closest points the two compute each their own way, touches it or not by rounding).
     let from_skin = |r: &StepReport| r.contacts as f32 - unpushed_report.contacts as f32;
     assert!(from_skin(&gpu_report) >= 0.9 * from_skin(&cpu_report), "contacts: GPU {gpu_report:?}, CPU {cpu_report:?}");
     assert!(gpu_report.contacts.abs_diff(cpu_report.contacts) as f32 <= 0.02 * cpu_report.contacts as f32);
-    // The deepest contact of all, on hair the backends place up to millimetres apart:
-    // 3.7 µm apart on lavapipe, 24 µm on an NVIDIA H200 (2026-12-04).
-    assert!((gpu_report.max_depth - cpu_report.max_depth).abs() <= 1e-4, "deepest: {gpu_report:?}");
-    // Measured (2026-12-04): mean 0.014 mm, max 2.0 mm on lavapipe; mean 0.015 mm, max
-    // 3.15 mm on an NVIDIA H200.
+    // The deepest contact of all, on one particle of hair the backends place up to
+    // millimetres apart: 3.7 µm apart on lavapipe and 24 µm on an NVIDIA H200 while the
+    // GPU traced its segment crossings; 0.31 mm of the CPU's 7.12 mm on lavapipe since it
+    // finds them through the BVH (2026-12-04), which turns one more segment of the 41.
+    assert!((gpu_report.max_depth - cpu_report.max_depth).abs() <= 5e-4, "deepest: {gpu_report:?}");
+    // Measured (2026-12-04): mean 0.014 mm, max 2.0 mm on lavapipe (2.45 mm since the
+    // crossings go through the BVH); mean 0.015 mm, max 3.15 mm on an NVIDIA H200.
     assert!(mean < 1e-4 && max < 5e-3, "mean {mean} m, max {max} m apart");
     assert!(deepest <= 5e-4, "{deepest} m behind the moving skin");
 }

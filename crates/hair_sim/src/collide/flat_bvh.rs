@@ -7,6 +7,8 @@ use crate::math::Vec3;
 
 /// Triangles per leaf, at most.
 const LEAF_SIZE: usize = 4;
+/// Added around every box, metres.
+const PADDING: f32 = 1e-6;
 
 /// One node of a [`FlatBvh`]: a box around its triangles; a leaf holds them.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -57,6 +59,8 @@ impl FlatBvh {
             }
             (low, high) = (low.min(centroids[t as usize]), high.max(centroids[t as usize]));
         }
+        // A little room: a ray grazing a flat box's face, rounded, still enters it.
+        (min, max) = (min - Vec3::splat(PADDING), max + Vec3::splat(PADDING));
         let at = self.nodes.len();
         let leaf = end - start <= LEAF_SIZE;
         let count = if leaf { (end - start) as u32 } else { 0 };
