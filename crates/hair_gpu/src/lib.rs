@@ -50,25 +50,7 @@ pub use wgpu;
 
 /// The solver's WGSL source (`step.wgsl`, beside this file).
 pub const SHADER: &str = include_str!("step.wgsl");
-/// The solver's WGSL for strands of `particles` particles, `group` strands to a workgroup:
-/// each workgroup holds its strands' positions in workgroup memory, whose arrays a shader
-/// sizes when it is compiled.
-pub fn step_shader(particles: u32, group: u32) -> String {
-    const DECLARED: &str = "const PARTICLES: u32 = 16u;\nconst GROUP: u32 = 64u;";
-    debug_assert!(SHADER.contains(DECLARED), "step.wgsl declares {DECLARED}");
-    SHADER.replacen(DECLARED, &format!("const PARTICLES: u32 = {particles}u;\nconst GROUP: u32 = {group}u;"), 1)
-}
-
-/// Strands per workgroup for strands of `particles` particles on a device with `limits`:
-/// as many as 64 whose positions fit in its workgroup memory (16 bytes a particle), a power
-/// of two; `None` where not even one strand fits.
-fn strands_per_group(particles: u32, limits: &wgpu::Limits) -> Option<u32> {
-    let fit = limits.max_compute_workgroup_storage_size / (16 * particles.max(1));
-    let most = fit.min(WORKGROUP_SIZE).min(limits.max_compute_workgroup_size_x);
-    (most > 0).then(|| 1 << most.ilog2())
-}
-
-/// Invocations per workgroup of the passes over particles.
+/// Strands per workgroup, as `step.wgsl` declares.
 const WORKGROUP_SIZE: u32 = 64;
 /// Substeps the pose table holds room for at first ([`hair_sim::solver::SimParams`]'s own
 /// limit); a step with more grows it.
@@ -89,14 +71,6 @@ pub enum GpuError {
     /// The step asks for head collision, but no collider was uploaded.
     #[error("the step collides with a head, but the GPU strands were built without its collider")]
     NoCollider,
-    /// A strand's positions do not fit in this device's workgroup memory.
-    #[error("strands of {particles} particles do not fit in this device's {bytes} bytes of workgroup memory")]
-    StrandTooLong {
-        /// Particles per strand.
-        particles: usize,
-        /// The device's workgroup memory, bytes.
-        bytes: u32,
-    },
     /// The groom is too large for one buffer on this device.
     #[error("{particles} particles need a {bytes}-byte buffer, above this device's limit of {limit}")]
     TooLarge {
@@ -329,8 +303,6 @@ pub struct GpuStrands {
     rest_positions: Vec<Vec3>,
     strands: u32,
     particles_per_strand: u32,
-    /// Strands per workgroup of the step (see [`step_shader`]).
-    group: u32,
     timestamps: Option<Timestamps>,
     /// The last two steps in head space, for [`GpuDrawing`].
     published: draw::Published,
@@ -396,9 +368,6 @@ impl GpuStrands {
             return Err(GpuError::TooLarge { particles, bytes, limit });
         }
         let n = rest.particles_per_strand;
-        let Some(group) = strands_per_group(n as u32, &device.limits()) else {
-            return Err(GpuError::StrandTooLong { particles: n, bytes: device.limits().max_compute_workgroup_storage_size });
-        };
         let storage = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some(label),
@@ -442,7 +411,7 @@ impl GpuStrands {
         });
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("hair_gpu step.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(step_shader(n as u32, group).into()),
+            source: wgpu::ShaderSource::Wgsl(SHADER.into()),
         });
         let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
             binding,
@@ -513,7 +482,6 @@ impl GpuStrands {
             rest_positions: rest.positions.clone(),
             strands: rest.strand_count() as u32,
             particles_per_strand: n as u32,
-            group,
             timestamps,
             published,
             id: NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
@@ -685,7 +653,7 @@ impl GpuStrands {
             });
             pass.set_pipeline(&self.pipeline);
             pass.set_bind_group(0, &self.bind_group, &[]);
-            pass.dispatch_workgroups(self.strands.div_ceil(self.group), 1, 1);
+            pass.dispatch_workgroups(self.strands.div_ceil(WORKGROUP_SIZE), 1, 1);
         }
         if let Some(t) = timestamps {
             encoder.resolve_query_set(&t.queries, 0..2, &t.resolved, 0);
@@ -1105,22 +1073,11 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_shader_validates_for_any_strand_length() {
-        let limits = wgpu::Limits::default();
-        for particles in [2, 11, 16, 33, 200, 1024] {
-            let group = strands_per_group(particles, &limits).expect("a strand fits");
-            assert!(group * particles * 16 <= limits.max_compute_workgroup_storage_size);
-            assert!(group.is_power_of_two() && group <= WORKGROUP_SIZE);
-            let source = step_shader(particles, group);
-            assert!(source.contains(&format!("const PARTICLES: u32 = {particles}u;\nconst GROUP: u32 = {group}u;")));
-            let module = naga::front::wgsl::parse_str(&source).expect("step.wgsl parses");
-            naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::empty())
-                .validate(&module)
-                .expect("step.wgsl validates");
-        }
-        assert_eq!(strands_per_group(16, &limits), Some(64));
-        assert_eq!(strands_per_group(32, &limits), Some(32));
-        assert_eq!(strands_per_group(1025, &limits), None);
+    fn the_shader_validates() {
+        let module = naga::front::wgsl::parse_str(SHADER).expect("step.wgsl parses");
+        naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::empty())
+            .validate(&module)
+            .expect("step.wgsl validates");
     }
 
     #[test]

@@ -159,30 +159,6 @@ fn alpha(j: u32) -> f32 {
     return tables[step.flags.z + j / 4u][j % 4u];
 }
 
-// --- The strands being stepped, held in workgroup memory ---
-//
-// The solver walks along a strand reading what it has just written, positions most of all.
-// In a storage buffer every such read goes out to the device's memory (a storage buffer
-// read after a write is not served by the core's own cache), and neighbouring invocations'
-// particles lie a strand apart there; in workgroup memory it stays on the core, laid out so
-// that neighbouring invocations read neighbouring words. A step loads its strand's
-// positions once and stores them once (`step_strands`); particle indices stay the
-// buffers' (`first + j`) throughout.
-
-// Particles per strand, and strands per workgroup: `GpuStrands` makes the pipeline with
-// its own (`step_shader`, which sizes the group to the device's workgroup memory); these
-// values only let the file validate alone.
-const PARTICLES: u32 = 16u;
-const GROUP: u32 = 64u;
-
-var<workgroup> held_positions: array<vec3<f32>, PARTICLES * GROUP>;
-var<private> strand_first: u32;
-// This invocation's place in its workgroup.
-var<private> lane: u32;
-
-fn position(i: u32) -> vec3<f32> { return held_positions[(i - strand_first) * GROUP + lane]; }
-fn set_position(i: u32, x: vec3<f32>) { held_positions[(i - strand_first) * GROUP + lane] = x; }
-
 fn velocity(i: u32) -> vec3<f32> { return motion[3u * i].xyz; }
 fn start(i: u32) -> vec3<f32> { return motion[3u * i + 1u].xyz; }
 fn correction(i: u32) -> vec3<f32> { return motion[3u * i + 2u].xyz; }
@@ -910,7 +886,7 @@ const LENGTH_SLACK: f32 = 0.75;
 // `toward`; where that is more than `unchecked` from `toward`, turned out of whatever
 // collider it is in (`outside_at_length`). FTL's correction counts the move.
 fn place_at_length(i: u32, toward: vec3<f32>, unchecked: f32, now: Pose) {
-    let parent = position(i - 1u);
+    let parent = positions[i - 1u].xyz;
     let segment = final_length(i, toward - parent);
     var placed = parent + normalize_or(toward - parent, vec3<f32>(0.0, -1.0, 0.0)) * segment;
     if distance(placed, toward) > unchecked {
@@ -922,9 +898,9 @@ fn place_at_length(i: u32, toward: vec3<f32>, unchecked: f32, now: Pose) {
 // Moves particle `i` to `placed` in the final pass; FTL's velocity correction counts the move.
 fn set_final(i: u32, placed: vec3<f32>) {
     if step.spring_flags.x == 0u {
-        motion[3u * i + 2u] = vec4<f32>(correction(i) + placed - position(i), 0.0);
+        motion[3u * i + 2u] = vec4<f32>(correction(i) + placed - positions[i].xyz, 0.0);
     }
-    set_position(i, placed);
+    positions[i] = vec4<f32>(placed, 0.0);
 }
 
 // Where to put world `placed_in`, which should sit `segment` from world `parent` (itself
@@ -1002,8 +978,8 @@ fn outside_and_reached(parent: vec3<f32>, x: vec3<f32>, now: Pose) -> bool {
 fn keep_segments_outside(first: u32, n: u32, now: Pose) {
     for (var j = 2u; j < n; j++) {
         let i = first + j;
-        let parent = position(i - 1u);
-        let child = position(i);
+        let parent = positions[i - 1u].xyz;
+        let child = positions[i].xyz;
         let local_parent = local_point(now, parent);
         let local_child = local_point(now, child);
         let span = distance(parent, child);
@@ -1024,12 +1000,12 @@ fn keep_segments_outside(first: u32, n: u32, now: Pose) {
         var from_particle = j;
         for (var round = 0u; round < 2u; round++) {
             for (var k = from_particle; k < n; k++) {
-                place_at_length(first + k, select(position(first + k), turned, k == j), -1.0, now);
+                place_at_length(first + k, select(positions[first + k].xyz, turned, k == j), -1.0, now);
             }
             if round == 1u {
                 break;
             }
-            let placed = local_point(now, position(i));
+            let placed = local_point(now, positions[i].xyz);
             let turned_contact = contact_at(turned, now);
             let turned_outside = !turned_contact.hit || turned_contact.depth <= step.limits.y;
             if !(any(placed != local_turned) && crosses(local_parent, placed) && turned_outside) {
@@ -1176,7 +1152,7 @@ fn patch_contact(p: vec3<f32>) -> PatchContact {
 fn reset_strand(first: u32, n: u32, to: Pose) {
     for (var j = 0u; j < n; j++) {
         let x = world_point(to, rest_position(first + j));
-        set_position(first + j, x);
+        positions[first + j] = vec4<f32>(x, 0.0);
         motion[3u * (first + j)] = vec4<f32>(0.0);
         // The spring model forgets the substep before (the root's w: no history).
         if step.spring_flags.x == 1u {
@@ -1196,11 +1172,11 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
     // 1. Forces and integration; 2. the root follows the head.
     for (var j = 0u; j < n; j++) {
         let i = first + j;
-        motion[3u * i + 1u] = vec4<f32>(position(i), 0.0);
+        motion[3u * i + 1u] = vec4<f32>(positions[i].xyz, 0.0);
         motion[3u * i + 2u] = vec4<f32>(0.0);
     }
     let wind = wind_at(step.flags.w + strand, time);
-    set_position(first, world_point(now, rest_position(first)));
+    positions[first] = vec4<f32>(world_point(now, rest_position(first)), 0.0);
     // The integrator's step: the particles end at `base + step_length · velocity`.
     var step_length = h;
     if step.spring_flags.x == 1u {
@@ -1209,7 +1185,7 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
         for (var j = 1u; j < n; j++) {
             let i = first + j;
             let v = (velocity(i) + acceleration(i, wind) * h) * step.motion.x;
-            set_position(i, position(i) + clamp_length_max(v * h, step.motion.y));
+            positions[i] = vec4<f32>(positions[i].xyz + clamp_length_max(v * h, step.motion.y), 0.0);
         }
     }
 
@@ -1220,8 +1196,8 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
             let a = alpha(j);
             if a > 0.0 {
                 let i = first + j;
-                let x = position(i);
-                set_position(i, x + (world_point(now, rest_position(i)) - x) * a);
+                let x = positions[i].xyz;
+                positions[i] = vec4<f32>(x + (world_point(now, rest_position(i)) - x) * a, 0.0);
             }
         }
         if step.motion.z > 0.0 {
@@ -1229,10 +1205,10 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
             for (var j = 1u; j < n; j++) {
                 let i = first + j;
                 let expected = normalize_or(frame * rest_direction(i), rest_direction(i));
-                let parent = position(i - 1u);
+                let parent = positions[i - 1u].xyz;
                 let target_point = parent + expected * rest_length(i);
-                let x = position(i) + (target_point - position(i)) * step.motion.z;
-                set_position(i, x);
+                let x = positions[i].xyz + (target_point - positions[i].xyz) * step.motion.z;
+                positions[i] = vec4<f32>(x, 0.0);
                 let actual = normalize_or(x - parent, expected);
                 frame = rotation_arc(expected, actual) * frame;
             }
@@ -1249,7 +1225,7 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
     if step.flags.x == 1u {
         for (var j = 1u; j < n; j++) {
             let i = first + j;
-            var x = position(i);
+            var x = positions[i].xyz;
             if step.grid_dims.w == 1u {
                 // Friction slides back along the tangent plane, which in a hollow dips
                 // under the surface: out again from there (a second query), unless the
@@ -1281,10 +1257,10 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
                     x = world_point(now, with_friction(skin.position, skin.normal, local_point(before, start(i))));
                 }
             }
-            set_position(i, out_of_extras(x, start(i)));
+            positions[i] = vec4<f32>(out_of_extras(x, start(i)), 0.0);
         }
         for (var j = 1u; j < n; j++) {
-            place_at_length(first + j, position(first + j), LENGTH_SLACK * step.limits.y, now);
+            place_at_length(first + j, positions[first + j].xyz, LENGTH_SLACK * step.limits.y, now);
         }
         if step.spring_flags.z == 1u && k == step.counts.z && step.grid_dims.w == 1u {
             keep_segments_outside(first, n, now);
@@ -1296,7 +1272,7 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
 // 5. Velocities from where the particles ended up, less FTL's correction; the integrator
 // advanced them `step_length` (the substep, or the spring model's).
 fn update_velocities(first: u32, n: u32, h: f32, step_length: f32) {
-    let root_velocity = (position(first) - start(first)) * (1.0 / h);
+    let root_velocity = (positions[first].xyz - start(first)) * (1.0 / h);
     motion[3u * first] = vec4<f32>(clamp_length_max(root_velocity, step.limits.x), 0.0);
     let inverse_step = 1.0 / step_length;
     for (var j = 1u; j < n; j++) {
@@ -1309,7 +1285,7 @@ fn update_velocities(first: u32, n: u32, h: f32, step_length: f32) {
         if step.spring_flags.x == 1u {
             base = springs_base(i);
         }
-        let v = (position(i) - base) * inverse_step - next * step.motion.w;
+        let v = (positions[i].xyz - base) * inverse_step - next * step.motion.w;
         motion[3u * i] = vec4<f32>(clamp_length_max(v, step.limits.x), 0.0);
     }
 }
@@ -1375,19 +1351,19 @@ fn implicit_springs(first: u32, n: u32, h: f32, wind: vec3<f32>) -> f32 {
         springs[6u * i + 1u] = vec4<f32>(v, 0.0);
         springs[6u * i + 2u] = vec4<f32>(base, 0.0);
         motion[3u * i] = vec4<f32>(new_v, 0.0);
-        set_position(i, base + new_v * step_length);
+        positions[i] = vec4<f32>(base + new_v * step_length, 0.0);
     }
     springs[6u * first] = vec4<f32>(springs[6u * first].xyz, h);
     springs[6u * first + 2u] = vec4<f32>(start(first), 0.0);
 
     // The segments at the predicted positions; the pinned root's velocity damps the first.
-    let root_velocity = (position(first) - start(first)) * (1.0 / h);
+    let root_velocity = (positions[first].xyz - start(first)) * (1.0 / h);
     let k = step.springs.x;
     let d = step.springs.y;
     let tolerance = step.springs.w;
     for (var j = 1u; j < n; j++) {
         let i = first + j;
-        let segment = position(i) - position(i - 1u);
+        let segment = positions[i].xyz - positions[i - 1u].xyz;
         let l = length(segment);
         var direction = vec3<f32>(0.0);
         if l > 1e-9 {
@@ -1409,10 +1385,10 @@ fn implicit_springs(first: u32, n: u32, h: f32, wind: vec3<f32>) -> f32 {
     solve_tensions(first, n, coupling, displacement);
     for (var solve = 0u; solve < MAX_ACTIVE_SET_PASSES; solve++) {
         var added = false;
-        var parent = position(first);
+        var parent = positions[first].xyz;
         for (var j = 1u; j < n; j++) {
             let i = first + j;
-            let x = position(i) + pull(i, j, n) * displacement;
+            let x = positions[i].xyz + pull(i, j, n) * displacement;
             let stretch = length(x - parent) - rest_length(i);
             parent = x;
             let beyond = abs(stretch) > rest_length(i) * tolerance * (1.0 - BOUND_SLACK);
@@ -1431,7 +1407,7 @@ fn implicit_springs(first: u32, n: u32, h: f32, wind: vec3<f32>) -> f32 {
         let i = first + j;
         let v = clamp_length_max(velocity(i) + pull(i, j, n) * (step_length * w), step.limits.x);
         motion[3u * i] = vec4<f32>(v, 0.0);
-        set_position(i, springs_base(i) + v * step_length);
+        positions[i] = vec4<f32>(springs_base(i) + v * step_length, 0.0);
     }
     return step_length;
 }
@@ -1488,12 +1464,12 @@ fn clamp_lengths(first: u32, n: u32, down: vec3<f32>) {
     let tolerance = step.springs.w;
     for (var j = 1u; j < n; j++) {
         let i = first + j;
-        let parent = position(i - 1u);
-        let d = position(i) - parent;
+        let parent = positions[i - 1u].xyz;
+        let d = positions[i].xyz - parent;
         let l = length(d);
         let clamped = clamp(l, rest_length(i) * (1.0 - tolerance), rest_length(i) * (1.0 + tolerance));
         if clamped != l {
-            set_position(i, parent + normalize_or(d, down) * clamped);
+            positions[i] = vec4<f32>(parent + normalize_or(d, down) * clamped, 0.0);
         }
     }
 }
@@ -1503,53 +1479,46 @@ fn clamp_lengths(first: u32, n: u32, down: vec3<f32>) {
 fn follow_the_leader(first: u32, n: u32, down: vec3<f32>) {
     for (var j = 1u; j < n; j++) {
         let i = first + j;
-        let parent = position(i - 1u);
-        let x = position(i);
+        let parent = positions[i - 1u].xyz;
+        let x = positions[i].xyz;
         let placed = parent + normalize_or(x - parent, down) * rest_length(i);
         motion[3u * i + 2u] = vec4<f32>(correction(i) + placed - x, 0.0);
-        set_position(i, placed);
+        positions[i] = vec4<f32>(placed, 0.0);
     }
 }
 
-@compute @workgroup_size(GROUP)
-fn step_strands(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_index) local: u32) {
+@compute @workgroup_size(64)
+fn step_strands(@builtin(global_invocation_id) id: vec3<u32>) {
     let strand = id.x;
     if strand >= step.counts.x {
         return;
     }
     let n = step.counts.y;
     let first = strand * n;
-    strand_first = first;
-    lane = local;
-    for (var j = 0u; j < n; j++) {
-        set_position(first + j, positions[first + j].xyz);
-    }
     let last = pose(step.counts.z);
     // A root that jumped (a teleport) or is not finite starts over at rest.
-    let jump = length(world_point(last, rest_position(first)) - position(first));
+    let jump = length(world_point(last, rest_position(first)) - positions[first].xyz);
     if !(jump <= step.limits.w) {
         reset_strand(first, n, last);
         tally.teleport_resets = 1.0;
-    } else {
-        // The spring model's memory is stale after a step without it.
-        if step.spring_flags.x == 1u && step.spring_flags.y == 0u {
-            springs[6u * first] = vec4<f32>(0.0);
-        }
-        for (var k = 1u; k <= step.counts.z; k++) {
-            substep(strand, first, n, k);
-        }
-        reset_if_not_finite(first, n, last);
+        add_to_report(strand);
+        return;
     }
-    for (var j = 0u; j < n; j++) {
-        positions[first + j] = vec4<f32>(position(first + j), 0.0);
+    // The spring model's memory is stale after a step without it.
+    if step.spring_flags.x == 1u && step.spring_flags.y == 0u {
+        springs[6u * first] = vec4<f32>(0.0);
     }
+    for (var k = 1u; k <= step.counts.z; k++) {
+        substep(strand, first, n, k);
+    }
+    reset_if_not_finite(first, n, last);
     add_to_report(strand);
 }
 
 // A strand with a particle or velocity that is not finite starts over at rest under `pose`.
 fn reset_if_not_finite(first: u32, n: u32, at: Pose) {
     for (var j = 0u; j < n; j++) {
-        if !(finite(position(first + j)) && finite(velocity(first + j))) {
+        if !(finite(positions[first + j].xyz) && finite(velocity(first + j))) {
             reset_strand(first, n, at);
             tally.nan_resets = 1.0;
             return;
