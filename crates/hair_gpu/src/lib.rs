@@ -220,7 +220,8 @@ struct GridInfo {
 impl GridInfo {
     /// `collider` as `step.wgsl`'s `head` buffer holds it (words): the grid's samples,
     /// then, if they fit in `limit` bytes, the exact near query's cell ranges, blocks and
-    /// triangles (ten vec4 each), and the curvature table (two words a cell).
+    /// triangles (ten vec4 each), the BVH over them (two vec4 a node, then its triangle
+    /// order), and the curvature table (two words a cell).
     fn pack(collider: &HeadCollider, limit: u64) -> (Vec<u32>, GridInfo) {
         let g = collider.grid();
         let mut words: Vec<u32> = g.values().iter().map(|v| v.to_bits()).collect();
@@ -256,6 +257,8 @@ impl GridInfo {
             words.extend(triangle.iter().flat_map(|v| [v.x, v.y, v.z, 0.0]).map(f32::to_bits));
         }
         info.near = [ranges, blocks, triangles, tables.count_bits];
+        // A leaf's count takes the low three bits beside its first triangle.
+        const _: () = assert!(hair_sim::collide::FlatBvh::LEAF_SIZE < 8);
         let nodes = words.len() as u32;
         for node in &tables.bvh.nodes {
             let corner = |v: Vec3, w: u32| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits(), w];

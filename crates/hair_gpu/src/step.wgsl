@@ -55,11 +55,10 @@ struct Step {
     // (0: no skin), its triangles, its bins' starts and lists.
     skin: vec4<u32>,
     // hair_sim's `FlatBvh` over the tables' triangles in `head`, walked where the CPU walks
-    // its BVH: for a particle's contact without a list (deep inside, or in a cell with too
-    // many candidates), and whether a segment hits the surface at all: its node count (0: no
-    // tables),
-    // where its nodes (eight words each: lowest corner and the node after its subtree,
-    // highest corner and a leaf's first triangle × 8 + count) and its triangle order start.
+    // its BVH (a particle's contact without a list, deep inside or in a cell with too many
+    // candidates; the triangles a segment hits): its node count (0: no tables), where its
+    // nodes (eight words each: lowest corner and the node after its subtree, highest corner
+    // and a leaf's first triangle × 8 + count) and its triangle order start.
     bvh: vec4<u32>,
 }
 

@@ -5,8 +5,6 @@
 
 use crate::math::Vec3;
 
-/// Triangles per leaf, at most.
-const LEAF_SIZE: usize = 4;
 /// Added around every box, metres.
 const PADDING: f32 = 1e-6;
 
@@ -22,7 +20,7 @@ pub struct FlatBvhNode {
     pub skip: u32,
     /// A leaf's first triangle in [`FlatBvh::order`].
     pub first: u32,
-    /// A leaf's triangle count, 1 to 4; 0 for a node with children, whose first child is
+    /// A leaf's triangle count, 1 to [`FlatBvh::LEAF_SIZE`]; 0 for a node with children, whose first child is
     /// the next node.
     pub count: u32,
 }
@@ -39,6 +37,9 @@ pub struct FlatBvh {
 }
 
 impl FlatBvh {
+    /// Triangles per leaf, at most.
+    pub const LEAF_SIZE: usize = 4;
+
     /// The hierarchy over `triangles`' corners.
     pub fn new(triangles: &[[Vec3; 3]]) -> Self {
         let mut bvh = FlatBvh { nodes: Vec::new(), order: (0..triangles.len() as u32).collect() };
@@ -62,7 +63,7 @@ impl FlatBvh {
         // A little room: a ray grazing a flat box's face, rounded, still enters it.
         (min, max) = (min - Vec3::splat(PADDING), max + Vec3::splat(PADDING));
         let at = self.nodes.len();
-        let leaf = end - start <= LEAF_SIZE;
+        let leaf = end - start <= Self::LEAF_SIZE;
         let count = if leaf { (end - start) as u32 } else { 0 };
         self.nodes.push(FlatBvhNode { min, max, skip: 0, first: start as u32, count });
         if !leaf {
@@ -196,7 +197,7 @@ mod tests {
         let mut in_leaves = 0;
         for (k, node) in bvh.nodes.iter().enumerate() {
             assert!(node.skip as usize > k && node.skip as usize <= bvh.nodes.len());
-            assert!(node.count as usize <= LEAF_SIZE);
+            assert!(node.count as usize <= FlatBvh::LEAF_SIZE);
             // Every node of the subtree, and every corner of its leaves, lies in the box.
             for inner in &bvh.nodes[k..node.skip as usize] {
                 assert!(inner.min.cmpge(node.min).all() && inner.max.cmple(node.max).all());
