@@ -20,8 +20,8 @@ pub struct FlatBvhNode {
     pub skip: u32,
     /// A leaf's first triangle in [`FlatBvh::order`].
     pub first: u32,
-    /// A leaf's triangle count, 1 to [`FlatBvh::LEAF_SIZE`]; 0 for a node with children, whose first child is
-    /// the next node.
+    /// A leaf's triangle count, 1 to [`FlatBvh::LEAF_SIZE`]; 0 for a node with children,
+    /// whose first child is the next node.
     pub count: u32,
 }
 
