@@ -13,7 +13,9 @@
 //! ```text
 //! cargo run --release -p hair_gpu --example gpu_bench
 //! # also: --steps N (default 60), --sizes 2048x16,16384x16 (guides × particles), --skin,
-//! #       --no-segment-collision, --no-collision (what collision costs)
+//! #       --no-segment-collision, --no-collision (what collision costs), --drape
+//! #       (no shape keeping: the hair falls onto the head and slides over it, as a
+//! #       character's does, where the exact queries and segment crossings run)
 //! ```
 
 use hair_gpu::{GpuContext, GpuDrawing, GpuStrands, wgpu};
@@ -60,9 +62,12 @@ fn main() {
     let scalp = test_scalp(&head);
     // What collision costs: `--no-segment-collision` leaves out the whole-segment pass,
     // `--no-collision` all of it.
+    let drape = flag("--drape");
     let params = SimParams {
         collision: !flag("--no-collision"),
         segment_collision: !flag("--no-segment-collision"),
+        local_stiffness: if drape { 0.0 } else { SimParams::default().local_stiffness },
+        global_stiffness_root: if drape { 0.0 } else { SimParams::default().global_stiffness_root },
         ..SimParams::default()
     };
     let collision = match (params.collision, params.segment_collision) {
@@ -158,7 +163,7 @@ fn main() {
         times.sort_by(f64::total_cmp);
         println!(
             "{{\"guides\":{guides},\"particles_per_strand\":{particles},\"steps\":{steps},\"adapter\":\"{}\",\
-             \"backend\":\"{:?}\",\"skin\":{},\"collision\":\"{collision}\",\"timing\":\"{}\",\"ms_per_step\":{:.4},\"finite\":{},\"max_stretch\":{stretch:.6},\
+             \"backend\":\"{:?}\",\"skin\":{},\"drape\":{drape},\"collision\":\"{collision}\",\"timing\":\"{}\",\"ms_per_step\":{:.4},\"finite\":{},\"max_stretch\":{stretch:.6},\
              \"max_penetration_m\":{:.6},\"draw_ms_per_frame\":{:.4},\"draw_timing\":\"wall time, waiting for each draw\"}}",
             gpu.adapter.name.replace('"', "'"),
             gpu.adapter.backend,
