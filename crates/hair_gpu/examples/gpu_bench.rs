@@ -61,14 +61,15 @@ fn main() {
     let mut skin = flag("--skin").then(|| SurfacePatch::new(head.triangles.clone(), swollen(0.0), 0.02));
     let scalp = test_scalp(&head);
     // What collision costs: `--no-segment-collision` leaves out the whole-segment pass,
-    // `--no-collision` all of it.
+    // `--no-collision` all of it. `--drape` keeps no shape.
     let drape = flag("--drape");
+    let defaults = SimParams::default();
     let params = SimParams {
         collision: !flag("--no-collision"),
         segment_collision: !flag("--no-segment-collision"),
-        local_stiffness: if drape { 0.0 } else { SimParams::default().local_stiffness },
-        global_stiffness_root: if drape { 0.0 } else { SimParams::default().global_stiffness_root },
-        ..SimParams::default()
+        local_stiffness: if drape { 0.0 } else { defaults.local_stiffness },
+        global_stiffness_root: if drape { 0.0 } else { defaults.global_stiffness_root },
+        ..defaults
     };
     let collision = match (params.collision, params.segment_collision) {
         (false, _) => "none",
@@ -85,20 +86,20 @@ fn main() {
         // A GPU idles at a low clock and raises it under load within a second or so (an
         // NVIDIA H200 from 345 to 1,980 MHz, 2026-12-04; timed cold, small grooms took 5×
         // longer): a second of steps under the first pose before any is timed.
+        let still = StepInput {
+            dt,
+            time: 0.0,
+            head_from: head_pose(0.0),
+            head_to: head_pose(0.0),
+            collider: Some(&collider),
+            extra_colliders: &[],
+            surface_patch: skin.as_ref(),
+            params: &params,
+        };
         let warm_up = Instant::now();
         while warm_up.elapsed().as_secs_f32() < 1.0 {
-            let input = StepInput {
-                dt,
-                time: 0.0,
-                head_from: head_pose(0.0),
-                head_to: head_pose(0.0),
-                collider: Some(&collider),
-                extra_colliders: &[],
-                surface_patch: skin.as_ref(),
-                params: &params,
-            };
             for _ in 0..8 {
-                strands.step(&input).expect("GPU step");
+                strands.step(&still).expect("GPU step");
             }
             strands.finish().expect("GPU wait");
         }

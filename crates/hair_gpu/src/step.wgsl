@@ -382,17 +382,16 @@ fn exact_surface(p: vec3<f32>, fraction: vec3<f32>, range: u32, by_grid: Surface
         } else {
             // Down to the next leaf whose box is nearer than the best found.
             while leaf_next == leaf_end && node < step.bvh.x {
-                let at = step.bvh.y + 8u * node;
-                let gap = length(max(max(head_vec3(at) - p, p - head_vec3(at + 4u)), vec3<f32>(0.0)));
-                let leaf = head[at + 7u];
-                if !(gap < best) || (leaf & 7u) != 0u {
-                    node = head[at + 3u];
-                } else {
+                let bounds = bvh_node(node);
+                let open = length(max(max(bounds.low - p, p - bounds.high), vec3<f32>(0.0))) < best;
+                if open && bounds.count == 0u {
                     node++;
+                    continue;
                 }
-                if gap < best && (leaf & 7u) != 0u {
-                    leaf_next = leaf >> 3u;
-                    leaf_end = leaf_next + (leaf & 7u);
+                node = bounds.skip;
+                if open {
+                    leaf_next = bounds.first;
+                    leaf_end = bounds.first + bounds.count;
                 }
             }
             if leaf_next == leaf_end {
@@ -610,6 +609,23 @@ fn crossed_stretch(a: vec3<f32>, a_distance: f32, b: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(0.0);
 }
 
+// Node `k` of the BVH in `head` (`Step::bvh`): its box, the node after its subtree, and a
+// leaf's `count` triangles from `first` in the BVH's order (0: a node with children, the
+// first of them next).
+struct BvhNode {
+    low: vec3<f32>,
+    high: vec3<f32>,
+    skip: u32,
+    first: u32,
+    count: u32,
+}
+
+fn bvh_node(k: u32) -> BvhNode {
+    let at = step.bvh.y + 8u * k;
+    let leaf = head[at + 7u];
+    return BvhNode(head_vec3(at), head_vec3(at + 4u), head[at + 3u], leaf >> 3u, leaf & 7u);
+}
+
 // The distance along the ray from `origin` (relative to the collider's centre) along unit
 // `direction` to the nearest triangle it hits, either side, from `beyond` to `reach`; beyond
 // `reach` where it hits none. A walk of the BVH into the boxes the ray enters within that
@@ -621,24 +637,21 @@ fn first_hit(origin: vec3<f32>, direction: vec3<f32>, beyond: f32, reach: f32) -
     var nearest = 2.0 * reach + 1.0;
     var node = 0u;
     while node < step.bvh.x {
-        let at = step.bvh.y + 8u * node;
-        let low = head_vec3(at);
-        let high = head_vec3(at + 4u);
-        let t0 = (low - origin) * inverse;
-        let t1 = (high - origin) * inverse;
-        let all = select(vec3<f32>(3.4e38), vec3<f32>(-3.4e38), (origin >= low) & (origin <= high));
+        let bounds = bvh_node(node);
+        let t0 = (bounds.low - origin) * inverse;
+        let t1 = (bounds.high - origin) * inverse;
+        let all = select(vec3<f32>(3.4e38), vec3<f32>(-3.4e38), (origin >= bounds.low) & (origin <= bounds.high));
         let near = select(min(t0, t1), all, along);
         let far = select(max(t0, t1), -all, along);
         let enters = max(max(near.x, near.y), near.z);
         let leaves = min(min(far.x, far.y), far.z);
         let open = enters <= min(leaves, min(nearest, reach)) && leaves >= beyond;
-        let leaf = head[at + 7u];
-        if open && (leaf & 7u) == 0u {
+        if open && bounds.count == 0u {
             node++;
             continue;
         }
-        node = head[at + 3u];
-        for (var l = leaf >> 3u; open && l < (leaf >> 3u) + (leaf & 7u); l++) {
+        node = bounds.skip;
+        for (var l = bounds.first; open && l < bounds.first + bounds.count; l++) {
             let base = step.near.z + 40u * head[step.bvh.z + l];
             let t = ray_on_triangle(origin, direction, head_vec3(base), head_vec3(base + 4u), head_vec3(base + 8u));
             if t >= beyond && t <= min(nearest, reach) {
