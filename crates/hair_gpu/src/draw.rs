@@ -13,8 +13,9 @@ use wgpu::util::DeviceExt;
 /// frames and the helpers they need, for a renderer's shader to import (bevy_hair adds
 /// `#define_import_path bevy_hair::curve`).
 pub const CURVE_SHADER: &str = include_str!("curve.wgsl");
-/// The drawing passes' WGSL (`draw.wgsl`), which needs [`CURVE_SHADER`] before it.
-pub const DRAW_SHADER: &str = include_str!("draw.wgsl");
+/// The drawing passes' WGSL (the solver's `layout.wgsl`, then `draw.wgsl`), which needs
+/// [`CURVE_SHADER`] before it.
+pub const DRAW_SHADER: &str = concat!(include_str!("layout.wgsl"), "\n", include_str!("draw.wgsl"));
 
 /// `draw.wgsl`'s `Placement`: an affine map, the counts and the overstep.
 #[repr(C)]
@@ -64,23 +65,25 @@ pub(crate) struct Published {
     groups: [wgpu::BindGroup; 2],
     /// Which of `locals` holds the last step.
     pub latest: usize,
+    /// Slots in each of `locals`, as in the solver's planes.
+    slots: u32,
 }
 
 impl Published {
-    /// Room for two steps of the `particles` in `positions` (the solver's buffer).
-    pub fn new(device: &wgpu::Device, positions: &wgpu::Buffer, particles: usize) -> Self {
+    /// Room for two steps of the `slots` of `positions` (the solver's buffer), laid out as it is.
+    pub fn new(device: &wgpu::Device, positions: &wgpu::Buffer, slots: usize) -> Self {
         let pipeline = pipeline(device, &module(device), "publish_local");
         let uniform = uniform_buffer(device);
         let locals = [0, 1].map(|k| {
             device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(if k == 0 { "hair_gpu head space A" } else { "hair_gpu head space B" }),
-                size: (particles.max(1) * 16) as u64,
+                size: (slots.max(1) * 16) as u64,
                 usage: wgpu::BufferUsages::STORAGE,
                 mapped_at_creation: false,
             })
         });
         let groups = [0, 1].map(|k| bind_group(device, &pipeline, &[(0, &uniform), (1, positions), (4, &locals[k])]));
-        Published { pipeline, uniform, locals, groups, latest: 0 }
+        Published { pipeline, uniform, locals, groups, latest: 0, slots: slots as u32 }
     }
 
     /// Keeps the particles as they are now in the head's frame (the solver's positions
@@ -91,7 +94,7 @@ impl Published {
         let placement = Placement::new(inverse, -(inverse * pose.translation), counts, 0.0);
         queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&placement));
         let group = &self.groups[self.latest];
-        submit((device, queue), "hair_gpu publish", &self.pipeline, group, counts[0] * counts[1]);
+        submit((device, queue), "hair_gpu publish", &self.pipeline, group, self.slots);
     }
 }
 

@@ -1,7 +1,9 @@
 // What a renderer reads of GPU strands, written on the GPU (`draw.rs`): after each step
 // the particles in head space (`publish_local`), and each frame the particles as drawn
 // (interpolated between the last two steps, placed on the head as posed in the frame) with
-// their parallel-transport frame vectors (`draw_strands`). `curve.wgsl` is prepended.
+// their parallel-transport frame vectors (`draw_strands`). `curve.wgsl` and `layout.wgsl`
+// are prepended: the solver's buffers, and the head-space copies, are laid out as the
+// latter says; the renderer's is strand by strand.
 //
 // Mirrors what bevy_hair does on the CPU for a CPU groom: `HairState::publish` and
 // `interpolated_positions`, and `hair_sim::groom::curve::transport_frames`.
@@ -22,8 +24,8 @@ struct Placement {
 @group(0) @binding(0) var<uniform> placement: Placement;
 // The solver's positions (`step.wgsl`'s `positions`).
 @group(0) @binding(1) var<storage, read> positions: array<vec4<f32>>;
-// The solver's rest shape (`step.wgsl`'s `rest`): two vec4 per particle, the head-local
-// rest position first.
+// The solver's rest shape (`step.wgsl`'s `rest`): two planes, the head-local rest position
+// first.
 @group(0) @binding(2) var<storage, read> rest: array<vec4<f32>>;
 // Head-space particles after the step before the last, and after the last.
 @group(0) @binding(3) var<storage, read> previous: array<vec4<f32>>;
@@ -41,7 +43,7 @@ fn place(p: vec3<f32>) -> vec3<f32> {
 @compute @workgroup_size(64)
 fn publish_local(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = id.x;
-    if i >= placement.counts.x * placement.counts.y {
+    if i >= slot_count(placement.counts.x, placement.counts.y) {
         return;
     }
     current[i] = vec4(place(positions[i].xyz), 1.0);
@@ -78,13 +80,14 @@ fn draw_strands(@builtin(global_invocation_id) id: vec3<u32>) {
     if strand >= strands || n < 2u {
         return;
     }
+    let slot = root_slot(strand, n);
     let first = strand * n;
     let t = clamp(placement.overstep.x, 0.0, 1.0);
     // The root where the rest shape pins it this frame; the rest interpolated.
-    drawn[first] = vec4(place(rest[2u * first].xyz), 1.0);
+    drawn[first] = vec4(place(rest[slot].xyz), 1.0);
     for (var j = 1u; j < n; j++) {
-        let i = first + j;
-        drawn[i] = vec4(place(mix(previous[i].xyz, current[i].xyz, t)), 1.0);
+        let i = slot + j * LANES;
+        drawn[first + j] = vec4(place(mix(previous[i].xyz, current[i].xyz, t)), 1.0);
     }
     // `transport_frames`, from the root's `u` turned with the head.
     let u0 = root_u[strand].xyz;

@@ -40,16 +40,20 @@ use bytemuck::{Pod, Zeroable};
 use hair_sim::collide::HeadCollider;
 use hair_sim::math::{Pose, Vec3};
 use hair_sim::solver::{LengthMode, RestShape, StepConstants, StepInput, StepReport};
+use layout::Slots;
 use wgpu::util::DeviceExt;
 
 mod draw;
+mod layout;
 mod pass;
 
 pub use draw::{CURVE_SHADER, DRAW_SHADER, GpuDrawing};
 pub use wgpu;
 
-/// The solver's WGSL source (`step.wgsl`, beside this file).
-pub const SHADER: &str = include_str!("step.wgsl");
+/// The solver's WGSL source (`layout.wgsl`, then `step.wgsl`, beside this file).
+pub const SHADER: &str = concat!(include_str!("layout.wgsl"), "\n", include_str!("step.wgsl"));
+/// The roots' pass (`layout.wgsl`, then `roots.wgsl`).
+const ROOTS_SHADER: &str = concat!(include_str!("layout.wgsl"), "\n", include_str!("roots.wgsl"));
 /// Strands per workgroup, as `step.wgsl` declares.
 const WORKGROUP_SIZE: u32 = 64;
 /// Substeps the pose table holds room for at first ([`hair_sim::solver::SimParams`]'s own
@@ -306,6 +310,8 @@ pub struct GpuStrands {
     rest_positions: Vec<Vec3>,
     strands: u32,
     particles_per_strand: u32,
+    /// Where each particle's values live in the buffers.
+    slots: Slots,
     timestamps: Option<Timestamps>,
     /// The last two steps in head space, for [`GpuDrawing`].
     published: draw::Published,
@@ -337,7 +343,7 @@ impl RootsUpload {
         });
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("hair_gpu roots.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(include_str!("roots.wgsl").into()),
+            source: wgpu::ShaderSource::Wgsl(ROOTS_SHADER.into()),
         });
         let pipeline = pass::pipeline(device, &module, "place_roots");
         let group = pass::bind_group(device, &pipeline, &[(0, &counts), (1, &roots), (2, rest)]);
@@ -345,12 +351,12 @@ impl RootsUpload {
     }
 }
 
-/// Bytes per particle in `motion`: velocity, substep start and FTL correction.
+/// Bytes per slot in `motion`: velocity, substep start and FTL correction.
 const MOTION_BYTES: u64 = 3 * 16;
 /// Bytes per strand of the step report after the particles in `motion` (`step.wgsl`'s
 /// `Tally`, added up).
 const REPORT_BYTES: u64 = 2 * 16;
-/// Bytes per particle in `springs` (see `step.wgsl`).
+/// Bytes per slot in `springs` (see `step.wgsl`).
 const SPRINGS_BYTES: u64 = 6 * 16;
 
 impl GpuStrands {
@@ -365,12 +371,13 @@ impl GpuStrands {
     ) -> Result<Self, GpuError> {
         let device = &gpu.device;
         let particles = rest.positions.len();
+        let n = rest.particles_per_strand;
+        let slots = Slots::new(rest.strand_count(), n);
         let limit = device.limits().max_storage_buffer_binding_size;
-        let bytes = particles as u64 * MOTION_BYTES + rest.strand_count() as u64 * REPORT_BYTES;
+        let bytes = slots.count() as u64 * MOTION_BYTES + slots.padded_strands() as u64 * REPORT_BYTES;
         if bytes > limit {
             return Err(GpuError::TooLarge { particles, bytes, limit });
         }
-        let n = rest.particles_per_strand;
         let storage = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some(label),
@@ -382,7 +389,7 @@ impl GpuStrands {
         let placed: Vec<[f32; 4]> = rest.positions.iter().map(|&p| vec4(pose.transform_point(p), 0.0)).collect();
         let positions = storage(
             "hair_gpu positions",
-            bytemuck::cast_slice(&placed),
+            bytemuck::cast_slice(&slots.spread(&placed, [0.0; 4])),
             wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
         );
         let motion = storage(
@@ -390,9 +397,9 @@ impl GpuStrands {
             &vec![0u8; bytes as usize],
             wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
         );
-        let rest_data: Vec<[f32; 4]> = (0..particles)
-            .flat_map(|i| [vec4(rest.positions[i], rest.lengths[i]), vec4(rest.local_directions[i], 0.0)])
-            .collect();
+        let rest_positions: Vec<[f32; 4]> = (0..particles).map(|i| vec4(rest.positions[i], rest.lengths[i])).collect();
+        let rest_directions: Vec<[f32; 4]> = rest.local_directions.iter().map(|&d| vec4(d, 0.0)).collect();
+        let rest_data = [slots.spread(&rest_positions, [0.0; 4]), slots.spread(&rest_directions, [0.0; 4])].concat();
         let rest_buffer = storage("hair_gpu rest", bytemuck::cast_slice(&rest_data), wgpu::BufferUsages::COPY_DST);
         let frames: Vec<[f32; 4]> = rest.root_frames.iter().map(|q| q.to_array()).collect();
         let root_frames = storage("hair_gpu root frames", bytemuck::cast_slice(&frames), wgpu::BufferUsages::empty());
@@ -462,7 +469,7 @@ impl GpuStrands {
             [&uniform, &tables, &positions, &motion, &rest_buffer, &root_frames, &colliders, &head, &springs],
         );
         let timestamps = gpu.timestamps.then(|| Timestamps::new(device));
-        let published = draw::Published::new(device, &positions, particles);
+        let published = draw::Published::new(device, &positions, slots.count());
         static NEXT_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
         let mut strands = GpuStrands {
             device: device.clone(),
@@ -485,6 +492,7 @@ impl GpuStrands {
             rest_positions: rest.positions.clone(),
             strands: rest.strand_count() as u32,
             particles_per_strand: n as u32,
+            slots,
             timestamps,
             published,
             id: NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
@@ -519,8 +527,9 @@ impl GpuStrands {
         self.particles_per_strand as usize
     }
 
-    /// The world positions, one `vec4<f32>` per particle (w unused), strand by strand: what
-    /// a renderer reads without a trip through the CPU.
+    /// The world positions, one `vec4<f32>` per particle (w unused), as `layout.wgsl` (the
+    /// start of [`SHADER`]) lays them out: particle `j` of strand `s` at `root_slot(s, n) +
+    /// LANES · j`. What a renderer reads without a trip through the CPU.
     pub fn positions_buffer(&self) -> &wgpu::Buffer {
         &self.positions
     }
@@ -550,7 +559,7 @@ impl GpuStrands {
 
     fn place(&mut self, positions: &[Vec3]) {
         let placed: Vec<[f32; 4]> = positions.iter().map(|x| [x.x, x.y, x.z, 0.0]).collect();
-        self.queue.write_buffer(&self.positions, 0, bytemuck::cast_slice(&placed));
+        self.queue.write_buffer(&self.positions, 0, bytemuck::cast_slice(&self.slots.spread(&placed, [0.0; 4])));
         let mut encoder =
             self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("hair_gpu reset") });
         // The particles' motion, not the report of the steps before.
@@ -573,8 +582,8 @@ impl GpuStrands {
             ..StepUniform::zeroed()
         };
         self.queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&uniform));
-        let particles = self.strands * self.particles_per_strand;
-        pass::submit((&self.device, &self.queue), "hair_gpu translate", &self.translate, &self.bind_group, particles);
+        let slots = self.slots.count() as u32;
+        pass::submit((&self.device, &self.queue), "hair_gpu translate", &self.translate, &self.bind_group, slots);
     }
 
     /// Moves every strand's root within the rest shape (head-local), for roots riding a
@@ -757,10 +766,10 @@ impl GpuStrands {
         }
     }
 
-    /// Makes the spring model's buffer (six vec4 per particle) on its first step.
+    /// Makes the spring model's buffer (six planes) on its first step.
     fn prepare_springs(&mut self) -> Result<(), GpuError> {
         let particles = (self.strands * self.particles_per_strand) as usize;
-        let bytes = particles as u64 * SPRINGS_BYTES;
+        let bytes = self.slots.count() as u64 * SPRINGS_BYTES;
         if self.springs.size() >= bytes {
             return Ok(());
         }
@@ -806,7 +815,7 @@ impl GpuStrands {
     /// Starts copying the positions back to the CPU, without waiting: they arrive when the
     /// GPU has run what was queued before ([`PositionsCopy::arrived`], [`PositionsCopy::into_positions`]).
     pub fn copy_positions(&self) -> PositionsCopy {
-        PositionsCopy(BufferCopy::start(&self.device, &self.queue, &self.positions))
+        PositionsCopy(BufferCopy::start(&self.device, &self.queue, &self.positions), self.slots)
     }
 
     /// Starts copying back what the steps since the last copy of the report did (summed as
@@ -834,7 +843,7 @@ impl GpuStrands {
 
     /// Where the report starts in `motion`, bytes.
     fn report_offset(&self) -> u64 {
-        u64::from(self.strands * self.particles_per_strand) * MOTION_BYTES
+        self.slots.count() as u64 * MOTION_BYTES
     }
 
     /// Waits for every step queued so far.
@@ -843,8 +852,9 @@ impl GpuStrands {
     }
 }
 
-/// Positions on their way back to the CPU ([`GpuStrands::copy_positions`]).
-pub struct PositionsCopy(BufferCopy);
+/// Positions on their way back to the CPU ([`GpuStrands::copy_positions`]), in the slots
+/// of their layout.
+pub struct PositionsCopy(BufferCopy, Slots);
 
 impl PositionsCopy {
     /// Whether the copy has arrived (or failed), waiting for it when `wait`.
@@ -856,7 +866,7 @@ impl PositionsCopy {
     pub fn into_positions(self) -> Result<Vec<Vec3>, GpuError> {
         let bytes = self.0.into_bytes()?;
         let vec4s: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
-        Ok(vec4s.iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect())
+        Ok(self.1.gather(vec4s).iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect())
     }
 }
 
@@ -1085,7 +1095,7 @@ mod tests {
 
     #[test]
     fn the_roots_shader_validates() {
-        let module = naga::front::wgsl::parse_str(include_str!("roots.wgsl")).expect("roots.wgsl parses");
+        let module = naga::front::wgsl::parse_str(ROOTS_SHADER).expect("roots.wgsl parses");
         naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::empty())
             .validate(&module)
             .expect("roots.wgsl validates");

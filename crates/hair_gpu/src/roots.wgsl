@@ -1,7 +1,7 @@
 // Moves every strand's root within the rest shape at once (`GpuStrands::set_rest_roots`):
-// one upload of a vec4 per strand, each written to its root's place in the solver's `rest`
-// (two vec4 per particle, the head-local position first; w, the rest length of the
-// segment ending there, is zero at a root).
+// one upload of a vec4 per strand, each written to its root's slot in the solver's `rest`
+// (laid out as `layout.wgsl`, prepended, says; the head-local positions' plane first; w,
+// the rest length of the segment ending there, is zero at a root).
 
 // Strands, particles per strand.
 @group(0) @binding(0) var<uniform> counts: vec4<u32>;
@@ -13,5 +13,5 @@ fn place_roots(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= counts.x {
         return;
     }
-    rest[2u * id.x * counts.y] = vec4(roots[id.x].xyz, 0.0);
+    rest[root_slot(id.x, counts.y)] = vec4(roots[id.x].xyz, 0.0);
 }

@@ -4,8 +4,9 @@
 // can, so that the two agree to rounding. The head is the collider's baked distance grid,
 // sampled trilinearly, far from the surface; near it the collider's exact query takes over
 // (the same candidate triangles, the same closest point), and for a particle's own contact
-// deep inside too, where every triangle is tested as the CPU walks its BVH; whole segments
-// are tested by sphere tracing that exact distance along them.
+// deep inside too, through the BVH the CPU walks; a whole segment goes from one triangle it
+// hits to the next through that BVH (or, without the tables, sphere traces the grid).
+// `layout.wgsl` is prepended: where each particle's values live.
 
 struct Step {
     // Strands, particles per strand, substeps, shape iterations.
@@ -66,11 +67,13 @@ struct Step {
 // Head poses, four vec4 each (rotation columns, translation) for substep boundaries
 // 0..=substeps, then the global-shape alpha of each particle index, four per vec4.
 @group(0) @binding(1) var<storage, read> tables: array<vec4<f32>>;
+// The per-particle buffers are laid out as `layout.wgsl` (prepended) says: a plane of
+// `slots()` slots for each value.
 @group(0) @binding(2) var<storage, read_write> positions: array<vec4<f32>>;
-// Per particle: velocity, position at the substep's start, FTL correction. Then per strand
+// Three planes: velocity, position at the substep's start, FTL correction. Then per strand
 // two vec4: what its steps did since the report was last taken (`Tally`, added up).
 @group(0) @binding(3) var<storage, read_write> motion: array<vec4<f32>>;
-// Per particle: head-local rest position with the rest length of the segment ending there
+// Two planes: head-local rest position with the rest length of the segment ending there
 // in w, and the rest direction in the parent segment's frame.
 @group(0) @binding(4) var<storage, read> rest: array<vec4<f32>>;
 // Per strand: the head-local root frame, a quaternion.
@@ -97,8 +100,8 @@ fn head_f32(i: u32) -> f32 {
 fn head_vec3(i: u32) -> vec3<f32> {
     return vec3<f32>(head_f32(i), head_f32(i + 1u), head_f32(i + 2u));
 }
-// The spring model's memory and scratch, six vec4 per particle (see `springs_*` below);
-// the root's first holds, in w, the substep length the memory was taken at (0: none).
+// The spring model's memory and scratch, six planes (see `springs_*` below); the root's
+// first holds, in w, the substep length the memory was taken at (0: none).
 @group(0) @binding(8) var<storage, read_write> springs: array<vec4<f32>>;
 
 // What one strand's step did, as hair_sim's `StepReport` counts it. Counts are floats:
@@ -115,6 +118,13 @@ struct Tally {
 
 var<private> tally: Tally;
 
+// Slots in a plane of the per-particle buffers. From the uniform, not kept in a private
+// variable: a compiler knows it is the same for every invocation (llvmpipe stepped 15
+// times slower with a private one).
+fn slots() -> u32 {
+    return slot_count(step.counts.x, step.counts.y);
+}
+
 // A contact `depth` into a collider's shell.
 fn touch(depth: f32) {
     tally.contacts += 1.0;
@@ -124,7 +134,7 @@ fn touch(depth: f32) {
 // Adds this step's tally to the strand's report in `motion` (the deepest contact: the
 // deeper of the two).
 fn add_to_report(strand: u32) {
-    let at = 3u * step.counts.x * step.counts.y + 2u * strand;
+    let at = 3u * slots() + 2u * strand;
     let kept = motion[at];
     motion[at] = vec4<f32>(
         kept.x + tally.teleport_resets,
@@ -158,12 +168,12 @@ fn alpha(j: u32) -> f32 {
     return tables[step.flags.z + j / 4u][j % 4u];
 }
 
-fn velocity(i: u32) -> vec3<f32> { return motion[3u * i].xyz; }
-fn start(i: u32) -> vec3<f32> { return motion[3u * i + 1u].xyz; }
-fn correction(i: u32) -> vec3<f32> { return motion[3u * i + 2u].xyz; }
-fn rest_position(i: u32) -> vec3<f32> { return rest[2u * i].xyz; }
-fn rest_length(i: u32) -> f32 { return rest[2u * i].w; }
-fn rest_direction(i: u32) -> vec3<f32> { return rest[2u * i + 1u].xyz; }
+fn velocity(i: u32) -> vec3<f32> { return motion[i].xyz; }
+fn start(i: u32) -> vec3<f32> { return motion[slots() + i].xyz; }
+fn correction(i: u32) -> vec3<f32> { return motion[2u * slots() + i].xyz; }
+fn rest_position(i: u32) -> vec3<f32> { return rest[i].xyz; }
+fn rest_length(i: u32) -> f32 { return rest[i].w; }
+fn rest_direction(i: u32) -> vec3<f32> { return rest[slots() + i].xyz; }
 
 // Not infinite and not NaN, by the bits: a compiler may assume arithmetic never makes NaN.
 fn finite(v: vec3<f32>) -> bool {
@@ -898,7 +908,7 @@ const LENGTH_SLACK: f32 = 0.75;
 // `toward`; where that is more than `unchecked` from `toward`, turned out of whatever
 // collider it is in (`outside_at_length`). FTL's correction counts the move.
 fn place_at_length(i: u32, toward: vec3<f32>, unchecked: f32, now: Pose) {
-    let parent = positions[i - 1u].xyz;
+    let parent = positions[i - LANES].xyz;
     let segment = final_length(i, toward - parent);
     var placed = parent + normalize_or(toward - parent, vec3<f32>(0.0, -1.0, 0.0)) * segment;
     if distance(placed, toward) > unchecked {
@@ -910,7 +920,7 @@ fn place_at_length(i: u32, toward: vec3<f32>, unchecked: f32, now: Pose) {
 // Moves particle `i` to `placed` in the final pass; FTL's velocity correction counts the move.
 fn set_final(i: u32, placed: vec3<f32>) {
     if step.spring_flags.x == 0u {
-        motion[3u * i + 2u] = vec4<f32>(correction(i) + placed - positions[i].xyz, 0.0);
+        motion[2u * slots() + i] = vec4<f32>(correction(i) + placed - positions[i].xyz, 0.0);
     }
     positions[i] = vec4<f32>(placed, 0.0);
 }
@@ -989,8 +999,8 @@ fn outside_and_reached(parent: vec3<f32>, x: vec3<f32>, now: Pose) -> bool {
 // `keep_segments_outside`.
 fn keep_segments_outside(first: u32, n: u32, now: Pose) {
     for (var j = 2u; j < n; j++) {
-        let i = first + j;
-        let parent = positions[i - 1u].xyz;
+        let i = first + j * LANES;
+        let parent = positions[i - LANES].xyz;
         let child = positions[i].xyz;
         let local_parent = local_point(now, parent);
         let local_child = local_point(now, child);
@@ -1012,7 +1022,7 @@ fn keep_segments_outside(first: u32, n: u32, now: Pose) {
         var from_particle = j;
         for (var round = 0u; round < 2u; round++) {
             for (var k = from_particle; k < n; k++) {
-                place_at_length(first + k, select(positions[first + k].xyz, turned, k == j), -1.0, now);
+                place_at_length(first + k * LANES, select(positions[first + k * LANES].xyz, turned, k == j), -1.0, now);
             }
             if round == 1u {
                 break;
@@ -1163,13 +1173,13 @@ fn patch_contact(p: vec3<f32>) -> PatchContact {
 
 fn reset_strand(first: u32, n: u32, to: Pose) {
     for (var j = 0u; j < n; j++) {
-        let x = world_point(to, rest_position(first + j));
-        positions[first + j] = vec4<f32>(x, 0.0);
-        motion[3u * (first + j)] = vec4<f32>(0.0);
+        let x = world_point(to, rest_position(first + j * LANES));
+        positions[first + j * LANES] = vec4<f32>(x, 0.0);
+        motion[first + j * LANES] = vec4<f32>(0.0);
         // The spring model forgets the substep before (the root's w: no history).
         if step.spring_flags.x == 1u {
-            springs[6u * (first + j)] = vec4<f32>(x, 0.0);
-            springs[6u * (first + j) + 1u] = vec4<f32>(0.0);
+            springs[first + j * LANES] = vec4<f32>(x, 0.0);
+            springs[slots() + first + j * LANES] = vec4<f32>(0.0);
         }
     }
 }
@@ -1183,9 +1193,9 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
 
     // 1. Forces and integration; 2. the root follows the head.
     for (var j = 0u; j < n; j++) {
-        let i = first + j;
-        motion[3u * i + 1u] = vec4<f32>(positions[i].xyz, 0.0);
-        motion[3u * i + 2u] = vec4<f32>(0.0);
+        let i = first + j * LANES;
+        motion[slots() + i] = vec4<f32>(positions[i].xyz, 0.0);
+        motion[2u * slots() + i] = vec4<f32>(0.0);
     }
     let wind = wind_at(step.flags.w + strand, time);
     positions[first] = vec4<f32>(world_point(now, rest_position(first)), 0.0);
@@ -1195,7 +1205,7 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
         step_length = implicit_springs(first, n, h, wind);
     } else {
         for (var j = 1u; j < n; j++) {
-            let i = first + j;
+            let i = first + j * LANES;
             let v = (velocity(i) + acceleration(i, wind) * h) * step.motion.x;
             positions[i] = vec4<f32>(positions[i].xyz + clamp_length_max(v * h, step.motion.y), 0.0);
         }
@@ -1207,7 +1217,7 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
         for (var j = 1u; j < n; j++) {
             let a = alpha(j);
             if a > 0.0 {
-                let i = first + j;
+                let i = first + j * LANES;
                 let x = positions[i].xyz;
                 positions[i] = vec4<f32>(x + (world_point(now, rest_position(i)) - x) * a, 0.0);
             }
@@ -1215,9 +1225,9 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
         if step.motion.z > 0.0 {
             var frame = root_frame;
             for (var j = 1u; j < n; j++) {
-                let i = first + j;
+                let i = first + j * LANES;
                 let expected = normalize_or(frame * rest_direction(i), rest_direction(i));
-                let parent = positions[i - 1u].xyz;
+                let parent = positions[i - LANES].xyz;
                 let target_point = parent + expected * rest_length(i);
                 let x = positions[i].xyz + (target_point - positions[i].xyz) * step.motion.z;
                 positions[i] = vec4<f32>(x, 0.0);
@@ -1236,7 +1246,7 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
     //    about its parent where it would put the particle back inside.
     if step.flags.x == 1u {
         for (var j = 1u; j < n; j++) {
-            let i = first + j;
+            let i = first + j * LANES;
             var x = positions[i].xyz;
             if step.grid_dims.w == 1u {
                 // Friction slides back along the tangent plane, which in a hollow dips
@@ -1272,7 +1282,7 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
             positions[i] = vec4<f32>(out_of_extras(x, start(i)), 0.0);
         }
         for (var j = 1u; j < n; j++) {
-            place_at_length(first + j, positions[first + j].xyz, LENGTH_SLACK * step.limits.y, now);
+            place_at_length(first + j * LANES, positions[first + j * LANES].xyz, LENGTH_SLACK * step.limits.y, now);
         }
         if step.spring_flags.z == 1u && k == step.counts.z && step.grid_dims.w == 1u {
             keep_segments_outside(first, n, now);
@@ -1285,20 +1295,20 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
 // advanced them `step_length` (the substep, or the spring model's).
 fn update_velocities(first: u32, n: u32, h: f32, step_length: f32) {
     let root_velocity = (positions[first].xyz - start(first)) * (1.0 / h);
-    motion[3u * first] = vec4<f32>(clamp_length_max(root_velocity, step.limits.x), 0.0);
+    motion[first] = vec4<f32>(clamp_length_max(root_velocity, step.limits.x), 0.0);
     let inverse_step = 1.0 / step_length;
     for (var j = 1u; j < n; j++) {
-        let i = first + j;
+        let i = first + j * LANES;
         var next = vec3<f32>(0.0);
         if j + 1u < n {
-            next = correction(i + 1u);
+            next = correction(i + LANES);
         }
         var base = start(i);
         if step.spring_flags.x == 1u {
             base = springs_base(i);
         }
         let v = (positions[i].xyz - base) * inverse_step - next * step.motion.w;
-        motion[3u * i] = vec4<f32>(clamp_length_max(v, step.limits.x), 0.0);
+        motion[i] = vec4<f32>(clamp_length_max(v, step.limits.x), 0.0);
     }
 }
 
@@ -1306,7 +1316,7 @@ fn update_velocities(first: u32, n: u32, h: f32, step_length: f32) {
 fn acceleration(i: u32, wind: vec3<f32>) -> vec3<f32> {
     var accel = step.gravity_h.xyz;
     if any(wind != vec3<f32>(0.0)) {
-        let tangent = normalize_or(start(i) - start(i - 1u), vec3<f32>(0.0));
+        let tangent = normalize_or(start(i) - start(i - LANES), vec3<f32>(0.0));
         accel += wind - tangent * dot(wind, tangent);
     }
     return accel;
@@ -1325,19 +1335,19 @@ fn final_length(i: u32, towards: vec3<f32>) -> f32 {
 
 // --- The spring model: hair_sim's `implicit_springs`, one strand at a time ---
 
-fn springs_previous_position(i: u32) -> vec3<f32> { return springs[6u * i].xyz; }
-fn springs_previous_velocity(i: u32) -> vec3<f32> { return springs[6u * i + 1u].xyz; }
-fn springs_base(i: u32) -> vec3<f32> { return springs[6u * i + 2u].xyz; }
-fn springs_direction(i: u32) -> vec3<f32> { return springs[6u * i + 3u].xyz; }
+fn springs_previous_position(i: u32) -> vec3<f32> { return springs[i].xyz; }
+fn springs_previous_velocity(i: u32) -> vec3<f32> { return springs[slots() + i].xyz; }
+fn springs_base(i: u32) -> vec3<f32> { return springs[2u * slots() + i].xyz; }
+fn springs_direction(i: u32) -> vec3<f32> { return springs[3u * slots() + i].xyz; }
 // Per segment: stretch at the predicted positions, spring row's right side, tension, the
 // forward sweep's coefficient.
-fn springs_stretch(i: u32) -> f32 { return springs[6u * i + 4u].x; }
-fn springs_rhs(i: u32) -> f32 { return springs[6u * i + 4u].y; }
-fn springs_tension(i: u32) -> f32 { return springs[6u * i + 4u].z; }
-fn springs_sweep(i: u32) -> f32 { return springs[6u * i + 4u].w; }
+fn springs_stretch(i: u32) -> f32 { return springs[4u * slots() + i].x; }
+fn springs_rhs(i: u32) -> f32 { return springs[4u * slots() + i].y; }
+fn springs_tension(i: u32) -> f32 { return springs[4u * slots() + i].z; }
+fn springs_sweep(i: u32) -> f32 { return springs[4u * slots() + i].w; }
 // Per segment: the bound it is held at, and whether it is held (1/0).
-fn springs_bound(i: u32) -> f32 { return springs[6u * i + 5u].x; }
-fn springs_rigid(i: u32) -> bool { return springs[6u * i + 5u].y == 1.0; }
+fn springs_bound(i: u32) -> f32 { return springs[5u * slots() + i].x; }
+fn springs_rigid(i: u32) -> bool { return springs[5u * slots() + i].y == 1.0; }
 
 // How far inside its bound, as a share of the bound, a segment counts as resting on it.
 const BOUND_SLACK: f32 = 1e-3;
@@ -1348,25 +1358,25 @@ const MAX_ACTIVE_SET_PASSES: u32 = 4u;
 // of the same length, else backward Euler), segments beyond the tolerance held at their
 // bound. Returns the integrator's step.
 fn implicit_springs(first: u32, n: u32, h: f32, wind: vec3<f32>) -> f32 {
-    let remembered = springs[6u * first].w == h;
+    let remembered = springs[first].w == h;
     let current = select(1.0, 4.0 / 3.0, remembered);
     let previous = select(0.0, 1.0 / 3.0, remembered);
     let step_length = select(h, h * (2.0 / 3.0), remembered);
     let drag = step.motion.x;
     for (var j = 1u; j < n; j++) {
-        let i = first + j;
+        let i = first + j * LANES;
         let x = start(i);
         let v = velocity(i);
         let base = x * current - springs_previous_position(i) * previous;
         let new_v = (v * current - springs_previous_velocity(i) * previous + acceleration(i, wind) * step_length) * drag;
-        springs[6u * i] = vec4<f32>(x, 0.0);
-        springs[6u * i + 1u] = vec4<f32>(v, 0.0);
-        springs[6u * i + 2u] = vec4<f32>(base, 0.0);
-        motion[3u * i] = vec4<f32>(new_v, 0.0);
+        springs[i] = vec4<f32>(x, 0.0);
+        springs[slots() + i] = vec4<f32>(v, 0.0);
+        springs[2u * slots() + i] = vec4<f32>(base, 0.0);
+        motion[i] = vec4<f32>(new_v, 0.0);
         positions[i] = vec4<f32>(base + new_v * step_length, 0.0);
     }
-    springs[6u * first] = vec4<f32>(springs[6u * first].xyz, h);
-    springs[6u * first + 2u] = vec4<f32>(start(first), 0.0);
+    springs[first] = vec4<f32>(springs[first].xyz, h);
+    springs[2u * slots() + first] = vec4<f32>(start(first), 0.0);
 
     // The segments at the predicted positions; the pinned root's velocity damps the first.
     let root_velocity = (positions[first].xyz - start(first)) * (1.0 / h);
@@ -1374,8 +1384,8 @@ fn implicit_springs(first: u32, n: u32, h: f32, wind: vec3<f32>) -> f32 {
     let d = step.springs.y;
     let tolerance = step.springs.w;
     for (var j = 1u; j < n; j++) {
-        let i = first + j;
-        let segment = positions[i].xyz - positions[i - 1u].xyz;
+        let i = first + j * LANES;
+        let segment = positions[i].xyz - positions[i - LANES].xyz;
         let l = length(segment);
         var direction = vec3<f32>(0.0);
         if l > 1e-9 {
@@ -1384,12 +1394,12 @@ fn implicit_springs(first: u32, n: u32, h: f32, wind: vec3<f32>) -> f32 {
         let stretch = l - rest_length(i);
         var parent_velocity = root_velocity;
         if j > 1u {
-            parent_velocity = velocity(i - 1u);
+            parent_velocity = velocity(i - LANES);
         }
         let rhs = -(k * stretch + d * dot(direction, velocity(i) - parent_velocity));
-        springs[6u * i + 3u] = vec4<f32>(direction, 0.0);
-        springs[6u * i + 4u] = vec4<f32>(stretch, rhs, 0.0, 0.0);
-        springs[6u * i + 5u] = vec4<f32>(0.0);
+        springs[3u * slots() + i] = vec4<f32>(direction, 0.0);
+        springs[4u * slots() + i] = vec4<f32>(stretch, rhs, 0.0, 0.0);
+        springs[5u * slots() + i] = vec4<f32>(0.0);
     }
     let w = step.springs.z;
     let coupling = (k * step_length + d) * step_length * w;
@@ -1399,14 +1409,14 @@ fn implicit_springs(first: u32, n: u32, h: f32, wind: vec3<f32>) -> f32 {
         var added = false;
         var parent = positions[first].xyz;
         for (var j = 1u; j < n; j++) {
-            let i = first + j;
+            let i = first + j * LANES;
             let x = positions[i].xyz + pull(i, j, n) * displacement;
             let stretch = length(x - parent) - rest_length(i);
             parent = x;
             let beyond = abs(stretch) > rest_length(i) * tolerance * (1.0 - BOUND_SLACK);
             if beyond && !springs_rigid(i) {
                 let bound = select(-(rest_length(i) * tolerance), rest_length(i) * tolerance, stretch > 0.0);
-                springs[6u * i + 5u] = vec4<f32>(bound, 1.0, 0.0, 0.0);
+                springs[5u * slots() + i] = vec4<f32>(bound, 1.0, 0.0, 0.0);
                 added = true;
             }
         }
@@ -1416,9 +1426,9 @@ fn implicit_springs(first: u32, n: u32, h: f32, wind: vec3<f32>) -> f32 {
         solve_tensions(first, n, coupling, displacement);
     }
     for (var j = 1u; j < n; j++) {
-        let i = first + j;
+        let i = first + j * LANES;
         let v = clamp_length_max(velocity(i) + pull(i, j, n) * (step_length * w), step.limits.x);
-        motion[3u * i] = vec4<f32>(v, 0.0);
+        motion[i] = vec4<f32>(v, 0.0);
         positions[i] = vec4<f32>(springs_base(i) + v * step_length, 0.0);
     }
     return step_length;
@@ -1428,7 +1438,7 @@ fn implicit_springs(first: u32, n: u32, h: f32, wind: vec3<f32>) -> f32 {
 fn pull(i: u32, j: u32, n: u32) -> vec3<f32> {
     var child = vec3<f32>(0.0);
     if j + 1u < n {
-        child = springs_direction(i + 1u) * springs_tension(i + 1u);
+        child = springs_direction(i + LANES) * springs_tension(i + LANES);
     }
     return springs_direction(i) * springs_tension(i) - child;
 }
@@ -1437,15 +1447,15 @@ fn pull(i: u32, j: u32, n: u32) -> vec3<f32> {
 fn solve_tensions(first: u32, n: u32, coupling: f32, displacement: f32) {
     var upper_before = 0.0;
     for (var j = 1u; j < n; j++) {
-        let i = first + j;
+        let i = first + j * LANES;
         let own = select(2.0, 1.0, j == 1u);
         var lower = 0.0;
         if j > 1u {
-            lower = -dot(springs_direction(i), springs_direction(i - 1u));
+            lower = -dot(springs_direction(i), springs_direction(i - LANES));
         }
         var upper = 0.0;
         if j + 1u < n {
-            upper = -dot(springs_direction(i), springs_direction(i + 1u));
+            upper = -dot(springs_direction(i), springs_direction(i + LANES));
         }
         let rigid = springs_rigid(i);
         let to_bound = springs_bound(i) - springs_stretch(i);
@@ -1458,16 +1468,16 @@ fn solve_tensions(first: u32, n: u32, coupling: f32, displacement: f32) {
         let sweep = upper * pivot;
         var carried = 0.0;
         if j > 1u {
-            carried = lower * springs_tension(i - 1u);
+            carried = lower * springs_tension(i - LANES);
         }
         let tension = (rhs - carried) * pivot;
-        springs[6u * i + 4u] = vec4<f32>(springs_stretch(i), springs_rhs(i), tension, sweep);
+        springs[4u * slots() + i] = vec4<f32>(springs_stretch(i), springs_rhs(i), tension, sweep);
         upper_before = sweep;
     }
     for (var j = n - 2u; j >= 1u; j--) {
-        let i = first + j;
-        let tension = springs_tension(i) - springs_sweep(i) * springs_tension(i + 1u);
-        springs[6u * i + 4u] = vec4<f32>(springs_stretch(i), springs_rhs(i), tension, springs_sweep(i));
+        let i = first + j * LANES;
+        let tension = springs_tension(i) - springs_sweep(i) * springs_tension(i + LANES);
+        springs[4u * slots() + i] = vec4<f32>(springs_stretch(i), springs_rhs(i), tension, springs_sweep(i));
     }
 }
 
@@ -1475,8 +1485,8 @@ fn solve_tensions(first: u32, n: u32, coupling: f32, displacement: f32) {
 fn clamp_lengths(first: u32, n: u32, down: vec3<f32>) {
     let tolerance = step.springs.w;
     for (var j = 1u; j < n; j++) {
-        let i = first + j;
-        let parent = positions[i - 1u].xyz;
+        let i = first + j * LANES;
+        let parent = positions[i - LANES].xyz;
         let d = positions[i].xyz - parent;
         let l = length(d);
         let clamped = clamp(l, rest_length(i) * (1.0 - tolerance), rest_length(i) * (1.0 + tolerance));
@@ -1490,11 +1500,11 @@ fn clamp_lengths(first: u32, n: u32, down: vec3<f32>) {
 // correction kept for the velocity term.
 fn follow_the_leader(first: u32, n: u32, down: vec3<f32>) {
     for (var j = 1u; j < n; j++) {
-        let i = first + j;
-        let parent = positions[i - 1u].xyz;
+        let i = first + j * LANES;
+        let parent = positions[i - LANES].xyz;
         let x = positions[i].xyz;
         let placed = parent + normalize_or(x - parent, down) * rest_length(i);
-        motion[3u * i + 2u] = vec4<f32>(correction(i) + placed - x, 0.0);
+        motion[2u * slots() + i] = vec4<f32>(correction(i) + placed - x, 0.0);
         positions[i] = vec4<f32>(placed, 0.0);
     }
 }
@@ -1506,7 +1516,7 @@ fn step_strands(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let n = step.counts.y;
-    let first = strand * n;
+    let first = root_slot(strand, n);
     let last = pose(step.counts.z);
     // A root that jumped (a teleport) or is not finite starts over at rest.
     let jump = length(world_point(last, rest_position(first)) - positions[first].xyz);
@@ -1518,7 +1528,7 @@ fn step_strands(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     // The spring model's memory is stale after a step without it.
     if step.spring_flags.x == 1u && step.spring_flags.y == 0u {
-        springs[6u * first] = vec4<f32>(0.0);
+        springs[first] = vec4<f32>(0.0);
     }
     for (var k = 1u; k <= step.counts.z; k++) {
         substep(strand, first, n, k);
@@ -1530,7 +1540,7 @@ fn step_strands(@builtin(global_invocation_id) id: vec3<u32>) {
 // A strand with a particle or velocity that is not finite starts over at rest under `pose`.
 fn reset_if_not_finite(first: u32, n: u32, at: Pose) {
     for (var j = 0u; j < n; j++) {
-        if !(finite(positions[first + j].xyz) && finite(velocity(first + j))) {
+        if !(finite(positions[first + j * LANES].xyz) && finite(velocity(first + j * LANES))) {
             reset_strand(first, n, at);
             tally.nan_resets = 1.0;
             return;
@@ -1543,11 +1553,11 @@ fn reset_if_not_finite(first: u32, n: u32, at: Pose) {
 @compute @workgroup_size(64)
 fn translate_particles(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = id.x;
-    if i >= step.counts.x * step.counts.y {
-        return;
+    if i >= slot_count(step.counts.x, step.counts.y) {
+        return; // (the padding moves too: it is never read)
     }
     positions[i] = vec4<f32>(positions[i].xyz + step.offset.xyz, 0.0);
     if step.spring_flags.x == 1u {
-        springs[6u * i] = vec4<f32>(springs[6u * i].xyz + step.offset.xyz, springs[6u * i].w);
+        springs[i] = vec4<f32>(springs[i].xyz + step.offset.xyz, springs[i].w);
     }
 }

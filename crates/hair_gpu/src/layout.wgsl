@@ -1,0 +1,19 @@
+// Where a particle's values live in the solver's buffers (`layout.rs` on the CPU side):
+// strands in groups of LANES, and within a group particle j of every strand side by side.
+// An invocation steps one strand, so the invocations of a group, which step particle j of
+// their strands together, read and write one run of memory instead of one place a strand
+// apart. Each per-particle value is an array of its own (a plane of `slot_count` slots);
+// the padding at the end of the last group is never read.
+
+const LANES: u32 = 32u;
+
+// The slot of particle 0 of `strand` (of strands with `n` particles); particle j's is
+// LANES · j further.
+fn root_slot(strand: u32, n: u32) -> u32 {
+    return (strand / LANES) * LANES * n + strand % LANES;
+}
+
+// Slots in a plane: the strands rounded up to whole groups, times `n`.
+fn slot_count(strands: u32, n: u32) -> u32 {
+    return (strands + LANES - 1u) / LANES * LANES * n;
+}
