@@ -13,16 +13,21 @@
 //! surface; near it the shader runs the collider's own exact query on the same tables
 //! ([`HeadCollider::near_query_tables`]: the grid cell's candidate triangles), so it finds
 //! the closest point the CPU solver finds. Deep inside the head, or in a cell with too many
-//! candidates for a list, the grid's value and gradient answer where the CPU solver walks
-//! its BVH. The tests in `tests/against_cpu.rs` measure how far the two part.
+//! candidates for a list, it walks the same BVH the CPU solver walks
+//! ([`hair_sim::collide::FlatBvh`]). The tests in `tests/against_cpu.rs` measure how far the
+//! two part.
 //!
 //! Both length models (Follow-The-Leader and the implicit mass-spring model), both
 //! collision responses (along the surface normal, or along the ray from the head's centre),
 //! the extra colliders and the skin that moves against the head's frame (a skinned scalp's
-//! surface patch) are modelled. What differs is collision with the head away from the lists
-//! (above), and whole segments (`SimParams::segment_collision`), whose crossings of thin parts
-//! are found by sphere tracing the exact distance along them (down to 1 µm steps), where the
-//! CPU solver intersects them with the triangles; they are turned out by the CPU's rules.
+//! surface patch) are modelled. What differs is whole segments
+//! (`SimParams::segment_collision`): a segment's crossing of a thin part is found from one
+//! triangle it hits to the next through the BVH until it is inside beyond one, so a segment
+//! that only touches the surface stays out, where the CPU solver counts any hit; crossings
+//! are turned out by the CPU's rules.
+//!
+//! The per-particle buffers are laid out for the GPU, not strand by strand: strands in
+//! groups of 32, particle `j` of a group's strands side by side (`layout.wgsl`).
 //!
 //! ```no_run
 //! # use hair_sim::prelude::*;
