@@ -1191,59 +1191,61 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
     let now = pose(k);
     let down = vec3<f32>(0.0, -1.0, 0.0);
 
-    // 1. Forces and integration; 2. the root follows the head.
+    // Each pass below goes over the strand once, root to tip, and does for each particle
+    // in turn what the CPU does for the whole strand in turn, with the same arithmetic: a
+    // particle's step reads only its own values and its parent's, and where a later
+    // stage reads the parent as an earlier stage left it, that value is carried. Each pass
+    // is a read and a write of every particle: the step is bound by memory.
+
+    // 1. Forces and integration (the start of the substep kept first); 2. the root
+    //    follows the head.
+    let wind = wind_at(step.flags.w + strand, time);
+    let integrate = step.spring_flags.x == 0u;
     for (var j = 0u; j < n; j++) {
         let i = first + j * LANES;
-        motion[slots() + i] = vec4<f32>(positions[i].xyz, 0.0);
+        let x = positions[i].xyz;
+        motion[slots() + i] = vec4<f32>(x, 0.0);
         motion[2u * slots() + i] = vec4<f32>(0.0);
+        if integrate && j > 0u {
+            let v = (velocity(i) + acceleration(i, wind) * h) * step.motion.x;
+            positions[i] = vec4<f32>(x + clamp_length_max(v * h, step.motion.y), 0.0);
+        }
     }
-    let wind = wind_at(step.flags.w + strand, time);
     positions[first] = vec4<f32>(world_point(now, rest_position(first)), 0.0);
     // The integrator's step: the particles end at `base + step_length · velocity`.
     var step_length = h;
-    if step.spring_flags.x == 1u {
+    if !integrate {
         step_length = implicit_springs(first, n, h, wind);
-    } else {
-        for (var j = 1u; j < n; j++) {
-            let i = first + j * LANES;
-            let v = (velocity(i) + acceleration(i, wind) * h) * step.motion.x;
-            positions[i] = vec4<f32>(positions[i].xyz + clamp_length_max(v * h, step.motion.y), 0.0);
-        }
     }
 
-    // 3. Shape and length.
+    // 3. Shape and length: global shape, local shape (from the parent as local shape left
+    //    it) and the length constraint (from the parent as the constraint left it).
     let root_frame = now.rotation * quat_mat(root_frames[strand]);
     for (var iteration = 0u; iteration < step.counts.w; iteration++) {
+        var frame = root_frame;
+        var shaped_parent = positions[first].xyz;
+        var placed_parent = shaped_parent;
         for (var j = 1u; j < n; j++) {
+            let i = first + j * LANES;
+            var x = positions[i].xyz;
             let a = alpha(j);
             if a > 0.0 {
-                let i = first + j * LANES;
-                let x = positions[i].xyz;
-                positions[i] = vec4<f32>(x + (world_point(now, rest_position(i)) - x) * a, 0.0);
+                x = x + (world_point(now, rest_position(i)) - x) * a;
             }
-        }
-        if step.motion.z > 0.0 {
-            var frame = root_frame;
-            for (var j = 1u; j < n; j++) {
-                let i = first + j * LANES;
+            if step.motion.z > 0.0 {
                 let expected = normalize_or(frame * rest_direction(i), rest_direction(i));
-                let parent = positions[i - LANES].xyz;
-                let target_point = parent + expected * rest_length(i);
-                let x = positions[i].xyz + (target_point - positions[i].xyz) * step.motion.z;
-                positions[i] = vec4<f32>(x, 0.0);
-                let actual = normalize_or(x - parent, expected);
+                let target_point = shaped_parent + expected * rest_length(i);
+                x = x + (target_point - x) * step.motion.z;
+                let actual = normalize_or(x - shaped_parent, expected);
                 frame = rotation_arc(expected, actual) * frame;
             }
-        }
-        if step.spring_flags.x == 1u {
-            clamp_lengths(first, n, down);
-        } else {
-            follow_the_leader(first, n, down);
+            shaped_parent = x;
+            placed_parent = constrain_length(i, placed_parent, x, down);
         }
     }
 
-    // 4. Collision, with friction, then the length pass once more, which turns a segment
-    //    about its parent where it would put the particle back inside.
+    // 4. Collision, with friction, each particle then given the length pass once more,
+    //    which turns its segment about its parent where it would put it back inside.
     if step.flags.x == 1u {
         for (var j = 1u; j < n; j++) {
             let i = first + j * LANES;
@@ -1279,10 +1281,10 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
                     x = world_point(now, with_friction(skin.position, skin.normal, local_point(before, start(i))));
                 }
             }
-            positions[i] = vec4<f32>(out_of_extras(x, start(i)), 0.0);
-        }
-        for (var j = 1u; j < n; j++) {
-            place_at_length(first + j * LANES, positions[first + j * LANES].xyz, LENGTH_SLACK * step.limits.y, now);
+            x = out_of_extras(x, start(i));
+            positions[i] = vec4<f32>(x, 0.0);
+            // The length pass, from the parent as it placed it.
+            place_at_length(i, x, LENGTH_SLACK * step.limits.y, now);
         }
         if step.spring_flags.z == 1u && k == step.counts.z && step.grid_dims.w == 1u {
             keep_segments_outside(first, n, now);
@@ -1481,32 +1483,26 @@ fn solve_tensions(first: u32, n: u32, coupling: f32, displacement: f32) {
     }
 }
 
-// The reference's length constraint: no segment longer or shorter than the tolerance.
-fn clamp_lengths(first: u32, n: u32, down: vec3<f32>) {
-    let tolerance = step.springs.w;
-    for (var j = 1u; j < n; j++) {
-        let i = first + j * LANES;
-        let parent = positions[i - LANES].xyz;
-        let d = positions[i].xyz - parent;
+// The length constraint on particle `i`, shaped to `x`, below its parent placed at
+// `parent`: Follow-The-Leader (at rest length from the parent, its correction kept for
+// the velocity term), or with springs the reference's (no segment longer or shorter than
+// the tolerance). Writes the particle and returns where it is.
+fn constrain_length(i: u32, parent: vec3<f32>, x: vec3<f32>, down: vec3<f32>) -> vec3<f32> {
+    var placed = x;
+    if step.spring_flags.x == 1u {
+        let tolerance = step.springs.w;
+        let d = x - parent;
         let l = length(d);
         let clamped = clamp(l, rest_length(i) * (1.0 - tolerance), rest_length(i) * (1.0 + tolerance));
         if clamped != l {
-            positions[i] = vec4<f32>(parent + normalize_or(d, down) * clamped, 0.0);
+            placed = parent + normalize_or(d, down) * clamped;
         }
-    }
-}
-
-// Follow-The-Leader: each particle at rest length from its parent, root to tip, its
-// correction kept for the velocity term.
-fn follow_the_leader(first: u32, n: u32, down: vec3<f32>) {
-    for (var j = 1u; j < n; j++) {
-        let i = first + j * LANES;
-        let parent = positions[i - LANES].xyz;
-        let x = positions[i].xyz;
-        let placed = parent + normalize_or(x - parent, down) * rest_length(i);
+    } else {
+        placed = parent + normalize_or(x - parent, down) * rest_length(i);
         motion[2u * slots() + i] = vec4<f32>(correction(i) + placed - x, 0.0);
-        positions[i] = vec4<f32>(placed, 0.0);
     }
+    positions[i] = vec4<f32>(placed, 0.0);
+    return placed;
 }
 
 @compute @workgroup_size(64)
