@@ -80,10 +80,13 @@ impl GpuSolver {
         }
         gpu.publish(input.head_to);
         // The copies that have arrived, if any, into the CPU mirror and the report; then
-        // the next.
+        // the next, which submits the step with them; else the step alone: one submission.
         self.take_copy(strands, false);
         self.take_arrived_report(false);
         self.send();
+        if let Some(gpu) = &self.strands {
+            gpu.submit();
+        }
         Ok(())
     }
 

@@ -3,7 +3,8 @@
 //! them as drawn, with their parallel-transport frames, into a renderer's buffer
 //! (`draw.wgsl`, with `curve.wgsl`'s geometry, which the renderer's shader shares).
 
-use crate::pass::{bind_group, pipeline, submit};
+use crate::pass::{bind_group, pipeline};
+use crate::recorder::Recorder;
 use crate::{GpuError, GpuStrands};
 use bytemuck::{Pod, Zeroable};
 use hair_sim::math::{Pose, Vec3};
@@ -88,13 +89,12 @@ impl Published {
 
     /// Keeps the particles as they are now in the head's frame (the solver's positions
     /// under `pose`, its head pose) as the last step's; the last becomes the one before.
-    pub fn publish(&mut self, (device, queue): (&wgpu::Device, &wgpu::Queue), counts: [u32; 2], pose: Pose) {
+    pub fn publish(&mut self, recorder: &mut Recorder, counts: [u32; 2], pose: Pose) {
         self.latest = 1 - self.latest;
         let inverse = glam::Mat3::from_quat(pose.rotation).transpose();
         let placement = Placement::new(inverse, -(inverse * pose.translation), counts, 0.0);
-        queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&placement));
-        let group = &self.groups[self.latest];
-        submit((device, queue), "hair_gpu publish", &self.pipeline, group, self.slots);
+        recorder.upload(&self.uniform, bytemuck::bytes_of(&placement));
+        recorder.dispatch("hair_gpu publish", &self.pipeline, &self.groups[self.latest], self.slots);
     }
 }
 
@@ -171,9 +171,12 @@ impl GpuDrawing {
         }
         let placement =
             Placement::new(glam::Mat3::from_quat(pose.rotation), pose.translation, strands.counts(), overstep);
-        strands.queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&placement));
+        // After whatever the strands recorded (a step, their roots moved), in one submission.
+        let mut recorder = strands.lock();
+        recorder.upload(&self.uniform, bytemuck::bytes_of(&placement));
         let group = &self.groups[strands.published.latest];
-        submit((&strands.device, &strands.queue), "hair_gpu draw", &self.pipeline, group, strands.counts()[0]);
+        recorder.dispatch("hair_gpu draw", &self.pipeline, group, strands.counts()[0]);
+        recorder.submit(&strands.queue);
         Ok(())
     }
 }

@@ -27,7 +27,10 @@
 //! are turned out by the CPU's rules.
 //!
 //! The per-particle buffers are laid out for the GPU, not strand by strand: strands in
-//! groups of 32, particle `j` of a group's strands side by side (`layout.wgsl`).
+//! groups of 32, particle `j` of a group's strands side by side (`layout.wgsl`). The calls
+//! that queue work record it, uploads included, into one command encoder, which goes to
+//! the GPU in one submission when something needs it there (a copy back, a wait, a frame's
+//! drawing) or at [`GpuStrands::submit`].
 //!
 //! ```no_run
 //! # use hair_sim::prelude::*;
@@ -46,11 +49,13 @@ use hair_sim::collide::HeadCollider;
 use hair_sim::math::{Pose, Vec3};
 use hair_sim::solver::{LengthMode, RestShape, StepConstants, StepInput, StepReport};
 use layout::Slots;
+use recorder::Recorder;
 use wgpu::util::DeviceExt;
 
 mod draw;
 mod layout;
 mod pass;
+mod recorder;
 
 pub use draw::{CURVE_SHADER, DRAW_SHADER, GpuDrawing};
 pub use wgpu;
@@ -324,6 +329,9 @@ pub struct GpuStrands {
     id: u64,
     /// The pass that moves every root at once, made on first use.
     roots: Option<RootsUpload>,
+    /// The calls' commands since the last submission (locked by the calls that take
+    /// `&self` and submit them: the copies, the waits, a [`GpuDrawing`]).
+    recorder: std::sync::Mutex<Recorder>,
 }
 
 /// `roots.wgsl`: a root per strand uploaded, then written into the rest shape.
@@ -502,6 +510,7 @@ impl GpuStrands {
             published,
             id: NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
             roots: None,
+            recorder: std::sync::Mutex::new(Recorder::new(device)),
         };
         strands.publish(pose);
         strands.publish(pose);
@@ -519,7 +528,22 @@ impl GpuStrands {
     /// [`Self::set_positions`], so that nothing is drawn between the positions before and
     /// after it ([`Self::reset`] does this itself).
     pub fn publish(&mut self, pose: Pose) {
-        self.published.publish((&self.device, &self.queue), self.counts(), pose);
+        let counts = self.counts();
+        self.published.publish(recording(&mut self.recorder), counts, pose);
+    }
+
+    /// Submits what the calls since the last submission queued, in one submission. The
+    /// calls that queue work ([`Self::step`], [`Self::publish`], [`Self::translate`],
+    /// [`Self::set_rest_roots`], [`Self::set_positions`], [`Self::reset`]) only record it;
+    /// those that need it on the GPU (the copies back, the waits, [`GpuDrawing::draw`])
+    /// submit it first. Call it after a step that copies nothing back.
+    pub fn submit(&self) {
+        self.lock().submit(&self.queue);
+    }
+
+    /// The recorder, for a call that takes `&self` (see [`recording`] for `&mut self`).
+    fn lock(&self) -> std::sync::MutexGuard<'_, Recorder> {
+        self.recorder.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
     }
 
     /// Strands stepped.
@@ -564,13 +588,14 @@ impl GpuStrands {
 
     fn place(&mut self, positions: &[Vec3]) {
         let placed: Vec<[f32; 4]> = positions.iter().map(|x| [x.x, x.y, x.z, 0.0]).collect();
-        self.queue.write_buffer(&self.positions, 0, bytemuck::cast_slice(&self.slots.spread(&placed, [0.0; 4])));
-        let mut encoder =
-            self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("hair_gpu reset") });
+        let placed = self.slots.spread(&placed, [0.0; 4]);
+        let report_offset = self.report_offset();
+        let recorder = recording(&mut self.recorder);
+        recorder.upload(&self.positions, bytemuck::cast_slice(&placed));
+        let encoder = recorder.encoder();
         // The particles' motion, not the report of the steps before.
-        encoder.clear_buffer(&self.motion, 0, Some(self.report_offset()));
+        encoder.clear_buffer(&self.motion, 0, Some(report_offset));
         encoder.clear_buffer(&self.springs, 0, None);
-        self.queue.submit([encoder.finish()]);
         self.springs_remembered = false;
     }
 
@@ -586,9 +611,10 @@ impl GpuStrands {
             offset: [offset.x, offset.y, offset.z, 0.0],
             ..StepUniform::zeroed()
         };
-        self.queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&uniform));
         let slots = self.slots.count() as u32;
-        pass::submit((&self.device, &self.queue), "hair_gpu translate", &self.translate, &self.bind_group, slots);
+        let recorder = recording(&mut self.recorder);
+        recorder.upload(&self.uniform, bytemuck::bytes_of(&uniform));
+        recorder.dispatch("hair_gpu translate", &self.translate, &self.bind_group, slots);
     }
 
     /// Moves every strand's root within the rest shape (head-local), for roots riding a
@@ -611,12 +637,13 @@ impl GpuStrands {
             placed.push([kept.x, kept.y, kept.z, 0.0]);
         }
         let upload = self.roots.get_or_insert_with(|| RootsUpload::new(&self.device, &self.rest, self.strands, n));
-        self.queue.write_buffer(&upload.roots, 0, bytemuck::cast_slice(&placed));
-        pass::submit((&self.device, &self.queue), "hair_gpu roots", &upload.pipeline, &upload.group, self.strands);
+        let recorder = recording(&mut self.recorder);
+        recorder.upload(&upload.roots, bytemuck::cast_slice(&placed));
+        recorder.dispatch("hair_gpu roots", &upload.pipeline, &upload.group, self.strands);
         true
     }
 
-    /// Queues one step of `input` (the same input a CPU [`hair_sim::solver::Strands`] takes;
+    /// Records one step of `input` (submitted with what needs it: [`Self::submit`]) (the same input a CPU [`hair_sim::solver::Strands`] takes;
     /// its collider must be the one these strands were built with). A step too short to
     /// take, or with an invalid pose, changes nothing, as on the CPU. Where the device has
     /// timestamp queries the step is timed, for [`Self::step_timed`] and the report
@@ -632,6 +659,7 @@ impl GpuStrands {
     /// device has timestamp queries (this waits for it).
     pub fn step_timed(&mut self, input: &StepInput) -> Result<Option<f64>, GpuError> {
         self.step(input)?;
+        self.submit();
         match &self.timestamps {
             Some(timestamps) => read_buffer(&self.device, &self.queue, &timestamps.resolved)
                 .map(|bytes| duration_ms(&bytes, self.queue.get_timestamp_period())),
@@ -656,9 +684,9 @@ impl GpuStrands {
         self.upload_tables(&tables);
         // What the next step may remember: this one's spring memory, or none.
         self.springs_remembered = springs;
-        self.queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&uniform));
-        let mut encoder =
-            self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("hair_gpu") });
+        let recorder = recording(&mut self.recorder);
+        recorder.upload(&self.uniform, bytemuck::bytes_of(&uniform));
+        let encoder = recorder.encoder();
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("hair_gpu step"),
@@ -675,7 +703,6 @@ impl GpuStrands {
         if let Some(t) = timestamps {
             encoder.resolve_query_set(&t.queries, 0..2, &t.resolved, 0);
         }
-        self.queue.submit([encoder.finish()]);
         Ok(())
     }
 
@@ -752,7 +779,7 @@ impl GpuStrands {
             return patch;
         }
         if write_growing(
-            (&self.device, &self.queue),
+            (&self.device, recording(&mut self.recorder)),
             &mut self.colliders,
             "hair_gpu colliders",
             bytemuck::cast_slice(&data),
@@ -765,8 +792,12 @@ impl GpuStrands {
     /// Writes the step's pose and alpha table, growing its buffer for more substeps than it
     /// was made for.
     fn upload_tables(&mut self, tables: &[[f32; 4]]) {
-        if write_growing((&self.device, &self.queue), &mut self.tables, "hair_gpu tables", bytemuck::cast_slice(tables))
-        {
+        if write_growing(
+            (&self.device, recording(&mut self.recorder)),
+            &mut self.tables,
+            "hair_gpu tables",
+            bytemuck::cast_slice(tables),
+        ) {
             self.rebind();
         }
     }
@@ -820,7 +851,10 @@ impl GpuStrands {
     /// Starts copying the positions back to the CPU, without waiting: they arrive when the
     /// GPU has run what was queued before ([`PositionsCopy::arrived`], [`PositionsCopy::into_positions`]).
     pub fn copy_positions(&self) -> PositionsCopy {
-        PositionsCopy(BufferCopy::start(&self.device, &self.queue, &self.positions), self.slots)
+        let mut recorder = self.lock();
+        let staging = BufferCopy::record(&self.device, recorder.encoder(), &self.positions, 0);
+        recorder.submit(&self.queue);
+        PositionsCopy(BufferCopy::map(&self.device, staging), self.slots)
     }
 
     /// Starts copying back what the steps since the last copy of the report did (summed as
@@ -828,16 +862,17 @@ impl GpuStrands {
     /// waiting, and starts the next report afresh: [`ReportCopy::into_report`] gives it.
     pub fn copy_report(&self) -> ReportCopy {
         let offset = self.report_offset();
-        let copy = BufferCopy::start_range(&self.device, &self.queue, &self.motion, offset);
-        let mut encoder =
-            self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("hair_gpu report") });
+        let mut recorder = self.lock();
+        let encoder = recorder.encoder();
+        let report = BufferCopy::record(&self.device, encoder, &self.motion, offset);
         encoder.clear_buffer(&self.motion, offset, None);
-        self.queue.submit([encoder.finish()]);
-        let time = self
-            .timestamps
-            .as_ref()
-            .map(|t| (BufferCopy::start(&self.device, &self.queue, &t.resolved), self.queue.get_timestamp_period()));
-        ReportCopy { report: copy, time }
+        let time = self.timestamps.as_ref().map(|t| BufferCopy::record(&self.device, encoder, &t.resolved, 0));
+        recorder.submit(&self.queue);
+        let period = self.queue.get_timestamp_period();
+        ReportCopy {
+            report: BufferCopy::map(&self.device, report),
+            time: time.map(|staging| (BufferCopy::map(&self.device, staging), period)),
+        }
     }
 
     /// Waits for the queued steps and gives what they did since the report was last taken
@@ -853,6 +888,7 @@ impl GpuStrands {
 
     /// Waits for every step queued so far.
     pub fn finish(&self) -> Result<(), GpuError> {
+        self.submit();
         self.device.poll(wgpu::PollType::wait_indefinitely()).map(|_| ()).map_err(|e| GpuError::ReadBack(e.to_string()))
     }
 }
@@ -932,13 +968,23 @@ struct BufferCopy {
 }
 
 impl BufferCopy {
-    /// Queues the copy of `buffer` (with `COPY_SRC` use) and asks for it mapped.
+    /// Submits the copy of `buffer` (with `COPY_SRC` use) and asks for it mapped.
     fn start(device: &wgpu::Device, queue: &wgpu::Queue, buffer: &wgpu::Buffer) -> Self {
-        Self::start_range(device, queue, buffer, 0)
+        let mut encoder =
+            device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("hair_gpu read-back") });
+        let staging = Self::record(device, &mut encoder, buffer, 0);
+        queue.submit([encoder.finish()]);
+        Self::map(device, staging)
     }
 
-    /// [`Self::start`] for the bytes of `buffer` from `offset` on.
-    fn start_range(device: &wgpu::Device, queue: &wgpu::Queue, buffer: &wgpu::Buffer, offset: u64) -> Self {
+    /// Records the copy of the bytes of `buffer` from `offset` on into a new mappable
+    /// buffer, which [`Self::map`] maps once the copy is submitted.
+    fn record(
+        device: &wgpu::Device,
+        encoder: &mut wgpu::CommandEncoder,
+        buffer: &wgpu::Buffer,
+        offset: u64,
+    ) -> wgpu::Buffer {
         let size = buffer.size() - offset;
         let staging = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("hair_gpu read-back"),
@@ -946,10 +992,12 @@ impl BufferCopy {
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let mut encoder =
-            device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("hair_gpu read-back") });
         encoder.copy_buffer_to_buffer(buffer, offset, &staging, 0, size);
-        queue.submit([encoder.finish()]);
+        staging
+    }
+
+    /// Asks for `staging`, its copy submitted, mapped.
+    fn map(device: &wgpu::Device, staging: wgpu::Buffer) -> Self {
         let mapped = std::sync::Arc::new(std::sync::OnceLock::new());
         let arrived = mapped.clone();
         staging.slice(..).map_async(wgpu::MapMode::Read, move |result| _ = arrived.set(result));
@@ -986,13 +1034,13 @@ impl BufferCopy {
 /// one named `label` when they do not fit; whether it did (the bind group then needs
 /// rebuilding).
 fn write_growing(
-    (device, queue): (&wgpu::Device, &wgpu::Queue),
+    (device, recorder): (&wgpu::Device, &mut Recorder),
     buffer: &mut wgpu::Buffer,
     label: &str,
     bytes: &[u8],
 ) -> bool {
     if bytes.len() as u64 <= buffer.size() {
-        queue.write_buffer(buffer, 0, bytes);
+        recorder.upload(buffer, bytes);
         return false;
     }
     *buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -1001,6 +1049,12 @@ fn write_growing(
         usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
     });
     true
+}
+
+/// The recorder of a [`GpuStrands`] borrowed mutably (no lock taken; a poisoned one is
+/// still whole: nothing panics half-way through recording).
+fn recording(recorder: &mut std::sync::Mutex<Recorder>) -> &mut Recorder {
+    recorder.get_mut().unwrap_or_else(std::sync::PoisonError::into_inner)
 }
 
 /// A vec4 of floats as `step.wgsl`'s `colliders` holds them: their bits.

@@ -1,7 +1,6 @@
 //! The small compute passes beside the solver's step (drawing, roots, the translation):
-//! a pipeline from one entry point, a bind group of whole buffers, one dispatch submitted.
-
-use crate::WORKGROUP_SIZE;
+//! a pipeline from one entry point and a bind group of whole buffers (dispatched through
+//! the strands' `Recorder`).
 
 /// A compute pipeline for `entry_point`, its bind group layout derived from the shader.
 pub(crate) fn pipeline(device: &wgpu::Device, module: &wgpu::ShaderModule, entry_point: &str) -> wgpu::ComputePipeline {
@@ -30,23 +29,4 @@ pub(crate) fn bind_group(
         layout: &pipeline.get_bind_group_layout(0),
         entries: &entries,
     })
-}
-
-/// One dispatch of `pipeline` over `invocations`, submitted.
-pub(crate) fn submit(
-    (device, queue): (&wgpu::Device, &wgpu::Queue),
-    label: &str,
-    pipeline: &wgpu::ComputePipeline,
-    group: &wgpu::BindGroup,
-    invocations: u32,
-) {
-    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
-    {
-        let mut pass =
-            encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(label), timestamp_writes: None });
-        pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, group, &[]);
-        pass.dispatch_workgroups(invocations.div_ceil(WORKGROUP_SIZE), 1, 1);
-    }
-    queue.submit([encoder.finish()]);
 }
