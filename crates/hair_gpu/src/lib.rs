@@ -649,6 +649,12 @@ impl GpuStrands {
     /// timestamp queries the step is timed, for [`Self::step_timed`] and the report
     /// ([`ReportCopy::into_timed_report`]).
     pub fn step(&mut self, input: &StepInput) -> Result<(), GpuError> {
+        // At most one step waits for its submission: a caller that never submits holds one
+        // step's commands and uploads, not all of them.
+        let recorder = recording(&mut self.recorder);
+        if recorder.steps > 0 {
+            recorder.submit(&self.queue);
+        }
         let timestamps = self.timestamps.take();
         let result = self.encode_step(input, timestamps.as_ref());
         self.timestamps = timestamps;
@@ -703,6 +709,7 @@ impl GpuStrands {
         if let Some(t) = timestamps {
             encoder.resolve_query_set(&t.queries, 0..2, &t.resolved, 0);
         }
+        recorder.steps += 1;
         Ok(())
     }
 

@@ -19,6 +19,8 @@ pub(crate) struct Recorder {
     device: wgpu::Device,
     encoder: Option<wgpu::CommandEncoder>,
     belt: wgpu::util::StagingBelt,
+    /// Solver steps recorded since the last submission.
+    pub steps: u32,
 }
 
 impl Recorder {
@@ -27,6 +29,7 @@ impl Recorder {
             device: device.clone(),
             encoder: None,
             belt: wgpu::util::StagingBelt::new(device.clone(), UPLOAD_CHUNK),
+            steps: 0,
         }
     }
 
@@ -62,6 +65,7 @@ impl Recorder {
     /// Submits what was recorded, if anything, in one submission.
     pub fn submit(&mut self, queue: &wgpu::Queue) {
         let Some(encoder) = self.encoder.take() else { return };
+        self.steps = 0;
         self.belt.finish();
         queue.submit([encoder.finish()]);
         self.belt.recall();
