@@ -906,8 +906,9 @@ const LENGTH_SLACK: f32 = 0.75;
 
 // Particle `i` placed at its segment's length from its (placed) parent, toward world
 // `toward`; where that is more than `unchecked` from `toward`, turned out of whatever
-// collider it is in (`outside_at_length`). FTL's correction counts the move.
-fn place_at_length(i: u32, toward: vec3<f32>, unchecked: f32, now: Pose) {
+// collider it is in (`outside_at_length`). FTL's correction counts the move. Returns
+// where it is placed.
+fn place_at_length(i: u32, toward: vec3<f32>, unchecked: f32, now: Pose) -> vec3<f32> {
     let parent = positions[i - LANES].xyz;
     let segment = final_length(i, toward - parent);
     var placed = parent + normalize_or(toward - parent, vec3<f32>(0.0, -1.0, 0.0)) * segment;
@@ -915,6 +916,7 @@ fn place_at_length(i: u32, toward: vec3<f32>, unchecked: f32, now: Pose) {
         placed = outside_at_length(placed, parent, segment, now);
     }
     set_final(i, placed);
+    return placed;
 }
 
 // Moves particle `i` to `placed` in the final pass; FTL's velocity correction counts the move.
@@ -1217,11 +1219,20 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
     if !integrate {
         step_length = implicit_springs(first, n, h, wind);
     }
+    let inverse_step = 1.0 / step_length;
+    // Where the velocities are taken (5.): in the last pass that places the particles,
+    // particle j - 1's once particle j, whose correction it needs, is placed; unless the
+    // segments' pass comes after collision, or nothing places them after the integration.
+    let collide = step.flags.x == 1u;
+    let segments = collide && step.spring_flags.z == 1u && k == step.counts.z && step.grid_dims.w == 1u;
+    let settle_in_shape = !collide && step.counts.w > 0u;
+    let settle_in_collision = collide && !segments;
 
     // 3. Shape and length: global shape, local shape (from the parent as local shape left
     //    it) and the length constraint (from the parent as the constraint left it).
     let root_frame = now.rotation * quat_mat(root_frames[strand]);
     for (var iteration = 0u; iteration < step.counts.w; iteration++) {
+        let settle = settle_in_shape && iteration + 1u == step.counts.w;
         var frame = root_frame;
         var shaped_parent = positions[first].xyz;
         var placed_parent = shaped_parent;
@@ -1240,13 +1251,21 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
                 frame = rotation_arc(expected, actual) * frame;
             }
             shaped_parent = x;
-            placed_parent = constrain_length(i, placed_parent, x, down);
+            let parent = placed_parent;
+            placed_parent = constrain_length(i, parent, x, down);
+            if settle && j > 1u {
+                set_velocity(i - LANES, parent, correction(i), inverse_step);
+            }
+        }
+        if settle {
+            set_velocity(first + (n - 1u) * LANES, placed_parent, vec3<f32>(0.0), inverse_step);
         }
     }
 
     // 4. Collision, with friction, each particle then given the length pass once more,
     //    which turns its segment about its parent where it would put it back inside.
-    if step.flags.x == 1u {
+    if collide {
+        var parent = positions[first].xyz;
         for (var j = 1u; j < n; j++) {
             let i = first + j * LANES;
             var x = positions[i].xyz;
@@ -1284,34 +1303,55 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
             x = out_of_extras(x, start(i));
             positions[i] = vec4<f32>(x, 0.0);
             // The length pass, from the parent as it placed it.
-            place_at_length(i, x, LENGTH_SLACK * step.limits.y, now);
+            let placed = place_at_length(i, x, LENGTH_SLACK * step.limits.y, now);
+            if settle_in_collision && j > 1u {
+                set_velocity(i - LANES, parent, correction(i), inverse_step);
+            }
+            parent = placed;
         }
-        if step.spring_flags.z == 1u && k == step.counts.z && step.grid_dims.w == 1u {
+        if settle_in_collision {
+            set_velocity(first + (n - 1u) * LANES, parent, vec3<f32>(0.0), inverse_step);
+        }
+        if segments {
             keep_segments_outside(first, n, now);
         }
     }
-    update_velocities(first, n, h, step_length);
+    if settle_in_shape || settle_in_collision {
+        set_root_velocity(first, h);
+    } else {
+        update_velocities(first, n, h, inverse_step);
+    }
 }
 
 // 5. Velocities from where the particles ended up, less FTL's correction; the integrator
-// advanced them `step_length` (the substep, or the spring model's).
-fn update_velocities(first: u32, n: u32, h: f32, step_length: f32) {
-    let root_velocity = (positions[first].xyz - start(first)) * (1.0 / h);
-    motion[first] = vec4<f32>(clamp_length_max(root_velocity, step.limits.x), 0.0);
-    let inverse_step = 1.0 / step_length;
+// advanced them `1 / inverse_step` (the substep, or the spring model's). In the pass that
+// places the particles last where it can (`substep`), else in a pass of its own.
+fn update_velocities(first: u32, n: u32, h: f32, inverse_step: f32) {
+    set_root_velocity(first, h);
     for (var j = 1u; j < n; j++) {
         let i = first + j * LANES;
         var next = vec3<f32>(0.0);
         if j + 1u < n {
             next = correction(i + LANES);
         }
-        var base = start(i);
-        if step.spring_flags.x == 1u {
-            base = springs_base(i);
-        }
-        let v = (positions[i].xyz - base) * inverse_step - next * step.motion.w;
-        motion[i] = vec4<f32>(clamp_length_max(v, step.limits.x), 0.0);
+        set_velocity(i, positions[i].xyz, next, inverse_step);
     }
+}
+
+fn set_root_velocity(first: u32, h: f32) {
+    let root_velocity = (positions[first].xyz - start(first)) * (1.0 / h);
+    motion[first] = vec4<f32>(clamp_length_max(root_velocity, step.limits.x), 0.0);
+}
+
+// Particle `i`'s velocity, it ending at `x` and the particle below it corrected by `next`
+// (zero at the tip).
+fn set_velocity(i: u32, x: vec3<f32>, next: vec3<f32>, inverse_step: f32) {
+    var base = start(i);
+    if step.spring_flags.x == 1u {
+        base = springs_base(i);
+    }
+    let v = (x - base) * inverse_step - next * step.motion.w;
+    motion[i] = vec4<f32>(clamp_length_max(v, step.limits.x), 0.0);
 }
 
 // Gravity and the wind across particle `i`'s segment as the substep started.
