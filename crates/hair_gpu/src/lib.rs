@@ -55,9 +55,12 @@ use wgpu::util::DeviceExt;
 mod draw;
 mod layout;
 mod pass;
+mod readback;
 mod recorder;
 
 pub use draw::{CURVE_SHADER, DRAW_SHADER, GpuDrawing};
+use readback::{BufferCopy, StagingPool, duration_ms, read_buffer};
+pub use readback::{PositionsCopy, ReportCopy};
 pub use wgpu;
 
 /// The solver's WGSL source (`layout.wgsl`, then `step.wgsl`, beside this file).
@@ -332,6 +335,8 @@ pub struct GpuStrands {
     /// The calls' commands since the last submission (locked by the calls that take
     /// `&self` and submit them: the copies, the waits, a [`GpuDrawing`]).
     recorder: std::sync::Mutex<Recorder>,
+    /// The copies back's staging buffers, kept for the next copies.
+    staging: StagingPool,
 }
 
 /// `roots.wgsl`: a root per strand uploaded, then written into the rest shape.
@@ -511,6 +516,7 @@ impl GpuStrands {
             id: NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
             roots: None,
             recorder: std::sync::Mutex::new(Recorder::new(device)),
+            staging: StagingPool::default(),
         };
         strands.publish(pose);
         strands.publish(pose);
@@ -859,9 +865,9 @@ impl GpuStrands {
     /// GPU has run what was queued before ([`PositionsCopy::arrived`], [`PositionsCopy::into_positions`]).
     pub fn copy_positions(&self) -> PositionsCopy {
         let mut recorder = self.lock();
-        let staging = BufferCopy::record(&self.device, recorder.encoder(), &self.positions, 0);
+        let staging = self.staging.record(&self.device, recorder.encoder(), &self.positions, 0);
         recorder.submit(&self.queue);
-        PositionsCopy(BufferCopy::map(&self.device, staging), self.slots)
+        PositionsCopy(BufferCopy::map(&self.device, staging, &self.staging), self.slots)
     }
 
     /// Starts copying back what the steps since the last copy of the report did (summed as
@@ -871,14 +877,14 @@ impl GpuStrands {
         let offset = self.report_offset();
         let mut recorder = self.lock();
         let encoder = recorder.encoder();
-        let report = BufferCopy::record(&self.device, encoder, &self.motion, offset);
+        let report = self.staging.record(&self.device, encoder, &self.motion, offset);
         encoder.clear_buffer(&self.motion, offset, None);
-        let time = self.timestamps.as_ref().map(|t| BufferCopy::record(&self.device, encoder, &t.resolved, 0));
+        let time = self.timestamps.as_ref().map(|t| self.staging.record(&self.device, encoder, &t.resolved, 0));
         recorder.submit(&self.queue);
         let period = self.queue.get_timestamp_period();
         ReportCopy {
-            report: BufferCopy::map(&self.device, report),
-            time: time.map(|staging| (BufferCopy::map(&self.device, staging), period)),
+            report: BufferCopy::map(&self.device, report, &self.staging),
+            time: time.map(|staging| (BufferCopy::map(&self.device, staging, &self.staging), period)),
         }
     }
 
@@ -897,143 +903,6 @@ impl GpuStrands {
     pub fn finish(&self) -> Result<(), GpuError> {
         self.submit();
         self.device.poll(wgpu::PollType::wait_indefinitely()).map(|_| ()).map_err(|e| GpuError::ReadBack(e.to_string()))
-    }
-}
-
-/// Positions on their way back to the CPU ([`GpuStrands::copy_positions`]), in the slots
-/// of their layout.
-pub struct PositionsCopy(BufferCopy, Slots);
-
-impl PositionsCopy {
-    /// Whether the copy has arrived (or failed), waiting for it when `wait`.
-    pub fn arrived(&self, wait: bool) -> bool {
-        self.0.arrived(wait)
-    }
-
-    /// The positions, strand by strand, waiting for them if they have not arrived.
-    pub fn into_positions(self) -> Result<Vec<Vec3>, GpuError> {
-        let bytes = self.0.into_bytes()?;
-        let vec4s: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
-        Ok(self.1.gather(vec4s).iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect())
-    }
-}
-
-/// A step report on its way back to the CPU ([`GpuStrands::copy_report`]).
-pub struct ReportCopy {
-    report: BufferCopy,
-    /// The last step's timestamps and the queue's nanoseconds per tick, where it has them.
-    time: Option<(BufferCopy, f32)>,
-}
-
-impl ReportCopy {
-    /// Whether the copy has arrived (or failed), waiting for it when `wait`.
-    pub fn arrived(&self, wait: bool) -> bool {
-        // Both were queued together: the second arrives with the first.
-        self.report.arrived(wait) && self.time.as_ref().is_none_or(|(time, _)| time.arrived(wait))
-    }
-
-    /// The report and the GPU time of the last step before it, milliseconds (`None` where
-    /// the device has no timestamp queries, or no step was timed yet), waiting for them if
-    /// they have not arrived.
-    pub fn into_timed_report(self) -> Result<(StepReport, Option<f64>), GpuError> {
-        let ms = match self.time {
-            Some((time, period)) => duration_ms(&time.into_bytes()?, period),
-            None => None,
-        };
-        Ok((Self::sum(&self.report.into_bytes()?), ms))
-    }
-
-    /// The report of every strand, summed, waiting for it if it has not arrived.
-    pub fn into_report(self) -> Result<StepReport, GpuError> {
-        Ok(Self::sum(&self.report.into_bytes()?))
-    }
-
-    /// Sums the strands' reports.
-    fn sum(bytes: &[u8]) -> StepReport {
-        let per_strand: &[[[f32; 4]; 2]] = bytemuck::cast_slice(bytes);
-        let mut report = StepReport::default();
-        for &[[teleports, nans, contacts, depth], [stretches, turns, ..]] in per_strand {
-            report.merge(StepReport {
-                teleport_resets: teleports as u32,
-                nan_resets: nans as u32,
-                contacts: contacts as u32,
-                max_depth: depth,
-                contact_stretches: stretches as u32,
-                segment_turns: turns as u32,
-            });
-        }
-        report
-    }
-}
-
-/// A buffer copied into a mappable one, on its way to the CPU.
-struct BufferCopy {
-    device: wgpu::Device,
-    staging: wgpu::Buffer,
-    /// Set when the GPU has mapped the copy (or failed to).
-    mapped: std::sync::Arc<std::sync::OnceLock<Result<(), wgpu::BufferAsyncError>>>,
-}
-
-impl BufferCopy {
-    /// Submits the copy of `buffer` (with `COPY_SRC` use) and asks for it mapped.
-    fn start(device: &wgpu::Device, queue: &wgpu::Queue, buffer: &wgpu::Buffer) -> Self {
-        let mut encoder =
-            device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("hair_gpu read-back") });
-        let staging = Self::record(device, &mut encoder, buffer, 0);
-        queue.submit([encoder.finish()]);
-        Self::map(device, staging)
-    }
-
-    /// Records the copy of the bytes of `buffer` from `offset` on into a new mappable
-    /// buffer, which [`Self::map`] maps once the copy is submitted.
-    fn record(
-        device: &wgpu::Device,
-        encoder: &mut wgpu::CommandEncoder,
-        buffer: &wgpu::Buffer,
-        offset: u64,
-    ) -> wgpu::Buffer {
-        let size = buffer.size() - offset;
-        let staging = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("hair_gpu read-back"),
-            size,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        encoder.copy_buffer_to_buffer(buffer, offset, &staging, 0, size);
-        staging
-    }
-
-    /// Asks for `staging`, its copy submitted, mapped.
-    fn map(device: &wgpu::Device, staging: wgpu::Buffer) -> Self {
-        let mapped = std::sync::Arc::new(std::sync::OnceLock::new());
-        let arrived = mapped.clone();
-        staging.slice(..).map_async(wgpu::MapMode::Read, move |result| _ = arrived.set(result));
-        BufferCopy { device: device.clone(), staging, mapped }
-    }
-
-    fn arrived(&self, wait: bool) -> bool {
-        // Once mapped, no poll: a wait is for everything queued on the device (the steps and
-        // the frames queued since), not for this copy alone.
-        if self.mapped.get().is_some() {
-            return true;
-        }
-        let poll = if wait { wgpu::PollType::wait_indefinitely() } else { wgpu::PollType::Poll };
-        // A failed poll leaves the copy unarrived; `into_bytes` reports it.
-        let _ = self.device.poll(poll);
-        self.mapped.get().is_some()
-    }
-
-    /// The bytes, waiting for them if they have not arrived.
-    fn into_bytes(self) -> Result<Vec<u8>, GpuError> {
-        self.arrived(true);
-        match self.mapped.get() {
-            Some(Ok(())) => {}
-            Some(Err(e)) => return Err(GpuError::ReadBack(e.to_string())),
-            None => return Err(GpuError::ReadBack("the GPU did not map the copy".into())),
-        }
-        let bytes = self.staging.slice(..).get_mapped_range().to_vec();
-        self.staging.unmap();
-        Ok(bytes)
     }
 }
 
@@ -1109,20 +978,6 @@ fn bind(device: &wgpu::Device, layout: &wgpu::BindGroupLayout, buffers: [&wgpu::
     device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("hair_gpu"), layout, entries: &entries })
 }
 
-/// Copies `buffer` into a mappable one and reads it, waiting for the GPU.
-fn read_buffer(device: &wgpu::Device, queue: &wgpu::Queue, buffer: &wgpu::Buffer) -> Result<Vec<u8>, GpuError> {
-    BufferCopy::start(device, queue, buffer).into_bytes()
-}
-
-/// The milliseconds between a pass's two timestamps (`bytes`: two u64 ticks of `period`
-/// nanoseconds); `None` before any pass wrote them.
-fn duration_ms(bytes: &[u8], period: f32) -> Option<f64> {
-    let tick = |i: usize| Some(u64::from_le_bytes(bytes.get(8 * i..8 * i + 8)?.try_into().ok()?));
-    let (start, end) = (tick(0)?, tick(1)?);
-    let ticks = end.checked_sub(start).filter(|_| start != 0)?;
-    Some(ticks as f64 * f64::from(period) * 1e-6)
-}
-
 /// A pass's start and end timestamps, and the buffer they are resolved into (the latest
 /// timed pass's, copied back from there).
 struct Timestamps {
@@ -1173,32 +1028,5 @@ mod tests {
         let step = module.types.iter().find(|(_, t)| t.name.as_deref() == Some("Step")).expect("struct Step");
         let naga::TypeInner::Struct { span, .. } = step.1.inner else { panic!("Step is a struct") };
         assert_eq!(span as usize, std::mem::size_of::<StepUniform>());
-    }
-
-    /// A copy that has arrived is taken without a wait: a wait is for all the device's
-    /// queued work, so the frames queued since would stall whoever takes it (the plugin
-    /// takes one nearly every frame).
-    #[test]
-    fn taking_an_arrived_copy_waits_for_nothing_queued_after_it() {
-        let gpu = match GpuContext::headless() {
-            Ok(gpu) => gpu,
-            Err(e) if std::env::var_os("BEVY_HAIR_REQUIRE_ADAPTER").is_some() => {
-                panic!("BEVY_HAIR_REQUIRE_ADAPTER is set and there is {e}")
-            }
-            Err(e) => return eprintln!("skipped: {e}"),
-        };
-        let buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-            label: None,
-            size: 256,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let first = BufferCopy::start(&gpu.device, &gpu.queue, &buffer);
-        assert!(first.arrived(true));
-        let second = BufferCopy::start(&gpu.device, &gpu.queue, &buffer);
-        assert_eq!(first.into_bytes().expect("bytes"), vec![0; 256]);
-        // Mapping callbacks run in a poll: taking the first polled the device for nothing.
-        assert!(second.mapped.get().is_none(), "taking an arrived copy waited for the device");
-        assert!(second.arrived(true));
     }
 }

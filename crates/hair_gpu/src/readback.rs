@@ -1,0 +1,257 @@
+//! Copies back to the CPU without waiting ([`PositionsCopy`], [`ReportCopy`]): a buffer
+//! copied into a mappable one, mapped when the GPU has run what was submitted before it.
+
+use crate::GpuError;
+use crate::layout::Slots;
+use hair_sim::math::Vec3;
+use hair_sim::solver::StepReport;
+
+/// Positions on their way back to the CPU ([`GpuStrands::copy_positions`](crate::GpuStrands::copy_positions)), in the slots
+/// of their layout.
+pub struct PositionsCopy(pub(crate) BufferCopy, pub(crate) Slots);
+
+impl PositionsCopy {
+    /// Whether the copy has arrived (or failed), waiting for it when `wait`.
+    pub fn arrived(&self, wait: bool) -> bool {
+        self.0.arrived(wait)
+    }
+
+    /// The positions, strand by strand, waiting for them if they have not arrived.
+    pub fn into_positions(self) -> Result<Vec<Vec3>, GpuError> {
+        let bytes = self.0.into_bytes()?;
+        let vec4s: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
+        Ok(self.1.gather(vec4s).iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect())
+    }
+}
+
+/// A step report on its way back to the CPU ([`GpuStrands::copy_report`](crate::GpuStrands::copy_report)).
+pub struct ReportCopy {
+    pub(crate) report: BufferCopy,
+    /// The last step's timestamps and the queue's nanoseconds per tick, where it has them.
+    pub(crate) time: Option<(BufferCopy, f32)>,
+}
+
+impl ReportCopy {
+    /// Whether the copy has arrived (or failed), waiting for it when `wait`.
+    pub fn arrived(&self, wait: bool) -> bool {
+        // Both were queued together: the second arrives with the first.
+        self.report.arrived(wait) && self.time.as_ref().is_none_or(|(time, _)| time.arrived(wait))
+    }
+
+    /// The report and the GPU time of the last step before it, milliseconds (`None` where
+    /// the device has no timestamp queries, or no step was timed yet), waiting for them if
+    /// they have not arrived.
+    pub fn into_timed_report(self) -> Result<(StepReport, Option<f64>), GpuError> {
+        let ms = match self.time {
+            Some((time, period)) => duration_ms(&time.into_bytes()?, period),
+            None => None,
+        };
+        Ok((Self::sum(&self.report.into_bytes()?), ms))
+    }
+
+    /// The report of every strand, summed, waiting for it if it has not arrived.
+    pub fn into_report(self) -> Result<StepReport, GpuError> {
+        Ok(Self::sum(&self.report.into_bytes()?))
+    }
+
+    /// Sums the strands' reports.
+    fn sum(bytes: &[u8]) -> StepReport {
+        let per_strand: &[[[f32; 4]; 2]] = bytemuck::cast_slice(bytes);
+        let mut report = StepReport::default();
+        for &[[teleports, nans, contacts, depth], [stretches, turns, ..]] in per_strand {
+            report.merge(StepReport {
+                teleport_resets: teleports as u32,
+                nan_resets: nans as u32,
+                contacts: contacts as u32,
+                max_depth: depth,
+                contact_stretches: stretches as u32,
+                segment_turns: turns as u32,
+            });
+        }
+        report
+    }
+}
+
+/// A buffer copied into a mappable one, on its way to the CPU.
+pub(crate) struct BufferCopy {
+    device: wgpu::Device,
+    staging: wgpu::Buffer,
+    /// Where the staging buffer goes once its bytes are taken.
+    pool: StagingPool,
+    /// Set when the GPU has mapped the copy (or failed to).
+    mapped: std::sync::Arc<std::sync::OnceLock<Result<(), wgpu::BufferAsyncError>>>,
+}
+
+impl BufferCopy {
+    /// Submits the copy of `buffer` (with `COPY_SRC` use) and asks for it mapped.
+    fn start(device: &wgpu::Device, queue: &wgpu::Queue, buffer: &wgpu::Buffer) -> Self {
+        let pool = StagingPool::default();
+        let mut encoder =
+            device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("hair_gpu read-back") });
+        let staging = pool.record(device, &mut encoder, buffer, 0);
+        queue.submit([encoder.finish()]);
+        Self::map(device, staging, &pool)
+    }
+
+    /// Asks for `staging`, its copy submitted, mapped; it goes back to `pool` once read.
+    pub fn map(device: &wgpu::Device, staging: wgpu::Buffer, pool: &StagingPool) -> Self {
+        let mapped = std::sync::Arc::new(std::sync::OnceLock::new());
+        let arrived = mapped.clone();
+        staging.slice(..).map_async(wgpu::MapMode::Read, move |result| _ = arrived.set(result));
+        BufferCopy { device: device.clone(), staging, pool: pool.clone(), mapped }
+    }
+
+    pub fn arrived(&self, wait: bool) -> bool {
+        // Once mapped, no poll: a wait is for everything queued on the device (the steps and
+        // the frames queued since), not for this copy alone.
+        if self.mapped.get().is_some() {
+            return true;
+        }
+        let poll = if wait { wgpu::PollType::wait_indefinitely() } else { wgpu::PollType::Poll };
+        // A failed poll leaves the copy unarrived; `into_bytes` reports it.
+        let _ = self.device.poll(poll);
+        self.mapped.get().is_some()
+    }
+
+    /// The bytes, waiting for them if they have not arrived.
+    pub fn into_bytes(self) -> Result<Vec<u8>, GpuError> {
+        self.arrived(true);
+        match self.mapped.get() {
+            Some(Ok(())) => {}
+            Some(Err(e)) => return Err(GpuError::ReadBack(e.to_string())),
+            None => return Err(GpuError::ReadBack("the GPU did not map the copy".into())),
+        }
+        let bytes = self.staging.slice(..).get_mapped_range().to_vec();
+        self.staging.unmap();
+        self.pool.give(self.staging);
+        Ok(bytes)
+    }
+}
+
+/// Copies `buffer` into a mappable one and reads it, waiting for the GPU.
+pub(crate) fn read_buffer(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    buffer: &wgpu::Buffer,
+) -> Result<Vec<u8>, GpuError> {
+    BufferCopy::start(device, queue, buffer).into_bytes()
+}
+
+/// The milliseconds between a pass's two timestamps (`bytes`: two u64 ticks of `period`
+/// nanoseconds); `None` before any pass wrote them.
+pub(crate) fn duration_ms(bytes: &[u8], period: f32) -> Option<f64> {
+    let tick = |i: usize| Some(u64::from_le_bytes(bytes.get(8 * i..8 * i + 8)?.try_into().ok()?));
+    let (start, end) = (tick(0)?, tick(1)?);
+    let ticks = end.checked_sub(start).filter(|_| start != 0)?;
+    Some(ticks as f64 * f64::from(period) * 1e-6)
+}
+
+/// Staging buffers whose bytes were taken, for the next copies back: the plugin copies the
+/// positions and the report back every step or two, and each copy would otherwise make a
+/// mappable buffer and drop it.
+#[derive(Clone, Default)]
+pub(crate) struct StagingPool(std::sync::Arc<std::sync::Mutex<Vec<wgpu::Buffer>>>);
+
+impl StagingPool {
+    /// Buffers kept at most: a step's copies (positions, report, timestamps) and the next's.
+    const KEPT: usize = 6;
+
+    /// Records the copy of the bytes of `buffer` from `offset` on into a mappable buffer of
+    /// the pool's (or a new one), which [`BufferCopy::map`] maps once the copy is submitted.
+    pub fn record(
+        &self,
+        device: &wgpu::Device,
+        encoder: &mut wgpu::CommandEncoder,
+        buffer: &wgpu::Buffer,
+        offset: u64,
+    ) -> wgpu::Buffer {
+        let size = buffer.size() - offset;
+        let kept = {
+            let mut kept = self.0.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+            kept.iter().position(|b| b.size() == size).map(|k| kept.swap_remove(k))
+        };
+        let staging = kept.unwrap_or_else(|| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("hair_gpu read-back"),
+                size,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        });
+        encoder.copy_buffer_to_buffer(buffer, offset, &staging, 0, size);
+        staging
+    }
+
+    /// Keeps `staging` (unmapped) for a later copy, unless the pool is full.
+    fn give(&self, staging: wgpu::Buffer) {
+        let mut kept = self.0.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        if kept.len() < Self::KEPT {
+            kept.push(staging);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::GpuContext;
+
+    /// The GPU context, or `None` (the test skipped, saying why) without an adapter.
+    fn gpu() -> Option<GpuContext> {
+        match GpuContext::headless() {
+            Ok(gpu) => Some(gpu),
+            Err(e) if std::env::var_os("BEVY_HAIR_REQUIRE_ADAPTER").is_some() => {
+                panic!("BEVY_HAIR_REQUIRE_ADAPTER is set and there is {e}")
+            }
+            Err(e) => {
+                eprintln!("skipped: {e}");
+                None
+            }
+        }
+    }
+
+    fn storage(gpu: &GpuContext, size: u64) -> wgpu::Buffer {
+        gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: None,
+            size,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        })
+    }
+
+    /// A copy that has arrived is taken without a wait: a wait is for all the device's
+    /// queued work, so the frames queued since would stall whoever takes it (the plugin
+    /// takes one nearly every frame).
+    #[test]
+    fn taking_an_arrived_copy_waits_for_nothing_queued_after_it() {
+        let Some(gpu) = gpu() else { return };
+        let buffer = storage(&gpu, 256);
+        let first = BufferCopy::start(&gpu.device, &gpu.queue, &buffer);
+        assert!(first.arrived(true));
+        let second = BufferCopy::start(&gpu.device, &gpu.queue, &buffer);
+        assert_eq!(first.into_bytes().expect("bytes"), vec![0; 256]);
+        // Mapping callbacks run in a poll: taking the first polled the device for nothing.
+        assert!(second.mapped.get().is_none(), "taking an arrived copy waited for the device");
+        assert!(second.arrived(true));
+    }
+
+    /// A copy's staging buffer, once its bytes are taken, serves the next copy of the same
+    /// size; one of another size gets its own.
+    #[test]
+    fn a_taken_copy_lends_its_staging_buffer_to_the_next() {
+        let Some(gpu) = gpu() else { return };
+        let (buffer, other) = (storage(&gpu, 256), storage(&gpu, 512));
+        let pool = StagingPool::default();
+        let copy = |source: &wgpu::Buffer| {
+            let mut encoder = gpu.device.create_command_encoder(&Default::default());
+            let staging = pool.record(&gpu.device, &mut encoder, source, 0);
+            gpu.queue.submit([encoder.finish()]);
+            BufferCopy::map(&gpu.device, staging.clone(), &pool).into_bytes().expect("bytes");
+            staging
+        };
+        let first = copy(&buffer);
+        assert_eq!(copy(&buffer), first);
+        assert_ne!(copy(&other), first);
+        assert_eq!(pool.0.lock().expect("pool").len(), 2);
+    }
+}
