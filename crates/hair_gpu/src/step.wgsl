@@ -1197,7 +1197,7 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
     // in turn what the CPU does for the whole strand in turn, with the same arithmetic: a
     // particle's step reads only its own values and its parent's, and where a later
     // stage reads the parent as an earlier stage left it, that value is carried. Each pass
-    // is a read and a write of every particle: the step is bound by memory.
+    // reads and writes every particle: the fewer passes, the less the step waits on memory.
 
     // 1. Forces and integration (the start of the substep kept first); 2. the root
     //    follows the head.
