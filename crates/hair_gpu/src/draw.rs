@@ -133,7 +133,11 @@ impl GpuDrawing {
         let device = &strands.device;
         let pipeline = pipeline(device, &module(device), "draw_strands");
         let uniform = uniform_buffer(device);
-        let roots: Vec<[f32; 4]> = root_u.iter().map(|u| [u.x, u.y, u.z, 0.0]).collect();
+        let mut roots: Vec<[f32; 4]> = root_u.iter().map(|u| [u.x, u.y, u.z, 0.0]).collect();
+        // A buffer bound may not be empty: no strands still bind one vec4.
+        if roots.is_empty() {
+            roots.push([0.0; 4]);
+        }
         let root_u = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("hair_gpu root frames u"),
             contents: bytemuck::cast_slice(&roots),

@@ -396,10 +396,13 @@ impl GpuStrands {
         if bytes > limit {
             return Err(GpuError::TooLarge { particles, bytes, limit });
         }
+        // A groom without strands still binds buffers, which may not be empty: at least a
+        // report's worth of zeros (summed, it reports nothing).
         let storage = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {
+            let zeros = [0u8; REPORT_BYTES as usize];
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some(label),
-                contents,
+                contents: if contents.len() < zeros.len() { &zeros } else { contents },
                 usage: wgpu::BufferUsages::STORAGE | usage,
             })
         };

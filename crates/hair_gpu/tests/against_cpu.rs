@@ -667,3 +667,31 @@ fn the_gpu_draws_its_strands_as_the_cpu_draws_them() {
     });
     assert!(matches!(hair_gpu::GpuDrawing::new(&strands, &root_u, &small), Err(GpuError::DrawTarget { .. })));
 }
+
+#[test]
+fn an_empty_groom_steps_reads_back_and_draws_nothing() {
+    let Some(gpu) = gpu() else { return };
+    let (_, collider, _) = groom(16);
+    let rest = RestShape::new(Vec::new(), 16).expect("no strands is a groom");
+    let mut strands = GpuStrands::new(&gpu, &rest, head_pose(0.0), Some(&collider)).expect("GPU strands");
+    let params = SimParams::default();
+    for k in 0..3 {
+        strands.translate(Vec3::new(0.01, 0.0, 0.0));
+        strands.step(&input_at(k, head_pose, &collider, &params)).expect("step");
+        strands.publish(head_pose(0.0));
+    }
+    assert!(strands.set_rest_roots(&[]));
+    strands.reset(head_pose(0.0));
+    assert_eq!(strands.positions().expect("read back"), Vec::<Vec3>::new());
+    assert_eq!(strands.report().expect("report"), StepReport::default());
+    // A renderer's buffer with room for nothing (wgpu's smallest is 4 bytes).
+    let target = gpu.device.create_buffer(&hair_gpu::wgpu::BufferDescriptor {
+        label: None,
+        size: 16,
+        usage: hair_gpu::wgpu::BufferUsages::STORAGE | hair_gpu::wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let drawing = hair_gpu::GpuDrawing::new(&strands, &[], &target).expect("a drawing of nothing");
+    drawing.draw(&strands, 0.5, head_pose(0.0)).expect("drawn");
+    assert_eq!(read_vec4s(&gpu, &target), vec![[0.0; 4]]);
+}
