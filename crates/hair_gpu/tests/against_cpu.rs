@@ -437,7 +437,8 @@ fn a_one_second_hitch_is_taken_as_on_the_cpu() {
 #[test]
 fn moving_the_origin_the_roots_and_resetting_match_the_cpu() {
     let Some(gpu) = gpu() else { return };
-    let (_, collider, rest) = groom(64);
+    // 100 strands: three whole groups of the GPU's layout (`layout.wgsl`) and part of one.
+    let (_, collider, rest) = groom(100);
     let n = rest.particles_per_strand;
     let params = SimParams { collision: false, ..SimParams::default() };
     let mut cpu = Strands::new(rest.clone(), head_pose(0.0));
