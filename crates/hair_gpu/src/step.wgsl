@@ -1253,12 +1253,9 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
             shaped_parent = x;
             let parent = placed_parent;
             placed_parent = constrain_length(i, parent, x, down);
-            if settle && j > 1u {
-                set_velocity(i - LANES, parent, correction(i), inverse_step);
+            if settle {
+                settle_behind(i, j, n, parent, placed_parent, inverse_step);
             }
-        }
-        if settle {
-            set_velocity(first + (n - 1u) * LANES, placed_parent, vec3<f32>(0.0), inverse_step);
         }
     }
 
@@ -1304,13 +1301,10 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
             positions[i] = vec4<f32>(x, 0.0);
             // The length pass, from the parent as it placed it.
             let placed = place_at_length(i, x, LENGTH_SLACK * step.limits.y, now);
-            if settle_in_collision && j > 1u {
-                set_velocity(i - LANES, parent, correction(i), inverse_step);
+            if settle_in_collision {
+                settle_behind(i, j, n, parent, placed, inverse_step);
             }
             parent = placed;
-        }
-        if settle_in_collision {
-            set_velocity(first + (n - 1u) * LANES, parent, vec3<f32>(0.0), inverse_step);
         }
         if segments {
             keep_segments_outside(first, n, now);
@@ -1341,6 +1335,18 @@ fn update_velocities(first: u32, n: u32, h: f32, inverse_step: f32) {
 fn set_root_velocity(first: u32, h: f32) {
     let root_velocity = (positions[first].xyz - start(first)) * (1.0 / h);
     motion[first] = vec4<f32>(clamp_length_max(root_velocity, step.limits.x), 0.0);
+}
+
+// The velocities a placing pass can take once particle `j` (slot `i`) is placed at
+// `placed` below its parent, placed at `parent`: the parent's, which needs this particle's
+// correction, and at the tip its own.
+fn settle_behind(i: u32, j: u32, n: u32, parent: vec3<f32>, placed: vec3<f32>, inverse_step: f32) {
+    if j > 1u {
+        set_velocity(i - LANES, parent, correction(i), inverse_step);
+    }
+    if j + 1u == n {
+        set_velocity(i, placed, vec3<f32>(0.0), inverse_step);
+    }
 }
 
 // Particle `i`'s velocity, it ending at `x` and the particle below it corrected by `next`
