@@ -86,7 +86,7 @@ fn draw_strands(@builtin(global_invocation_id) id: vec3<u32>) {
     // The root where the rest shape pins it this frame; the rest interpolated.
     drawn[first] = vec4(place(rest[slot].xyz), 1.0);
     for (var j = 1u; j < n; j++) {
-        let i = slot + j * LANES;
+        let i = particle_slot(slot, j);
         drawn[first + j] = vec4(place(mix(previous[i].xyz, current[i].xyz, t)), 1.0);
     }
     // `transport_frames`, from the root's `u` turned with the head.

@@ -33,7 +33,7 @@ impl Slots {
         self.padded_strands() * self.n
     }
 
-    /// The slot of particle `j` of `strand` (`root_slot` + `LANES · j`).
+    /// The slot of particle `j` of `strand` (`particle_slot(root_slot(strand, n), j)`).
     pub fn slot(&self, strand: usize, j: usize) -> usize {
         strand / LANES * LANES * self.n + j * LANES + strand % LANES
     }

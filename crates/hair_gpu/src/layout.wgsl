@@ -7,10 +7,15 @@
 
 const LANES: u32 = 32u;
 
-// The slot of particle 0 of `strand` (of strands with `n` particles); particle j's is
-// LANES · j further.
+// The slot of particle 0 of `strand` (of strands with `n` particles).
 fn root_slot(strand: u32, n: u32) -> u32 {
     return (strand / LANES) * LANES * n + strand % LANES;
+}
+
+// The slot of particle `j` of the strand whose root is at slot `root`; its parent's is
+// LANES before it.
+fn particle_slot(root: u32, j: u32) -> u32 {
+    return root + j * LANES;
 }
 
 // Slots in a plane: the strands rounded up to whole groups, times `n`.

@@ -1001,7 +1001,7 @@ fn outside_and_reached(parent: vec3<f32>, x: vec3<f32>, now: Pose) -> bool {
 // `keep_segments_outside`.
 fn keep_segments_outside(first: u32, n: u32, now: Pose) {
     for (var j = 2u; j < n; j++) {
-        let i = first + j * LANES;
+        let i = particle_slot(first, j);
         let parent = positions[i - LANES].xyz;
         let child = positions[i].xyz;
         let local_parent = local_point(now, parent);
@@ -1024,7 +1024,8 @@ fn keep_segments_outside(first: u32, n: u32, now: Pose) {
         var from_particle = j;
         for (var round = 0u; round < 2u; round++) {
             for (var k = from_particle; k < n; k++) {
-                place_at_length(first + k * LANES, select(positions[first + k * LANES].xyz, turned, k == j), -1.0, now);
+                let at = particle_slot(first, k);
+                place_at_length(at, select(positions[at].xyz, turned, k == j), -1.0, now);
             }
             if round == 1u {
                 break;
@@ -1175,13 +1176,14 @@ fn patch_contact(p: vec3<f32>) -> PatchContact {
 
 fn reset_strand(first: u32, n: u32, to: Pose) {
     for (var j = 0u; j < n; j++) {
-        let x = world_point(to, rest_position(first + j * LANES));
-        positions[first + j * LANES] = vec4<f32>(x, 0.0);
-        motion[first + j * LANES] = vec4<f32>(0.0);
+        let i = particle_slot(first, j);
+        let x = world_point(to, rest_position(i));
+        positions[i] = vec4<f32>(x, 0.0);
+        motion[i] = vec4<f32>(0.0);
         // The spring model forgets the substep before (the root's w: no history).
         if step.spring_flags.x == 1u {
-            springs[first + j * LANES] = vec4<f32>(x, 0.0);
-            springs[slots() + first + j * LANES] = vec4<f32>(0.0);
+            springs[i] = vec4<f32>(x, 0.0);
+            springs[slots() + i] = vec4<f32>(0.0);
         }
     }
 }
@@ -1204,7 +1206,7 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
     let wind = wind_at(step.flags.w + strand, time);
     let integrate = step.spring_flags.x == 0u;
     for (var j = 0u; j < n; j++) {
-        let i = first + j * LANES;
+        let i = particle_slot(first, j);
         let x = positions[i].xyz;
         motion[slots() + i] = vec4<f32>(x, 0.0);
         motion[2u * slots() + i] = vec4<f32>(0.0);
@@ -1237,7 +1239,7 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
         var shaped_parent = positions[first].xyz;
         var placed_parent = shaped_parent;
         for (var j = 1u; j < n; j++) {
-            let i = first + j * LANES;
+            let i = particle_slot(first, j);
             var x = positions[i].xyz;
             let a = alpha(j);
             if a > 0.0 {
@@ -1264,7 +1266,7 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
     if collide {
         var parent = positions[first].xyz;
         for (var j = 1u; j < n; j++) {
-            let i = first + j * LANES;
+            let i = particle_slot(first, j);
             var x = positions[i].xyz;
             if step.grid_dims.w == 1u {
                 // Friction slides back along the tangent plane, which in a hollow dips
@@ -1323,7 +1325,7 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
 fn update_velocities(first: u32, n: u32, h: f32, inverse_step: f32) {
     set_root_velocity(first, h);
     for (var j = 1u; j < n; j++) {
-        let i = first + j * LANES;
+        let i = particle_slot(first, j);
         var next = vec3<f32>(0.0);
         if j + 1u < n {
             next = correction(i + LANES);
@@ -1412,7 +1414,7 @@ fn implicit_springs(first: u32, n: u32, h: f32, wind: vec3<f32>) -> f32 {
     let step_length = select(h, h * (2.0 / 3.0), remembered);
     let drag = step.motion.x;
     for (var j = 1u; j < n; j++) {
-        let i = first + j * LANES;
+        let i = particle_slot(first, j);
         let x = start(i);
         let v = velocity(i);
         let base = x * current - springs_previous_position(i) * previous;
@@ -1432,7 +1434,7 @@ fn implicit_springs(first: u32, n: u32, h: f32, wind: vec3<f32>) -> f32 {
     let d = step.springs.y;
     let tolerance = step.springs.w;
     for (var j = 1u; j < n; j++) {
-        let i = first + j * LANES;
+        let i = particle_slot(first, j);
         let segment = positions[i].xyz - positions[i - LANES].xyz;
         let l = length(segment);
         var direction = vec3<f32>(0.0);
@@ -1457,7 +1459,7 @@ fn implicit_springs(first: u32, n: u32, h: f32, wind: vec3<f32>) -> f32 {
         var added = false;
         var parent = positions[first].xyz;
         for (var j = 1u; j < n; j++) {
-            let i = first + j * LANES;
+            let i = particle_slot(first, j);
             let x = positions[i].xyz + pull(i, j, n) * displacement;
             let stretch = length(x - parent) - rest_length(i);
             parent = x;
@@ -1474,7 +1476,7 @@ fn implicit_springs(first: u32, n: u32, h: f32, wind: vec3<f32>) -> f32 {
         solve_tensions(first, n, coupling, displacement);
     }
     for (var j = 1u; j < n; j++) {
-        let i = first + j * LANES;
+        let i = particle_slot(first, j);
         let v = clamp_length_max(velocity(i) + pull(i, j, n) * (step_length * w), step.limits.x);
         motion[i] = vec4<f32>(v, 0.0);
         positions[i] = vec4<f32>(springs_base(i) + v * step_length, 0.0);
@@ -1495,7 +1497,7 @@ fn pull(i: u32, j: u32, n: u32) -> vec3<f32> {
 fn solve_tensions(first: u32, n: u32, coupling: f32, displacement: f32) {
     var upper_before = 0.0;
     for (var j = 1u; j < n; j++) {
-        let i = first + j * LANES;
+        let i = particle_slot(first, j);
         let own = select(2.0, 1.0, j == 1u);
         var lower = 0.0;
         if j > 1u {
@@ -1523,7 +1525,7 @@ fn solve_tensions(first: u32, n: u32, coupling: f32, displacement: f32) {
         upper_before = sweep;
     }
     for (var j = n - 2u; j >= 1u; j--) {
-        let i = first + j * LANES;
+        let i = particle_slot(first, j);
         let tension = springs_tension(i) - springs_sweep(i) * springs_tension(i + LANES);
         springs[4u * slots() + i] = vec4<f32>(springs_stretch(i), springs_rhs(i), tension, springs_sweep(i));
     }
@@ -1582,7 +1584,8 @@ fn step_strands(@builtin(global_invocation_id) id: vec3<u32>) {
 // A strand with a particle or velocity that is not finite starts over at rest under `pose`.
 fn reset_if_not_finite(first: u32, n: u32, at: Pose) {
     for (var j = 0u; j < n; j++) {
-        if !(finite(positions[first + j * LANES].xyz) && finite(velocity(first + j * LANES))) {
+        let i = particle_slot(first, j);
+        if !(finite(positions[i].xyz) && finite(velocity(i))) {
             reset_strand(first, n, at);
             tally.nan_resets = 1.0;
             return;
