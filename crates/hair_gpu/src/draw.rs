@@ -94,7 +94,7 @@ impl Published {
         let inverse = glam::Mat3::from_quat(pose.rotation).transpose();
         let placement = Placement::new(inverse, -(inverse * pose.translation), counts, 0.0);
         recorder.upload(&self.uniform, bytemuck::bytes_of(&placement));
-        recorder.dispatch("hair_gpu publish", &self.pipeline, &self.groups[self.latest], self.slots);
+        recorder.dispatch("hair_gpu publish", &self.pipeline, (&self.groups[self.latest], &[]), self.slots);
     }
 }
 
@@ -179,7 +179,7 @@ impl GpuDrawing {
         let mut recorder = strands.lock();
         recorder.upload(&self.uniform, bytemuck::bytes_of(&placement));
         let group = &self.groups[strands.published.latest];
-        recorder.dispatch("hair_gpu draw", &self.pipeline, group, strands.counts()[0]);
+        recorder.dispatch("hair_gpu draw", &self.pipeline, (group, &[]), strands.counts()[0]);
         recorder.submit(&strands.queue);
         Ok(())
     }

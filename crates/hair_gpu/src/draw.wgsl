@@ -40,9 +40,9 @@ fn place(p: vec3<f32>) -> vec3<f32> {
     return placement.x.xyz * p.x + placement.y.xyz * p.y + placement.z.xyz * p.z + placement.w.xyz;
 }
 
-@compute @workgroup_size(64)
-fn publish_local(@builtin(global_invocation_id) id: vec3<u32>) {
-    let i = id.x;
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn publish_local(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = invocation(id, groups);
     if i >= slot_count(placement.counts.x, placement.counts.y) {
         return;
     }
@@ -72,9 +72,9 @@ fn particle_tangent(first: u32, n: u32, j: u32) -> vec3<f32> {
     return bezier_point(prev, p0, p1, next, t).tangent;
 }
 
-@compute @workgroup_size(64)
-fn draw_strands(@builtin(global_invocation_id) id: vec3<u32>) {
-    let strand = id.x;
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn draw_strands(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let strand = invocation(id, groups);
     let strands = placement.counts.x;
     let n = placement.counts.y;
     if strand >= strands || n < 2u {

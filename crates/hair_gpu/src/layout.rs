@@ -57,14 +57,20 @@ impl Slots {
 mod tests {
     use super::*;
 
-    #[test]
-    fn the_shaders_lanes_are_these() {
+    /// A `u32` constant of `layout.wgsl`.
+    fn shader_constant(name: &str) -> u32 {
         let module = naga::front::wgsl::parse_str(include_str!("layout.wgsl")).expect("layout.wgsl parses");
-        let (_, lanes) = module.constants.iter().find(|(_, c)| c.name.as_deref() == Some("LANES")).expect("LANES");
-        let naga::Expression::Literal(naga::Literal::U32(value)) = module.global_expressions[lanes.init] else {
-            panic!("LANES is a u32 literal")
+        let (_, constant) = module.constants.iter().find(|(_, c)| c.name.as_deref() == Some(name)).expect(name);
+        let naga::Expression::Literal(naga::Literal::U32(value)) = module.global_expressions[constant.init] else {
+            panic!("{name} is a u32 literal")
         };
-        assert_eq!(value as usize, LANES);
+        value
+    }
+
+    #[test]
+    fn the_shaders_lanes_and_workgroups_are_these() {
+        assert_eq!(shader_constant("LANES") as usize, LANES);
+        assert_eq!(shader_constant("WORKGROUP_SIZE"), crate::WORKGROUP_SIZE);
     }
 
     #[test]

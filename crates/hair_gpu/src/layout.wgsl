@@ -22,3 +22,20 @@ fn particle_slot(root: u32, j: u32) -> u32 {
 fn slot_count(strands: u32, n: u32) -> u32 {
     return (strands + LANES - 1u) / LANES * LANES * n;
 }
+
+// The strand (x) and the particle index within it (y) of slot `i`: `particle_slot`'s
+// inverse. (For the padding at the end of the last group, a strand past the last.)
+fn slot_particle(i: u32, n: u32) -> vec2<u32> {
+    let group = i / (LANES * n);
+    let within = i % (LANES * n);
+    return vec2<u32>(group * LANES + within % LANES, within / LANES);
+}
+
+// Invocations per workgroup, in every pass here (`WORKGROUP_SIZE` in `lib.rs`).
+const WORKGROUP_SIZE: u32 = 64u;
+
+// The index of invocation `id` of a dispatch of `groups` workgroups: a dispatch over more
+// workgroups than a dimension holds spreads them over rows of `groups.x` (`Recorder`).
+fn invocation(id: vec3<u32>, groups: vec3<u32>) -> u32 {
+    return id.x + id.y * groups.x * WORKGROUP_SIZE;
+}

@@ -1,5 +1,6 @@
-//! The strand solver on the GPU: [`hair_sim`]'s model stepped by a wgpu compute pass, one
-//! invocation per strand, the particles staying in GPU buffers between steps.
+//! The strand solver on the GPU: [`hair_sim`]'s model stepped by a wgpu compute pass (a
+//! few dispatches a substep, an invocation per strand, or per particle for the contacts),
+//! the particles staying in GPU buffers between steps.
 //!
 //! [`GpuStrands`] mirrors [`hair_sim::solver::Strands`]: built from the same
 //! [`RestShape`] and head pose, stepped with the same [`StepInput`], read back on demand
@@ -67,7 +68,7 @@ pub use wgpu;
 pub const SHADER: &str = concat!(include_str!("layout.wgsl"), "\n", include_str!("step.wgsl"));
 /// The roots' pass (`layout.wgsl`, then `roots.wgsl`).
 const ROOTS_SHADER: &str = concat!(include_str!("layout.wgsl"), "\n", include_str!("roots.wgsl"));
-/// Strands per workgroup, as `step.wgsl` declares.
+/// Invocations per workgroup, as `layout.wgsl` declares (a test checks).
 const WORKGROUP_SIZE: u32 = 64;
 /// Substeps the pose table holds room for at first ([`hair_sim::solver::SimParams`]'s own
 /// limit); a step with more grows it.
@@ -299,7 +300,10 @@ impl GridInfo {
 pub struct GpuStrands {
     device: wgpu::Device,
     queue: wgpu::Queue,
-    pipeline: wgpu::ComputePipeline,
+    /// The step's passes (`step.wgsl`'s entry points).
+    passes: StepPasses,
+    /// Which substep each dispatch of a step works on.
+    phases: Phases,
     layout: wgpu::BindGroupLayout,
     bind_group: wgpu::BindGroup,
     uniform: wgpu::Buffer,
@@ -366,6 +370,57 @@ impl RootsUpload {
         let pipeline = pass::pipeline(device, &module, "place_roots");
         let group = pass::bind_group(device, &pipeline, &[(0, &counts), (1, &roots), (2, rest)]);
         RootsUpload { roots, pipeline, group }
+    }
+}
+
+/// `step.wgsl`'s entry points: a step dispatches them in turn for each substep.
+struct StepPasses {
+    /// Integration, shape and length, an invocation per strand.
+    move_strands: wgpu::ComputePipeline,
+    /// Each particle's contacts, an invocation per particle (with collision).
+    collide_particles: wgpu::ComputePipeline,
+    /// The final length pass and the velocities, an invocation per strand (with collision).
+    place_strands: wgpu::ComputePipeline,
+    /// The segments turned out of the head, and the velocities, an invocation per strand
+    /// (on the last substep, with the head and segment collision).
+    turn_strands: wgpu::ComputePipeline,
+}
+
+/// Bytes of one entry of [`Phases`] (`step.wgsl`'s `phase`, a vec4 of u32).
+const PHASE_BYTES: u64 = 16;
+
+/// Which substep each dispatch of a step works on (`step.wgsl`'s `phase`): the substeps
+/// 0, 1, 2, … written once, each at an offset a dynamic offset can point at.
+struct Phases {
+    buffer: wgpu::Buffer,
+    /// Bytes from one entry to the next: the device's alignment for a uniform's offset.
+    stride: u32,
+}
+
+impl Phases {
+    /// Entries for the substeps up to `substeps`.
+    fn new(device: &wgpu::Device, substeps: u32) -> Self {
+        let stride = device.limits().min_uniform_buffer_offset_alignment.max(PHASE_BYTES as u32);
+        let mut bytes = vec![0u8; (substeps as usize + 1) * stride as usize];
+        for (k, entry) in bytes.chunks_exact_mut(stride as usize).enumerate() {
+            entry[..4].copy_from_slice(&(k as u32).to_le_bytes());
+        }
+        let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("hair_gpu phases"),
+            contents: &bytes,
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        Phases { buffer, stride }
+    }
+
+    /// The last substep there is an entry for.
+    fn substeps(&self) -> u32 {
+        (self.buffer.size() / u64::from(self.stride)) as u32 - 1
+    }
+
+    /// The dynamic offset of substep `k`'s entry.
+    fn offset(&self, k: u32) -> u32 {
+        k * self.stride
     }
 }
 
@@ -464,6 +519,16 @@ impl GpuStrands {
                 entry(6, read),
                 entry(7, read),
                 entry(8, write),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 9,
+                    visibility: wgpu::ShaderStages::COMPUTE,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: true,
+                        min_binding_size: wgpu::BufferSize::new(PHASE_BYTES),
+                    },
+                    count: None,
+                },
             ],
         });
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -481,13 +546,20 @@ impl GpuStrands {
                 cache: None,
             })
         };
-        let pipeline = entry_point("hair_gpu step", "step_strands");
+        let passes = StepPasses {
+            move_strands: entry_point("hair_gpu move strands", "move_strands"),
+            collide_particles: entry_point("hair_gpu collide particles", "collide_particles"),
+            place_strands: entry_point("hair_gpu place strands", "place_strands"),
+            turn_strands: entry_point("hair_gpu turn strands", "turn_strands"),
+        };
+        let phases = Phases::new(device, MAX_SUBSTEPS);
         let translate = entry_point("hair_gpu translate", "translate_particles");
         let springs = storage("hair_gpu springs", &[0u8; 16], wgpu::BufferUsages::COPY_DST);
         let bind_group = bind(
             device,
             &layout,
             [&uniform, &tables, &positions, &motion, &rest_buffer, &root_frames, &colliders, &head, &springs],
+            &phases,
         );
         let timestamps = gpu.timestamps.then(|| Timestamps::new(device));
         let published = draw::Published::new(device, &positions, slots.count());
@@ -495,7 +567,8 @@ impl GpuStrands {
         let mut strands = GpuStrands {
             device: device.clone(),
             queue: gpu.queue.clone(),
-            pipeline,
+            passes,
+            phases,
             layout,
             bind_group,
             uniform,
@@ -623,7 +696,7 @@ impl GpuStrands {
         let slots = self.slots.count() as u32;
         let recorder = recording(&mut self.recorder);
         recorder.upload(&self.uniform, bytemuck::bytes_of(&uniform));
-        recorder.dispatch("hair_gpu translate", &self.translate, &self.bind_group, slots);
+        recorder.dispatch("hair_gpu translate", &self.translate, (&self.bind_group, &[0]), slots);
     }
 
     /// Moves every strand's root within the rest shape (head-local), for roots riding a
@@ -648,7 +721,7 @@ impl GpuStrands {
         let upload = self.roots.get_or_insert_with(|| RootsUpload::new(&self.device, &self.rest, self.strands, n));
         let recorder = recording(&mut self.recorder);
         recorder.upload(&upload.roots, bytemuck::cast_slice(&placed));
-        recorder.dispatch("hair_gpu roots", &upload.pipeline, &upload.group, self.strands);
+        recorder.dispatch("hair_gpu roots", &upload.pipeline, (&upload.group, &[]), self.strands);
         true
     }
 
@@ -693,6 +766,11 @@ impl GpuStrands {
         if springs {
             self.prepare_springs()?;
         }
+        let substeps = (constants.poses.len() - 1) as u32;
+        if substeps > self.phases.substeps() {
+            self.phases = Phases::new(&self.device, substeps);
+            self.rebind();
+        }
         let patch = self.upload_colliders(input);
         let (mut uniform, tables) = self.constants(input, &constants, collide_head);
         uniform.skin = patch;
@@ -711,9 +789,23 @@ impl GpuStrands {
                     end_of_pass_write_index: Some(1),
                 }),
             });
-            pass.set_pipeline(&self.pipeline);
-            pass.set_bind_group(0, &self.bind_group, &[]);
-            pass.dispatch_workgroups(self.strands.div_ceil(WORKGROUP_SIZE), 1, 1);
+            let particles = self.slots.count() as u32;
+            let passes = &self.passes;
+            for k in 1..=substeps {
+                let mut dispatch = |pipeline, invocations| {
+                    pass.set_pipeline(pipeline);
+                    pass.set_bind_group(0, &self.bind_group, &[self.phases.offset(k)]);
+                    recorder::dispatch_over(&mut pass, invocations);
+                };
+                dispatch(&passes.move_strands, self.strands);
+                if p.collision {
+                    dispatch(&passes.collide_particles, particles);
+                    dispatch(&passes.place_strands, self.strands);
+                    if collide_head && p.segment_collision && k == substeps {
+                        dispatch(&passes.turn_strands, self.strands);
+                    }
+                }
+            }
         }
         if let Some(t) = timestamps {
             encoder.resolve_query_set(&t.queries, 0..2, &t.resolved, 0);
@@ -856,6 +948,7 @@ impl GpuStrands {
                 &self.head,
                 &self.springs,
             ],
+            &self.phases,
         );
     }
 
@@ -971,13 +1064,26 @@ fn pack_patch(data: &mut Vec<[u32; 4]>, patch: hair_sim::collide::PatchParts) ->
     [header + 1, triangles, starts, bins]
 }
 
-/// The bind group over the solver's nine buffers, in binding order.
-fn bind(device: &wgpu::Device, layout: &wgpu::BindGroupLayout, buffers: [&wgpu::Buffer; 9]) -> wgpu::BindGroup {
-    let entries: Vec<wgpu::BindGroupEntry> = buffers
+/// The bind group over the solver's nine buffers, in binding order, and the phases.
+fn bind(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    buffers: [&wgpu::Buffer; 9],
+    phases: &Phases,
+) -> wgpu::BindGroup {
+    let mut entries: Vec<wgpu::BindGroupEntry> = buffers
         .iter()
         .enumerate()
         .map(|(i, buffer)| wgpu::BindGroupEntry { binding: i as u32, resource: buffer.as_entire_binding() })
         .collect();
+    entries.push(wgpu::BindGroupEntry {
+        binding: buffers.len() as u32,
+        resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+            buffer: &phases.buffer,
+            offset: 0,
+            size: wgpu::BufferSize::new(PHASE_BYTES),
+        }),
+    });
     device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("hair_gpu"), layout, entries: &entries })
 }
 

@@ -46,20 +46,21 @@ impl Recorder {
         self.belt.write_buffer(encoder, target, 0, size).copy_from_slice(bytes);
     }
 
-    /// One dispatch of `pipeline` over `invocations`, its bind group `group`.
+    /// One dispatch of `pipeline` over `invocations`, its bind group `group` (with its
+    /// dynamic `offsets`, if any).
     pub fn dispatch(
         &mut self,
         label: &str,
         pipeline: &wgpu::ComputePipeline,
-        group: &wgpu::BindGroup,
+        (group, offsets): (&wgpu::BindGroup, &[u32]),
         invocations: u32,
     ) {
         let mut pass = self
             .encoder()
             .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(label), timestamp_writes: None });
         pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, group, &[]);
-        pass.dispatch_workgroups(invocations.div_ceil(WORKGROUP_SIZE), 1, 1);
+        pass.set_bind_group(0, group, offsets);
+        dispatch_over(&mut pass, invocations);
     }
 
     /// Submits what was recorded, if anything, in one submission.
@@ -72,9 +73,47 @@ impl Recorder {
     }
 }
 
+/// Workgroups a dimension of a dispatch holds on every device (WebGPU's minimum).
+const MAX_WORKGROUPS_PER_DIMENSION: u32 = 65_535;
+
+/// Dispatches the pipeline set in `pass` over `invocations` (a shader's `invocation`),
+/// in rows of workgroups where one row cannot hold them (65,536 strands of 64 particles
+/// are 65,536 workgroups of particles).
+pub(crate) fn dispatch_over(pass: &mut wgpu::ComputePass<'_>, invocations: u32) {
+    let [x, y] = workgroups(invocations);
+    pass.dispatch_workgroups(x, y, 1);
+}
+
+/// Workgroups along x and y for `invocations`: as few rows as hold them, as short as they
+/// can be.
+fn workgroups(invocations: u32) -> [u32; 2] {
+    let groups = invocations.div_ceil(WORKGROUP_SIZE);
+    let rows = groups.div_ceil(MAX_WORKGROUPS_PER_DIMENSION).max(1);
+    [groups.div_ceil(rows), rows]
+}
+
 /// The encoder in `encoder`, made if there is none.
 fn open<'a>(encoder: &'a mut Option<wgpu::CommandEncoder>, device: &wgpu::Device) -> &'a mut wgpu::CommandEncoder {
     encoder.get_or_insert_with(|| {
         device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("hair_gpu") })
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_dispatch_covers_its_invocations_in_rows_a_device_can_take() {
+        for invocations in [0, 1, 64, 65, 4_194_240, 4_194_304, 65_536 * 64 * 3 + 5, u32::MAX / 2] {
+            let [x, y] = workgroups(invocations);
+            assert!(x <= MAX_WORKGROUPS_PER_DIMENSION && y <= MAX_WORKGROUPS_PER_DIMENSION, "{invocations}: {x} × {y}");
+            let covered = u64::from(x) * u64::from(y) * u64::from(WORKGROUP_SIZE);
+            assert!(covered >= u64::from(invocations), "{invocations}: {covered}");
+            // No more than a row's worth of workgroups past the last invocation.
+            assert!(covered - u64::from(invocations) < u64::from(y + 1) * u64::from(WORKGROUP_SIZE), "{invocations}");
+        }
+        assert_eq!(workgroups(64 * 65_535), [65_535, 1]);
+        assert_eq!(workgroups(64 * 65_536), [32_768, 2]);
+    }
 }

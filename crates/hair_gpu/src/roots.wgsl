@@ -8,10 +8,11 @@
 @group(0) @binding(1) var<storage, read> roots: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read_write> rest: array<vec4<f32>>;
 
-@compute @workgroup_size(64)
-fn place_roots(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= counts.x {
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn place_roots(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let strand = invocation(id, groups);
+    if strand >= counts.x {
         return;
     }
-    rest[root_slot(id.x, counts.y)] = vec4(roots[id.x].xyz, 0.0);
+    rest[root_slot(strand, counts.y)] = vec4(roots[strand].xyz, 0.0);
 }

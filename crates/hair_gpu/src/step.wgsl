@@ -1,11 +1,12 @@
-// One step of the strand solver on the GPU: one invocation per strand, every substep of
-// the step in one dispatch (strands do not interact). It mirrors hair_sim's CPU solver
-// (`solver/step.rs`) for the inextensible length model, operation for operation where it
-// can, so that the two agree to rounding. The head is the collider's baked distance grid,
-// sampled trilinearly, far from the surface; near it the collider's exact query takes over
-// (the same candidate triangles, the same closest point), and for a particle's own contact
-// deep inside too, through the BVH the CPU walks; a whole segment goes from one triangle it
-// hits to the next through that BVH (or, without the tables, sphere traces the grid).
+// One step of the strand solver on the GPU: a few dispatches a substep, one invocation per
+// strand or, for the contacts, per particle (see the entry points at the end; strands do
+// not interact). It mirrors hair_sim's CPU solver (`solver/step.rs`) for the inextensible
+// length model, operation for operation where it can, so that the two agree to rounding.
+// The head is the collider's baked distance grid, sampled trilinearly, far from the
+// surface; near it the collider's exact query takes over (the same candidate triangles, the
+// same closest point), and for a particle's own contact deep inside too, through the BVH
+// the CPU walks; a whole segment goes from one triangle it hits to the next through that
+// BVH (or, without the tables, sphere traces the grid).
 // `layout.wgsl` is prepended: where each particle's values live.
 
 struct Step {
@@ -1188,10 +1189,11 @@ fn reset_strand(first: u32, n: u32, to: Pose) {
     }
 }
 
-fn substep(strand: u32, first: u32, n: u32, k: u32) {
+// 1.-3. of substep `k`: forces and integration, the root following the head, shape and the
+// length constraint; where nothing collides, the velocities too (5.).
+fn move_strand(strand: u32, first: u32, n: u32, k: u32) {
     let h = step.gravity_h.w;
     let time = step.gusts.z + h * f32(k);
-    let before = pose(k - 1u);
     let now = pose(k);
     let down = vec3<f32>(0.0, -1.0, 0.0);
 
@@ -1222,13 +1224,11 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
         step_length = implicit_springs(first, n, h, wind);
     }
     let inverse_step = 1.0 / step_length;
-    // Where the velocities are taken (5.): in the last pass that places the particles,
-    // particle j - 1's once particle j, whose correction it needs, is placed; unless the
-    // segments' pass comes after collision, or nothing places them after the integration.
+    // Where nothing collides, the velocities (5.) are taken in the last shape pass,
+    // particle j - 1's once particle j, whose correction it needs, is placed; unless there
+    // is no shape pass.
     let collide = step.flags.x == 1u;
-    let segments = collide && step.spring_flags.z == 1u && k == step.counts.z && step.grid_dims.w == 1u;
     let settle_in_shape = !collide && step.counts.w > 0u;
-    let settle_in_collision = collide && !segments;
 
     // 3. Shape and length: global shape, local shape (from the parent as local shape left
     //    it) and the length constraint (from the parent as the constraint left it).
@@ -1260,68 +1260,103 @@ fn substep(strand: u32, first: u32, n: u32, k: u32) {
             }
         }
     }
-
-    // 4. Collision, with friction, each particle then given the length pass once more,
-    //    which turns its segment about its parent where it would put it back inside.
-    if collide {
-        var parent = positions[first].xyz;
-        for (var j = 1u; j < n; j++) {
-            let i = particle_slot(first, j);
-            var x = positions[i].xyz;
-            if step.grid_dims.w == 1u {
-                // Friction slides back along the tangent plane, which in a hollow dips
-                // under the surface: out again from there (a second query), unless the
-                // slide is too short to reach the surface (a quarter of the shell, as on
-                // the CPU).
-                var query = local_point(now, x);
-                for (var again = 0u; again < 2u; again++) {
-                    let contact = head_contact(query);
-                    if !contact.hit {
-                        break;
-                    }
-                    if again == 1u {
-                        x = world_point(now, contact.position);
-                        break;
-                    }
-                    touch(contact.depth);
-                    let held = with_friction(contact.position, contact.normal, local_point(before, start(i)));
-                    x = world_point(now, held);
-                    if !(length(held - contact.position) > 0.25 * step.limits.y) {
-                        break;
-                    }
-                    query = held;
-                }
-                // The skin that moved against the head's frame, as it is now.
-                let local = local_point(now, x);
-                let skin = patch_contact(local);
-                if skin.hit {
-                    touch(skin.depth);
-                    x = world_point(now, with_friction(skin.position, skin.normal, local_point(before, start(i))));
-                }
-            }
-            x = out_of_extras(x, start(i));
-            positions[i] = vec4<f32>(x, 0.0);
-            // The length pass, from the parent as it placed it.
-            let placed = place_at_length(i, x, LENGTH_SLACK * step.limits.y, now);
-            if settle_in_collision {
-                settle_behind(i, j, n, parent, placed, inverse_step);
-            }
-            parent = placed;
-        }
-        if segments {
-            keep_segments_outside(first, n, now);
-        }
-    }
-    if settle_in_shape || settle_in_collision {
+    if settle_in_shape {
         set_root_velocity(first, h);
-    } else {
+    } else if !collide {
         update_velocities(first, n, h, inverse_step);
     }
 }
 
+// 4. (first half) The contacts of the particle in slot `i` in substep `k`, with friction:
+//    the head's, the skin's that moved against it, the extra colliders'. Where it ends is
+//    written back, and its contacts (how many, the deepest) kept for `place_strand`.
+fn collide_particle(i: u32, k: u32) {
+    let before = pose(k - 1u);
+    let now = pose(k);
+    var x = positions[i].xyz;
+    if step.grid_dims.w == 1u {
+        // Friction slides back along the tangent plane, which in a hollow dips under the
+        // surface: out again from there (a second query), unless the slide is too short to
+        // reach the surface (a quarter of the shell, as on the CPU).
+        var query = local_point(now, x);
+        for (var again = 0u; again < 2u; again++) {
+            let contact = head_contact(query);
+            if !contact.hit {
+                break;
+            }
+            if again == 1u {
+                x = world_point(now, contact.position);
+                break;
+            }
+            touch(contact.depth);
+            let held = with_friction(contact.position, contact.normal, local_point(before, start(i)));
+            x = world_point(now, held);
+            if !(length(held - contact.position) > 0.25 * step.limits.y) {
+                break;
+            }
+            query = held;
+        }
+        // The skin that moved against the head's frame, as it is now.
+        let local = local_point(now, x);
+        let skin = patch_contact(local);
+        if skin.hit {
+            touch(skin.depth);
+            x = world_point(now, with_friction(skin.position, skin.normal, local_point(before, start(i))));
+        }
+    }
+    x = out_of_extras(x, start(i));
+    positions[i] = vec4<f32>(x, 0.0);
+    motion[slots() + i].w = tally.contacts;
+    motion[2u * slots() + i].w = tally.max_depth;
+}
+
+// 4. (second half) Each particle, where `collide_particle` left it, given the length pass
+//    once more, which turns its segment about its parent where it would put it back
+//    inside. 5. The velocities, unless the segments' pass follows (`turn_segments`).
+fn place_strand(first: u32, n: u32, k: u32) {
+    let h = step.gravity_h.w;
+    let now = pose(k);
+    let inverse_step = 1.0 / integrator_step(first);
+    let segments = turns_segments(k);
+    var parent = positions[first].xyz;
+    for (var j = 1u; j < n; j++) {
+        let i = particle_slot(first, j);
+        tally.contacts += motion[slots() + i].w;
+        tally.max_depth = max(tally.max_depth, motion[2u * slots() + i].w);
+        let placed = place_at_length(i, positions[i].xyz, LENGTH_SLACK * step.limits.y, now);
+        if !segments {
+            settle_behind(i, j, n, parent, placed, inverse_step);
+        }
+        parent = placed;
+    }
+    if !segments {
+        set_root_velocity(first, h);
+    }
+}
+
+// Whether substep `k` ends with the segments' pass: the step's last, with the head.
+fn turns_segments(k: u32) -> bool {
+    return step.spring_flags.z == 1u && k == step.counts.z && step.grid_dims.w == 1u;
+}
+
+// 4. (last) The segments that run through the head turned out of it, then 5. the velocities.
+fn turn_segments(first: u32, n: u32, k: u32) {
+    keep_segments_outside(first, n, pose(k));
+    update_velocities(first, n, step.gravity_h.w, 1.0 / integrator_step(first));
+}
+
+// The integrator's step as `move_strand` took it for the strand whose root is in slot
+// `first`: the substep, or the spring model's (kept with the root's base).
+fn integrator_step(first: u32) -> f32 {
+    if step.spring_flags.x == 1u {
+        return springs[2u * slots() + first].w;
+    }
+    return step.gravity_h.w;
+}
+
 // 5. Velocities from where the particles ended up, less FTL's correction; the integrator
 // advanced them `1 / inverse_step` (the substep, or the spring model's). In the pass that
-// places the particles last where it can (`substep`), else in a pass of its own.
+// places the particles last where it can, else in a pass of its own.
 fn update_velocities(first: u32, n: u32, h: f32, inverse_step: f32) {
     set_root_velocity(first, h);
     for (var j = 1u; j < n; j++) {
@@ -1426,7 +1461,8 @@ fn implicit_springs(first: u32, n: u32, h: f32, wind: vec3<f32>) -> f32 {
         positions[i] = vec4<f32>(base + new_v * step_length, 0.0);
     }
     springs[first] = vec4<f32>(springs[first].xyz, h);
-    springs[2u * slots() + first] = vec4<f32>(start(first), 0.0);
+    // (The root's w: the integrator's step, for `place_strand`.)
+    springs[2u * slots() + first] = vec4<f32>(start(first), step_length);
 
     // The segments at the predicted positions; the pinned root's velocity damps the first.
     let root_velocity = (positions[first].xyz - start(first)) * (1.0 / h);
@@ -1553,31 +1589,123 @@ fn constrain_length(i: u32, parent: vec3<f32>, x: vec3<f32>, down: vec3<f32>) ->
     return placed;
 }
 
-@compute @workgroup_size(64)
-fn step_strands(@builtin(global_invocation_id) id: vec3<u32>) {
-    let strand = id.x;
-    if strand >= step.counts.x {
+// --- The entry points: a step, a substep at a time ---
+//
+// `GpuStrands::step` dispatches, for each substep k (`phase.x`, 1 to substeps):
+// `move_strands`, an invocation per strand; with collision, `collide_particles`, an
+// invocation per particle, then `place_strands`, one per strand again; on the step's last
+// substep, with the head and segment collision, `turn_strands`, one per strand. A
+// particle's contacts depend on nothing else in its strand, so each gets an invocation of
+// its own: 32 times the strands' invocations, which is what a GPU needs to hide the
+// queries' memory waits behind other invocations' work (65,536 strands are ~15 warps a
+// core on an H200); what goes root to tip stays one invocation per strand. The segments'
+// pass has a dispatch of its own, run once a step, so that the placing pass, run every
+// substep, does not carry its code (llvmpipe, which runs through a branch no invocation
+// takes, stepped 512 strands resting on the head in 150 ms with it there, 62 without).
+//
+// What a dispatch leaves the next is kept in the motion planes' w, unused otherwise: at a
+// root's substep start, 1 where the strand started over at rest this step (its substeps
+// are skipped, as on the CPU); at another particle's, the contacts `collide_particle`
+// found for it; in its correction, the deepest of them.
+
+@group(0) @binding(9) var<uniform> phase: vec4<u32>;
+
+// Whether the strand whose root is in slot `first` started over at rest this step.
+fn started_over(first: u32) -> bool {
+    return motion[slots() + first].w == 1.0;
+}
+
+// The strand that invocation `id` of a per-strand dispatch steps (x: none at or past
+// `step.counts.x`) and its root's slot (y).
+fn strand_of(id: vec3<u32>, groups: vec3<u32>) -> vec2<u32> {
+    let strand = invocation(id, groups);
+    return vec2<u32>(strand, root_slot(strand, step.counts.y));
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn move_strands(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let s = strand_of(id, groups);
+    let n = step.counts.y;
+    let k = phase.x;
+    if s.x >= step.counts.x {
         return;
     }
-    let n = step.counts.y;
-    let first = root_slot(strand, n);
+    if k == 1u {
+        if !begin_step(s.x, s.y, n) {
+            return;
+        }
+    } else if started_over(s.y) {
+        return;
+    }
+    move_strand(s.x, s.y, n, k);
+    if step.flags.x == 0u {
+        end_substep(s.x, s.y, n, k);
+    }
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn collide_particles(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = invocation(id, groups);
+    if i >= slots() {
+        return;
+    }
+    let particle = slot_particle(i, step.counts.y);
+    // Roots follow the head; the padding is no strand's.
+    if particle.y == 0u || particle.x >= step.counts.x || started_over(i - particle.y * LANES) {
+        return;
+    }
+    collide_particle(i, phase.x);
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn place_strands(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let s = strand_of(id, groups);
+    if s.x >= step.counts.x || started_over(s.y) {
+        return;
+    }
+    place_strand(s.y, step.counts.y, phase.x);
+    if turns_segments(phase.x) {
+        add_to_report(s.x); // the substep ends in `turn_strands`
+    } else {
+        end_substep(s.x, s.y, step.counts.y, phase.x);
+    }
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn turn_strands(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let s = strand_of(id, groups);
+    if s.x >= step.counts.x || started_over(s.y) {
+        return;
+    }
+    turn_segments(s.y, step.counts.y, phase.x);
+    end_substep(s.x, s.y, step.counts.y, phase.x);
+}
+
+// A strand's step begins: a root that jumped (a teleport) or is not finite starts it over
+// at rest under the step's last pose, with no substeps (false); the spring model's memory
+// is forgotten after a step without it.
+fn begin_step(strand: u32, first: u32, n: u32) -> bool {
     let last = pose(step.counts.z);
-    // A root that jumped (a teleport) or is not finite starts over at rest.
     let jump = length(world_point(last, rest_position(first)) - positions[first].xyz);
     if !(jump <= step.limits.w) {
         reset_strand(first, n, last);
+        motion[slots() + first] = vec4<f32>(positions[first].xyz, 1.0);
         tally.teleport_resets = 1.0;
         add_to_report(strand);
-        return;
+        return false;
     }
-    // The spring model's memory is stale after a step without it.
     if step.spring_flags.x == 1u && step.spring_flags.y == 0u {
         springs[first] = vec4<f32>(0.0);
     }
-    for (var k = 1u; k <= step.counts.z; k++) {
-        substep(strand, first, n, k);
+    return true;
+}
+
+// A strand's substep ends: on the step's last, a particle or velocity that is not finite
+// starts it over at rest; what the substep did goes into the strand's report.
+fn end_substep(strand: u32, first: u32, n: u32, k: u32) {
+    if k == step.counts.z {
+        reset_if_not_finite(first, n, pose(k));
     }
-    reset_if_not_finite(first, n, last);
     add_to_report(strand);
 }
 
@@ -1595,9 +1723,9 @@ fn reset_if_not_finite(first: u32, n: u32, at: Pose) {
 
 // Moves every particle, and the spring model's memory of where it was, by `step.offset`:
 // the solver's origin moved (one invocation per particle).
-@compute @workgroup_size(64)
-fn translate_particles(@builtin(global_invocation_id) id: vec3<u32>) {
-    let i = id.x;
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn translate_particles(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = invocation(id, groups);
     if i >= slot_count(step.counts.x, step.counts.y) {
         return; // (the padding moves too: it is never read)
     }
