@@ -15,6 +15,11 @@ impl HairDiagnostics {
     /// work beside it meanwhile), read back with its report a frame or two late. Published
     /// only where the render device has timestamp queries.
     pub const GPU_STEP_TIME: DiagnosticPath = DiagnosticPath::const_new("hair/gpu_step_ms");
+    /// Wall time of the last fixed step's hand-over of the GPU solver's work to the
+    /// device's queue (the copies back recorded and the commands submitted), milliseconds,
+    /// summed over the grooms the GPU steps: the part of [`Self::STEP_TIME`] a driver or
+    /// another thread's submission can make wait.
+    pub const GPU_SUBMIT_TIME: DiagnosticPath = DiagnosticPath::const_new("hair/gpu_submit_ms");
     /// Guide strands the solver stepped in the last fixed step, all grooms (a level of
     /// detail, [`HairLod`](crate::HairLod), leaves out the guides that follow).
     pub const GUIDES: DiagnosticPath = DiagnosticPath::const_new("hair/guides");
@@ -32,9 +37,10 @@ impl HairDiagnostics {
     pub const UPLOAD_TIME: DiagnosticPath = DiagnosticPath::const_new("hair/upload_ms");
 
     /// Every path above, for registration.
-    pub const ALL: [DiagnosticPath; 8] = [
+    pub const ALL: [DiagnosticPath; 9] = [
         Self::STEP_TIME,
         Self::GPU_STEP_TIME,
+        Self::GPU_SUBMIT_TIME,
         Self::GUIDES,
         Self::PARTICLES,
         Self::RENDERED_STRANDS,

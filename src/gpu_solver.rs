@@ -37,6 +37,9 @@ pub(crate) struct GpuSolver {
     /// The GPU time of the last step before the latest report that arrived, milliseconds,
     /// where the device times steps, until taken ([`Self::take_step_ms`]).
     step_ms: Option<f64>,
+    /// Wall time the last step spent handing its work to the queue, milliseconds (see
+    /// [`HairDiagnostics::GPU_SUBMIT_TIME`](crate::HairDiagnostics::GPU_SUBMIT_TIME)).
+    pub submit_ms: f64,
     /// Why the GPU last could not step the groom, as reported (`None`: it could, or was
     /// not asked to).
     pub issue: Option<String>,
@@ -83,10 +86,12 @@ impl GpuSolver {
         // the next, which submits the step with them; else the step alone: one submission.
         self.take_copy(strands, false);
         self.take_arrived_report(false);
+        let handing_over = bevy::platform::time::Instant::now();
         self.send();
         if let Some(gpu) = &self.strands {
             gpu.submit();
         }
+        self.submit_ms = handing_over.elapsed().as_secs_f64() * 1e3;
         Ok(())
     }
 

@@ -573,6 +573,8 @@ pub(crate) fn simulate(
     let (mut guides, mut particles) = (0, 0);
     // The GPU time of the grooms the GPU steps, where it came back.
     let mut gpu_step_ms: Option<f64> = None;
+    // Their steps' hand-over to the queue, where the GPU stepped any.
+    let mut gpu_submit_ms: Option<f64> = None;
     let dt = time.delta_secs();
     // A collider in a hierarchy belongs to the character at its root; a top-level one to all.
     let scoped: Vec<(Option<Entity>, ExtraCollider)> = colliders
@@ -629,6 +631,7 @@ pub(crate) fn simulate(
             if let Some(ms) = state.gpu.take_step_ms() {
                 *gpu_step_ms.get_or_insert(0.0) += ms;
             }
+            *gpu_submit_ms.get_or_insert(0.0) += state.gpu.submit_ms;
             state.last_step_time = groom_started.elapsed();
             state.time += dt;
             guides += state.strands.strand_count();
@@ -662,6 +665,9 @@ pub(crate) fn simulate(
     diagnostics.add_measurement(&HairDiagnostics::STEP_TIME, || elapsed_ms);
     if let Some(ms) = gpu_step_ms {
         diagnostics.add_measurement(&HairDiagnostics::GPU_STEP_TIME, || ms);
+    }
+    if let Some(ms) = gpu_submit_ms {
+        diagnostics.add_measurement(&HairDiagnostics::GPU_SUBMIT_TIME, || ms);
     }
     diagnostics.add_measurement(&HairDiagnostics::GUIDES, || guides as f64);
     diagnostics.add_measurement(&HairDiagnostics::PARTICLES, || particles as f64);

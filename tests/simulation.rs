@@ -525,6 +525,8 @@ struct Beside {
     reported: [StepReport; 2],
     /// The first app's `HairDiagnostics::GPU_STEP_TIME`: every measurement, milliseconds.
     gpu_step_ms: Vec<f64>,
+    /// Its `GPU_SUBMIT_TIME` and `STEP_TIME`, the measurements they both kept.
+    submit_and_step_ms: Vec<(f64, f64)>,
 }
 
 /// Grows `groom()` in `app` (with `backend`) and in a plain app on the CPU, turns both
@@ -555,6 +557,10 @@ fn beside_the_cpu(mut app: App, backend: HairBackend, frames: usize) -> Beside {
     let fallbacks = std::mem::take(&mut app.world_mut().resource_mut::<GpuFallbacks>().0);
     let diagnostics = app.world().resource::<bevy::diagnostic::DiagnosticsStore>();
     let gpu_step_ms = diagnostics.get(&HairDiagnostics::GPU_STEP_TIME).map(|d| d.values().copied().collect());
+    let values = |path| diagnostics.get(path).map(|d| d.values().copied().collect::<Vec<f64>>()).unwrap_or_default();
+    let (submit_ms, step_ms) = (values(&HairDiagnostics::GPU_SUBMIT_TIME), values(&HairDiagnostics::STEP_TIME));
+    // The latest of each, side by side (each keeps its own history).
+    let submit_and_step_ms = submit_ms.iter().rev().copied().zip(step_ms.iter().rev().copied()).collect();
     Beside {
         copied,
         exact: positions(&app, head),
@@ -562,6 +568,7 @@ fn beside_the_cpu(mut app: App, backend: HairBackend, frames: usize) -> Beside {
         fallbacks,
         reported,
         gpu_step_ms: gpu_step_ms.unwrap_or_default(),
+        submit_and_step_ms,
     }
 }
 
@@ -569,7 +576,7 @@ fn beside_the_cpu(mut app: App, backend: HairBackend, frames: usize) -> Beside {
 fn the_gpu_backend_steps_a_groom_as_the_cpu_does() {
     let Some(app) = app_on_a_gpu() else { return };
     let timestamps = app.world().resource::<RenderDevice>().features().contains(wgpu::Features::TIMESTAMP_QUERY);
-    let Beside { copied, exact: on_gpu, on_cpu, fallbacks, reported, gpu_step_ms } =
+    let Beside { copied, exact: on_gpu, on_cpu, fallbacks, reported, gpu_step_ms, submit_and_step_ms } =
         beside_the_cpu(app, HairBackend::Gpu, 60);
     assert!(fallbacks.is_empty(), "stepped on the GPU: {fallbacks:?}");
     let apart: Vec<f32> = on_gpu.iter().zip(&on_cpu).map(|(a, b)| a.distance(*b)).collect();
@@ -602,6 +609,10 @@ fn the_gpu_backend_steps_a_groom_as_the_cpu_does() {
     } else {
         assert!(gpu_step_ms.is_empty());
     }
+    // Each step's hand-over to the queue was timed, within the step's own time.
+    eprintln!("hand-over and step, ms: {submit_and_step_ms:.3?}");
+    assert!(!submit_and_step_ms.is_empty(), "no hand-over timed");
+    assert!(submit_and_step_ms.iter().all(|&(submit, step)| submit >= 0.0 && submit <= step), "{submit_and_step_ms:?}");
     // And it moved: the turn swings the tips by centimetres.
     let still = beside_the_cpu(app_with_render_device().unwrap(), HairBackend::Gpu, 1).exact;
     let swing = on_gpu.iter().zip(&still).map(|(a, b)| a.distance(*b)).fold(0.0, f32::max);
@@ -616,7 +627,7 @@ fn the_gpu_backend_steps_a_groom_as_the_cpu_does() {
 
 #[test]
 fn without_a_render_device_the_gpu_backend_says_why_once_and_steps_on_the_cpu() {
-    let Beside { copied, exact: fell_back, on_cpu, fallbacks, reported, gpu_step_ms } =
+    let Beside { copied, exact: fell_back, on_cpu, fallbacks, reported, gpu_step_ms, submit_and_step_ms } =
         beside_the_cpu(app(), HairBackend::Gpu, 30);
     assert_eq!(copied, fell_back, "nothing to wait for on the CPU");
     assert_eq!(fallbacks.len(), 1, "reported once: {fallbacks:?}");
@@ -626,4 +637,5 @@ fn without_a_render_device_the_gpu_backend_says_why_once_and_steps_on_the_cpu() 
     assert_eq!(reported[0], reported[1]);
     assert!(reported[0].contacts > 0);
     assert!(gpu_step_ms.is_empty(), "no GPU time without a GPU step");
+    assert!(submit_and_step_ms.is_empty(), "no hand-over without a GPU step");
 }
