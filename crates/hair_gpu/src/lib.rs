@@ -774,6 +774,10 @@ impl GpuStrands {
         let patch = self.upload_colliders(input);
         let (mut uniform, tables) = self.constants(input, &constants, collide_head);
         uniform.skin = patch;
+        // What the shader decides from the uniform: whether particles collide, and whether
+        // the last substep turns segments out of the head (`turns_segments`).
+        let collide = uniform.flags[0] == 1;
+        let turn_segments = collide && uniform.spring_flags[2] == 1 && uniform.grid_dims[3] == 1;
         self.upload_tables(&tables);
         // What the next step may remember: this one's spring memory, or none.
         self.springs_remembered = springs;
@@ -798,10 +802,10 @@ impl GpuStrands {
                     recorder::dispatch_over(&mut pass, invocations);
                 };
                 dispatch(&passes.move_strands, self.strands);
-                if p.collision {
+                if collide {
                     dispatch(&passes.collide_particles, particles);
                     dispatch(&passes.place_strands, self.strands);
-                    if collide_head && p.segment_collision && k == substeps {
+                    if turn_segments && k == substeps {
                         dispatch(&passes.turn_strands, self.strands);
                     }
                 }
