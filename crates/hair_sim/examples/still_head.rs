@@ -58,11 +58,12 @@ fn main() {
         let mut moves = Vec::new();
         for k in 0..2 * STEPS {
             if k == STEPS {
+                // Both restarted where the strands are (at rest), one of them nudged.
+                let here = strands.positions().to_vec();
+                let moved: Vec<Vec3> = here.iter().map(|p| *p + Vec3::new(1.7e-7, 0.0, 0.0)).collect();
                 let mut copy = Strands::new(rest.clone(), pose);
-                let moved: Vec<Vec3> = strands.positions().iter().map(|p| *p + Vec3::new(1.7e-7, 0.0, 0.0)).collect();
                 copy.set_positions(&moved).expect("finite");
-                // The same velocities as the original's, by the same kind of restart.
-                strands.set_positions(&strands.positions().to_vec()).expect("finite");
+                strands.set_positions(&here).expect("finite");
                 nudged = Some(copy);
             }
             let input = StepInput {
