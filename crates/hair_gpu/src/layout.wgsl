@@ -35,7 +35,8 @@ fn slot_particle(i: u32, n: u32) -> vec2<u32> {
 const WORKGROUP_SIZE: u32 = 64u;
 
 // The index of invocation `id` of a dispatch of `groups` workgroups: a dispatch over more
-// workgroups than a dimension holds spreads them over rows of `groups.x` (`Recorder`).
+// workgroups than a dimension holds spreads them over rows of `groups.x` (`dispatch_over`
+// in `recorder.rs`).
 fn invocation(id: vec3<u32>, groups: vec3<u32>) -> u32 {
     return id.x + id.y * groups.x * WORKGROUP_SIZE;
 }

@@ -110,7 +110,7 @@ mod tests {
             assert!(x <= MAX_WORKGROUPS_PER_DIMENSION && y <= MAX_WORKGROUPS_PER_DIMENSION, "{invocations}: {x} × {y}");
             let covered = u64::from(x) * u64::from(y) * u64::from(WORKGROUP_SIZE);
             assert!(covered >= u64::from(invocations), "{invocations}: {covered}");
-            // No more than a row's worth of workgroups past the last invocation.
+            // Past the workgroups needed, at most one in each row.
             assert!(covered - u64::from(invocations) < u64::from(y + 1) * u64::from(WORKGROUP_SIZE), "{invocations}");
         }
         assert_eq!(workgroups(64 * 65_535), [65_535, 1]);
