@@ -60,7 +60,7 @@ mod readback;
 mod recorder;
 
 pub use draw::{CURVE_SHADER, DRAW_SHADER, GpuDrawing};
-use readback::{BufferCopy, StagingPool, duration_ms, read_buffer};
+use readback::{BufferCopy, StagingPool, duration_ms};
 pub use readback::{PositionsCopy, ReportCopy};
 pub use wgpu;
 
@@ -747,12 +747,12 @@ impl GpuStrands {
     /// device has timestamp queries (this waits for it).
     pub fn step_timed(&mut self, input: &StepInput) -> Result<Option<f64>, GpuError> {
         self.step(input)?;
-        self.submit();
-        match &self.timestamps {
-            Some(timestamps) => read_buffer(&self.device, &self.queue, &timestamps.resolved)
-                .map(|bytes| duration_ms(&bytes, self.queue.get_timestamp_period())),
-            None => Ok(None),
-        }
+        let Some(timestamps) = &self.timestamps else {
+            self.submit();
+            return Ok(None);
+        };
+        let bytes = self.copy_back(&timestamps.resolved).into_bytes()?;
+        Ok(duration_ms(&bytes, self.queue.get_timestamp_period()))
     }
 
     fn encode_step(&mut self, input: &StepInput, timestamps: Option<&Timestamps>) -> Result<(), GpuError> {
@@ -964,10 +964,15 @@ impl GpuStrands {
     /// Starts copying the positions back to the CPU, without waiting: they arrive when the
     /// GPU has run what was queued before ([`PositionsCopy::arrived`], [`PositionsCopy::into_positions`]).
     pub fn copy_positions(&self) -> PositionsCopy {
+        PositionsCopy(self.copy_back(&self.positions), self.slots)
+    }
+
+    /// Starts copying `buffer` back after what was recorded, in the same submission.
+    fn copy_back(&self, buffer: &wgpu::Buffer) -> BufferCopy {
         let mut recorder = self.lock();
-        let staging = self.staging.record(&self.device, recorder.encoder(), &self.positions, 0);
+        let staging = self.staging.record(&self.device, recorder.encoder(), buffer, 0);
         recorder.submit(&self.queue);
-        PositionsCopy(BufferCopy::map(&self.device, staging, &self.staging), self.slots)
+        BufferCopy::map(&self.device, staging, &self.staging)
     }
 
     /// Starts copying back what the steps since the last copy of the report did (summed as

@@ -83,16 +83,6 @@ pub(crate) struct BufferCopy {
 }
 
 impl BufferCopy {
-    /// Submits the copy of `buffer` (with `COPY_SRC` use) and asks for it mapped.
-    fn start(device: &wgpu::Device, queue: &wgpu::Queue, buffer: &wgpu::Buffer) -> Self {
-        let pool = StagingPool::default();
-        let mut encoder =
-            device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("hair_gpu read-back") });
-        let staging = pool.record(device, &mut encoder, buffer, 0);
-        queue.submit([encoder.finish()]);
-        Self::map(device, staging, &pool)
-    }
-
     /// Asks for `staging`, its copy submitted, mapped; it goes back to `pool` once read.
     pub fn map(device: &wgpu::Device, staging: wgpu::Buffer, pool: &StagingPool) -> Self {
         let mapped = std::sync::Arc::new(std::sync::OnceLock::new());
@@ -126,15 +116,6 @@ impl BufferCopy {
         self.pool.give(self.staging);
         Ok(bytes)
     }
-}
-
-/// Copies `buffer` into a mappable one and reads it, waiting for the GPU.
-pub(crate) fn read_buffer(
-    device: &wgpu::Device,
-    queue: &wgpu::Queue,
-    buffer: &wgpu::Buffer,
-) -> Result<Vec<u8>, GpuError> {
-    BufferCopy::start(device, queue, buffer).into_bytes()
 }
 
 /// The milliseconds between a pass's two timestamps (`bytes`: two u64 ticks of `period`
@@ -210,6 +191,15 @@ mod tests {
         }
     }
 
+    /// Submits the copy of `buffer` (with `COPY_SRC` use) into a staging buffer of `pool`
+    /// and asks for it mapped.
+    fn start(gpu: &GpuContext, pool: &StagingPool, buffer: &wgpu::Buffer) -> BufferCopy {
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        let staging = pool.record(&gpu.device, &mut encoder, buffer, 0);
+        gpu.queue.submit([encoder.finish()]);
+        BufferCopy::map(&gpu.device, staging, pool)
+    }
+
     fn storage(gpu: &GpuContext, size: u64) -> wgpu::Buffer {
         gpu.device.create_buffer(&wgpu::BufferDescriptor {
             label: None,
@@ -226,9 +216,10 @@ mod tests {
     fn taking_an_arrived_copy_waits_for_nothing_queued_after_it() {
         let Some(gpu) = gpu() else { return };
         let buffer = storage(&gpu, 256);
-        let first = BufferCopy::start(&gpu.device, &gpu.queue, &buffer);
+        let pool = StagingPool::default();
+        let first = start(&gpu, &pool, &buffer);
         assert!(first.arrived(true));
-        let second = BufferCopy::start(&gpu.device, &gpu.queue, &buffer);
+        let second = start(&gpu, &pool, &buffer);
         assert_eq!(first.into_bytes().expect("bytes"), vec![0; 256]);
         // Mapping callbacks run in a poll: taking the first polled the device for nothing.
         assert!(second.mapped.get().is_none(), "taking an arrived copy waited for the device");
@@ -243,10 +234,9 @@ mod tests {
         let (buffer, other) = (storage(&gpu, 256), storage(&gpu, 512));
         let pool = StagingPool::default();
         let copy = |source: &wgpu::Buffer| {
-            let mut encoder = gpu.device.create_command_encoder(&Default::default());
-            let staging = pool.record(&gpu.device, &mut encoder, source, 0);
-            gpu.queue.submit([encoder.finish()]);
-            BufferCopy::map(&gpu.device, staging.clone(), &pool).into_bytes().expect("bytes");
+            let copy = start(&gpu, &pool, source);
+            let staging = copy.staging.clone();
+            copy.into_bytes().expect("bytes");
             staging
         };
         let first = copy(&buffer);
