@@ -5,10 +5,9 @@
 
 use crate::pass::{bind_group, pipeline};
 use crate::recorder::Recorder;
-use crate::{GpuError, GpuStrands};
+use crate::{GpuError, GpuStrands, storage_buffer};
 use bytemuck::{Pod, Zeroable};
 use hair_sim::math::{Pose, Vec3};
-use wgpu::util::DeviceExt;
 
 /// The strand curve's WGSL (`curve.wgsl`): the Bézier through a strand's particles, its
 /// frames and the helpers they need, for a renderer's shader to import (bevy_hair adds
@@ -133,16 +132,9 @@ impl GpuDrawing {
         let device = &strands.device;
         let pipeline = pipeline(device, &module(device), "draw_strands");
         let uniform = uniform_buffer(device);
-        let mut roots: Vec<[f32; 4]> = root_u.iter().map(|u| [u.x, u.y, u.z, 0.0]).collect();
-        // A buffer bound may not be empty: no strands still bind one vec4.
-        if roots.is_empty() {
-            roots.push([0.0; 4]);
-        }
-        let root_u = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("hair_gpu root frames u"),
-            contents: bytemuck::cast_slice(&roots),
-            usage: wgpu::BufferUsages::STORAGE,
-        });
+        let roots: Vec<[f32; 4]> = root_u.iter().map(|u| [u.x, u.y, u.z, 0.0]).collect();
+        let root_u =
+            storage_buffer(device, "hair_gpu root frames u", bytemuck::cast_slice(&roots), wgpu::BufferUsages::empty());
         let published = &strands.published;
         let groups = [0, 1].map(|k| {
             bind_group(

@@ -451,16 +451,7 @@ impl GpuStrands {
         if bytes > limit {
             return Err(GpuError::TooLarge { particles, bytes, limit });
         }
-        // A groom without strands still binds buffers, which may not be empty: at least a
-        // report's worth of zeros (summed, it reports nothing).
-        let storage = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {
-            let zeros = [0u8; REPORT_BYTES as usize];
-            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents: if contents.len() < zeros.len() { &zeros } else { contents },
-                usage: wgpu::BufferUsages::STORAGE | usage,
-            })
-        };
+        let storage = |label: &str, contents: &[u8], usage| storage_buffer(device, label, contents, usage);
         let vec4 = |v: Vec3, w: f32| [v.x, v.y, v.z, w];
         let placed: Vec<[f32; 4]> = rest.positions.iter().map(|&p| vec4(pose.transform_point(p), 0.0)).collect();
         let positions = storage(
@@ -1024,12 +1015,20 @@ fn write_growing(
         recorder.upload(buffer, bytes);
         return false;
     }
-    *buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some(label),
-        contents: bytes,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-    });
+    *buffer = storage_buffer(device, label, bytes, wgpu::BufferUsages::COPY_DST);
     true
+}
+
+/// A storage buffer (with `usage` besides) holding `contents`. A groom without strands
+/// still binds its buffers, which may not be empty: at least a report's worth of zeros
+/// (summed, it reports nothing; as root frames, no strand reads them).
+fn storage_buffer(device: &wgpu::Device, label: &str, contents: &[u8], usage: wgpu::BufferUsages) -> wgpu::Buffer {
+    let zeros = [0u8; REPORT_BYTES as usize];
+    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(label),
+        contents: if contents.len() < zeros.len() { &zeros } else { contents },
+        usage: wgpu::BufferUsages::STORAGE | usage,
+    })
 }
 
 /// The recorder of a [`GpuStrands`] borrowed mutably (no lock taken; a poisoned one is
