@@ -256,7 +256,10 @@ fn springs_keep_every_segment_within_tolerance_while_hanging() {
     let g = groom();
     let params = SimParams { length_mode: LengthMode::Springs, ..SimParams::default() };
     assert_eq!(params.length_tolerance, 0.1);
-    let mut strands = Strands::new(g.rest.clone(), Pose::IDENTITY);
+    // Settled, so that the hair hangs (as grown it stands off the head, and local shape
+    // holds much of its weight by bending).
+    let rest = settle(g.rest.clone(), Some(&g.collider), &SimParams::default(), 60, Vec3::ZERO).expect("settle");
+    let mut strands = Strands::new(rest.clone(), Pose::IDENTITY);
     let mut worst = 0.0f32;
     let mut contacts = 0;
     for k in 0..300 {
@@ -267,7 +270,7 @@ fn springs_keep_every_segment_within_tolerance_while_hanging() {
     let mut stretched = 0usize;
     let mut sum = 0.0f32;
     for i in (0..strands.positions().len()).filter(|i| i % n != 0) {
-        let ratio = (strands.positions()[i] - strands.positions()[i - 1]).length() / g.rest.lengths[i];
+        let ratio = (strands.positions()[i] - strands.positions()[i - 1]).length() / rest.lengths[i];
         sum += ratio - 1.0;
         stretched += usize::from(ratio > 1.05);
     }
@@ -278,9 +281,36 @@ fn springs_keep_every_segment_within_tolerance_while_hanging() {
          {stretched} segments > 5%, {contacts} contacts"
     );
     assert!(worst <= 0.1 + 1e-5, "a segment left the tolerance: {worst}");
-    // The bound is doing work: gravity stretches the springs right up to it.
-    assert!(end > 0.09, "springs should sag to the clamp, got {end}");
+    // The bound is doing work: gravity stretched the springs right up to it, and at rest
+    // they still carry the hair's weight (2026-12-04: the most stretched segment at the end
+    // 0.0905, the mean 0.058; the head and local shape's bends carry the rest).
+    assert!(worst > 0.099, "springs should sag to the clamp, got {worst}");
+    assert!(end > 0.08, "springs at rest should carry the weight, the most stretched at {end}");
     assert!(mean > 0.01 && stretched > 0, "mean stretch {mean}");
+}
+
+/// Hair under a still head, without wind or collision, comes to rest at every substep
+/// count: only drag and the constraints act, and the settled groom's swing into the
+/// simulation's balance dies away (the largest move a step at 1 s: 0.5 to 2.8 mm; at 8 s
+/// 0.03 µm at 1 substep to 2.7 µm at 8; 2026-12-04). Local shape as a follower force (the
+/// child pulled, its parent not pushed back) kept hair swinging for good: 1.4 mm a step at
+/// 2 substeps, 12 cm at 8 (64 × 16 guides, after 4 s).
+#[test]
+fn hair_comes_to_rest_under_a_still_head_at_every_substep_count() {
+    let g = groom();
+    let rest = settle(g.rest.clone(), Some(&g.collider), &SimParams::default(), 60, Vec3::ZERO).expect("settle");
+    for substeps in [1, 2, 3, 4, 8] {
+        let params = SimParams { substeps, collision: false, ..SimParams::default() };
+        let mut strands = Strands::new(rest.clone(), Pose::IDENTITY);
+        let mut largest = 0.0f32;
+        for k in 0..480 {
+            let before = strands.positions().to_vec();
+            strands.step(&input(k, Pose::IDENTITY, Pose::IDENTITY, None, &params));
+            largest = before.iter().zip(strands.positions()).map(|(a, b)| a.distance(*b)).fold(0.0, f32::max);
+        }
+        println!("{substeps} substeps: the largest move in the step at 8 s {:.2} µm", largest * 1e6);
+        assert!(largest < 1e-5, "{substeps} substeps: hair still moves {largest} m a step after 8 s");
+    }
 }
 
 // (d) -------------------------------------------------------------------------------------
@@ -478,6 +508,8 @@ fn friction_holds_the_hair_resting_on_a_turning_head() {
         held * 1e3
     );
     assert!(free_count > 1000 && held_count > 1000, "particles rest on the head");
-    // Measured 0.34 mm and 0.035 mm (2026-12-03); assert twice that ratio.
-    assert!(held < 0.2 * free, "friction 1 slides {held} m a step, friction 0 {free} m");
+    // Measured 0.375 mm and 0.081 mm (2026-12-04; without local shape 0.42 and 0.075: the
+    // bends of the hair off the head drag the resting part a little); assert well under
+    // half.
+    assert!(held < 0.35 * free, "friction 1 slides {held} m a step, friction 0 {free} m");
 }

@@ -1253,7 +1253,13 @@ fn global_shape<S: Simd>(g: &mut GroupState<S>, alpha: &[f32], pose: &PoseLanes<
     }
 }
 
-/// Pulls each segment toward its rest direction in its parent segment's frame.
+/// Turns each segment toward its rest direction in its parent segment's frame, as a bend
+/// of the joint between the two: the segment turns about its parent particle, keeping its
+/// length, and the parent segment turns back about the same particle (the joint's
+/// reaction), so a bend moves neither the strand's centre nor its spin. Without the
+/// reaction the pull is a follower force, which feeds energy into a hanging strand: under a
+/// still head the hair would never come to rest, and at 8 substeps it would swing by
+/// centimetres a step.
 ///
 /// The frame starts as the head-carried root frame; each segment's deviation from where
 /// its parent expected it rotates the frame handed to its child, so a bent strand keeps
@@ -1268,12 +1274,46 @@ fn local_shape<S: Simd>(g: &mut GroupState<S>, alpha: f32, root_frame: M3<S>) {
         // segment until a long strand's tip frame overflows.
         let expected = frame.mul_vec(g.rest_directions[j]).normalize_or(g.rest_directions[j]);
         let parent = g.positions[j - 1];
-        let target = parent + expected * g.lengths[j];
-        let x = g.positions[j] + (target - g.positions[j]) * alpha;
-        g.positions[j] = x;
-        let actual = (x - parent).normalize_or(expected);
+        let segment = g.positions[j] - parent;
+        let direction = segment.normalize_or(expected);
+        let turned = (direction + (expected - direction) * alpha).normalize_or(expected);
+        let turn = parent + turned * segment.length() - g.positions[j];
+        if j == 1 {
+            // The root's frame is the head's: the head takes the reaction.
+            g.positions[1] += turn;
+        } else {
+            let [grandparent, parent, child] = bend(g, j, turn);
+            g.positions[j - 2] += grandparent;
+            g.positions[j - 1] += parent;
+            g.positions[j] += child;
+        }
+        let actual = (g.positions[j] - g.positions[j - 1]).normalize_or(expected);
         frame = M3::rotation_arc(expected, actual).mul_mat(&frame);
     }
+}
+
+/// The moves of particles `j − 2`, `j − 1` and `j` (equal masses, the root not moving)
+/// that take the joint at `j − 1` as far toward its rest bend as moving particle `j` by
+/// `turn` alone would: position-based dynamics' projection of the joint's angle. Particle
+/// `j` moves along `turn`, `j − 2` so that the parent segment takes the opposite torque
+/// about `j − 1`, and `j − 1` against both, so that the three keep their momentum.
+#[inline(always)]
+fn bend<S: Simd>(g: &GroupState<S>, j: usize, turn: V3<S>) -> [V3<S>; 3] {
+    let (child_length, parent_length) = (g.lengths[j], g.lengths[j - 1]);
+    let (x, parent, grandparent) = (g.positions[j], g.positions[j - 1], g.positions[j - 2]);
+    // The grandparent's move that turns the parent segment (`grandparent − parent`)
+    // with the torque that `turn` puts on the child segment, reversed.
+    let parent_segment = parent - grandparent;
+    let torque = (x - parent).cross(turn);
+    let reaction = torque.cross(parent_segment) * (parent_length * parent_length).recip();
+    // The projection's share for each: the joint angle's gradient with respect to each
+    // particle is 1/length of the segments the particle ends, over its weight.
+    let grandparent_weight = if j == 2 { Wide::zero() } else { Wide::one() };
+    let ratio = child_length * parent_length.recip();
+    let share =
+        (Wide::one() + ratio * ratio * grandparent_weight + (Wide::one() + ratio) * (Wide::one() + ratio)).recip();
+    let (child, grandparent) = (turn * share, reaction * (share * grandparent_weight));
+    [grandparent, -(child + grandparent), child]
 }
 
 /// Follow-The-Leader: walk root → tip, putting each particle at rest length from its
@@ -1375,13 +1415,18 @@ mod tests {
         let l_shape = vec![Vec3::ZERO, Vec3::NEG_Y, Vec3::new(1.0, -1.0, 0.0)];
         let rest_frame = RestShape::new(l_shape.clone(), 3).unwrap().root_frames[0];
         // The head turned 90° about Z: the root frame turns, and full-stiffness local shape
-        // must carry the bend along the strand, not just the first segment.
+        // must carry the bend along the strand, not just the first segment. Each pass takes
+        // each joint all the way, and the reaction at the second joint turns the first
+        // segment back a little: the passes converge on the turned L.
         let turn = Quat::from_rotation_z(std::f32::consts::FRAC_PI_2);
         let mut g = one(l_shape.clone(), &[Vec3::ZERO, Vec3::new(0.3, -0.2, 0.0), Vec3::new(5.0, 5.0, 0.0)]);
-        local_shape(&mut g, 1.0, M3::splat(Mat3A::from_quat(turn * rest_frame)));
+        for _ in 0..40 {
+            local_shape(&mut g, 1.0, M3::splat(Mat3A::from_quat(turn * rest_frame)));
+        }
         let xs = lane0(&g.positions);
-        assert!((xs[1] - turn * Vec3::NEG_Y).length() < 1e-5, "first {:?}", xs[1]);
-        let second = xs[2] - xs[1];
+        let first = xs[1].normalize();
+        assert!((first - turn * Vec3::NEG_Y).length() < 1e-5, "first {first:?}");
+        let second = (xs[2] - xs[1]).normalize();
         assert!((second - turn * Vec3::X).length() < 1e-5, "second segment {second:?}");
         // Half stiffness from a strand bent at the root: the child follows the parent's
         // actual direction, so the L stays an L (angle between segments stays 90°).
@@ -1392,6 +1437,30 @@ mod tests {
         let xs = lane0(&bent.positions);
         let (a, b) = ((xs[1] - xs[0]).normalize(), (xs[2] - xs[1]).normalize());
         assert!(a.dot(b).abs() < 1e-3, "right angle kept: {}", a.dot(b));
+    }
+
+    /// A bend is internal: the three particles it moves keep their centre and their angular
+    /// momentum about it (the joint's reaction), and the segments their lengths, to first
+    /// order. The follower pull it replaces moved the child alone.
+    #[test]
+    fn a_bend_keeps_the_centre_and_the_spin_of_the_particles_it_moves() {
+        let rest = vec![Vec3::ZERO, Vec3::NEG_Y, Vec3::new(0.0, -2.0, 0.0), Vec3::new(0.0, -3.0, 0.0)];
+        let bent = [Vec3::ZERO, Vec3::NEG_Y, Vec3::new(0.1, -1.995, 0.0), Vec3::new(0.3, -2.97, 0.05)];
+        let g = one(rest, &bent);
+        let turn = V3::splat(Vec3::new(-0.02, 0.001, -0.01));
+        let [a, b, c] = bend(&g, 3, turn).map(|m| m.lane(0));
+        assert!((a + b + c).length() < 1e-7, "centre moved {:?}", a + b + c);
+        // Angular momentum of the moves about the middle particle (equal masses).
+        let middle = bent[2];
+        let spin = (bent[1] - middle).cross(a) + (bent[3] - middle).cross(c);
+        // Only a twist about the parent segment is left (a chain of points has no twist).
+        let axis = (bent[2] - bent[1]).normalize();
+        let bend_spin = spin - axis * spin.dot(axis);
+        assert!(bend_spin.length() < 1e-7, "the bend spins the joint: {bend_spin:?}");
+        assert!(c.length() > 0.1 * 0.02, "the child moves: {c:?}");
+        // Next to the root the root takes the reaction: the grandparent does not move.
+        let [root, _, _] = bend(&g, 2, turn).map(|m| m.lane(0));
+        assert_eq!(root, Vec3::ZERO);
     }
 
     #[test]
