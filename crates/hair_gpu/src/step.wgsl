@@ -1195,12 +1195,11 @@ fn move_strand(strand: u32, first: u32, n: u32, k: u32) {
     let h = step.gravity_h.w;
     let time = step.gusts.z + h * f32(k);
     let now = pose(k);
-    let down = vec3<f32>(0.0, -1.0, 0.0);
 
     // Each pass below goes over the strand once, root to tip, and does for each particle
     // in turn what the CPU does for the whole strand in turn, with the same arithmetic: a
-    // particle's step reads only its own values and its parent's, and where a later
-    // stage reads the parent as an earlier stage left it, that value is carried. Each pass
+    // particle's step reads only its own values and those of the particles just above it,
+    // and where a later stage reads them as an earlier stage left them, they are carried. Each pass
     // reads and writes every particle: the fewer passes, the less the step waits on memory.
 
     // 1. Forces and integration (the start of the substep kept first); 2. the root
@@ -1231,13 +1230,16 @@ fn move_strand(strand: u32, first: u32, n: u32, k: u32) {
     let settle_in_shape = !collide && step.counts.w > 0u;
 
     // 3. Shape and length: global shape, local shape (from the parent as local shape left
-    //    it) and the length constraint (from the parent as the constraint left it).
+    //    it) and the length constraint (from the parent as the constraint left it). Local
+    //    shape's bend at particle j moves j - 1 and j - 2 as well, so the shaped values of
+    //    the last three ride along, and a particle is placed two behind the one shaped.
     let root_frame = now.rotation * quat_mat(root_frames[strand]);
     for (var iteration = 0u; iteration < step.counts.w; iteration++) {
         let settle = settle_in_shape && iteration + 1u == step.counts.w;
         var frame = root_frame;
-        var shaped_parent = positions[first].xyz;
-        var placed_parent = shaped_parent;
+        var grandparent = vec3<f32>(0.0);
+        var parent = positions[first].xyz;
+        var placed = parent;
         for (var j = 1u; j < n; j++) {
             let i = particle_slot(first, j);
             var x = positions[i].xyz;
@@ -1247,18 +1249,32 @@ fn move_strand(strand: u32, first: u32, n: u32, k: u32) {
             }
             if step.motion.z > 0.0 {
                 let expected = normalize_or(frame * rest_direction(i), rest_direction(i));
-                let target_point = shaped_parent + expected * rest_length(i);
-                x = x + (target_point - x) * step.motion.z;
-                let actual = normalize_or(x - shaped_parent, expected);
+                let segment = x - parent;
+                let direction = normalize_or(segment, expected);
+                let turned = normalize_or(direction + (expected - direction) * step.motion.z, expected);
+                let turn = parent + turned * length(segment) - x;
+                if j == 1u {
+                    x += turn;
+                } else {
+                    let moves = bend(i, j, grandparent, parent, x, turn);
+                    grandparent += moves[0];
+                    parent += moves[1];
+                    x += moves[2];
+                }
+                let actual = normalize_or(x - parent, expected);
                 frame = rotation_arc(expected, actual) * frame;
             }
-            shaped_parent = x;
-            let parent = placed_parent;
-            placed_parent = constrain_length(i, parent, x, down);
-            if settle {
-                settle_behind(i, j, n, parent, placed_parent, inverse_step);
+            if j > 2u {
+                placed = place_shaped(first, j - 2u, n, placed, grandparent, settle, inverse_step);
             }
+            grandparent = parent;
+            parent = x;
         }
+        // The last two (one where the strand has but one segment).
+        if n > 2u {
+            placed = place_shaped(first, n - 2u, n, placed, grandparent, settle, inverse_step);
+        }
+        place_shaped(first, n - 1u, n, placed, parent, settle, inverse_step);
     }
     if settle_in_shape {
         set_root_velocity(first, h);
@@ -1357,6 +1373,35 @@ fn integrator_step(first: u32) -> f32 {
 // 5. Velocities from where the particles ended up, less FTL's correction; the integrator
 // advanced them `1 / inverse_step` (the substep, or the spring model's). In the pass that
 // places the particles last where it can, else in a pass of its own.
+// hair_sim's `bend`: the moves of particles j - 2, j - 1 and j (slot `i`), at
+// `grandparent`, `parent` and `x`, that take the joint at j - 1 as far toward its rest bend
+// as moving particle j by `turn` alone would, the parent segment taking the reaction.
+fn bend(i: u32, j: u32, grandparent: vec3<f32>, parent: vec3<f32>, x: vec3<f32>, turn: vec3<f32>) -> mat3x3<f32> {
+    let child_length = rest_length(i);
+    let parent_length = rest_length(i - LANES);
+    let parent_segment = parent - grandparent;
+    let torque = cross(x - parent, turn);
+    let reaction = cross(torque, parent_segment) * (1.0 / (parent_length * parent_length));
+    let grandparent_weight = select(1.0, 0.0, j == 2u);
+    let ratio = child_length * (1.0 / parent_length);
+    let share = 1.0 / (1.0 + ratio * ratio * grandparent_weight + (1.0 + ratio) * (1.0 + ratio));
+    let child = turn * share;
+    let moved_grandparent = reaction * (share * grandparent_weight);
+    return mat3x3<f32>(moved_grandparent, -(child + moved_grandparent), child);
+}
+
+// The length constraint for particle `j`, shaped to `shaped`, below its parent placed at
+// `parent`; where it is placed. In the last shape pass where nothing collides, the
+// velocities it settles (`settle_behind`).
+fn place_shaped(first: u32, j: u32, n: u32, parent: vec3<f32>, shaped: vec3<f32>, settle: bool, inverse_step: f32) -> vec3<f32> {
+    let i = particle_slot(first, j);
+    let placed = constrain_length(i, parent, shaped, vec3<f32>(0.0, -1.0, 0.0));
+    if settle {
+        settle_behind(i, j, n, parent, placed, inverse_step);
+    }
+    return placed;
+}
+
 fn update_velocities(first: u32, n: u32, h: f32, inverse_step: f32) {
     set_root_velocity(first, h);
     for (var j = 1u; j < n; j++) {
