@@ -100,27 +100,15 @@ fn run_both(
     steps: usize,
     pose_at: impl Fn(f32) -> Pose,
 ) -> (Vec<Vec3>, Vec<Vec3>) {
-    let [(cpu, _), (on_gpu, _)] = run_both_reporting(gpu, rest, collider, params, &[], steps, pose_at);
+    let [(cpu, _), (on_gpu, _)] = run_both_reporting(gpu, rest, collider, params, &[], steps, pose_at, None);
     (cpu, on_gpu)
 }
 
 /// [`run_both`] with extra colliders, and what each backend's steps reported, summed (the
-/// CPU's reports merged step by step, the GPU's taken once at the end).
-fn run_both_reporting(
-    gpu: &GpuContext,
-    rest: &RestShape,
-    collider: &HeadCollider,
-    params: &SimParams,
-    extra_colliders: &[ExtraCollider],
-    steps: usize,
-    pose_at: impl Fn(f32) -> Pose,
-) -> [(Vec<Vec3>, StepReport); 2] {
-    run_all_reporting(gpu, rest, collider, params, extra_colliders, steps, pose_at, None)
-}
-
-/// [`run_both_reporting`], with `twins` stepped alongside the CPU.
+/// CPU's reports merged step by step, the GPU's taken once at the end); `twins`, if any,
+/// stepped alongside the CPU.
 #[allow(clippy::too_many_arguments)]
-fn run_all_reporting(
+fn run_both_reporting(
     gpu: &GpuContext,
     rest: &RestShape,
     collider: &HeadCollider,
@@ -290,7 +278,7 @@ fn with_collision_the_gpu_stays_near_the_cpu_and_out_of_the_head() {
         let params = SimParams { collision_response, ..SimParams::default() };
         let mut twins = Twins::new(&rest, head_pose(0.0));
         let [(cpu, cpu_report), (on_gpu, gpu_report)] =
-            run_all_reporting(&gpu, &rest, &collider, &params, &extras, steps, head_pose, Some(&mut twins));
+            run_both_reporting(&gpu, &rest, &collider, &params, &extras, steps, head_pose, Some(&mut twins));
         let (mean, max) = apart(&cpu, &on_gpu);
         let spread = twins.spread(&cpu);
         eprintln!("{name} response, reported over {steps} steps: CPU {cpu_report:?}, GPU {gpu_report:?}");
@@ -405,7 +393,8 @@ fn a_teleport_resets_the_strands_as_on_the_cpu() {
         if t >= 0.5 { Pose::new(pose.rotation, pose.translation + Vec3::new(10.0, 0.0, 0.0)) } else { pose }
     };
     // The 30th step ends at the jump: both put every strand back at rest there.
-    let [(cpu, cpu_report), (on_gpu, gpu_report)] = run_both_reporting(&gpu, &rest, &collider, &params, &[], 30, jump);
+    let [(cpu, cpu_report), (on_gpu, gpu_report)] =
+        run_both_reporting(&gpu, &rest, &collider, &params, &[], 30, jump, None);
     let (mean, max) = apart(&cpu, &on_gpu);
     eprintln!("reported over 30 steps: CPU {cpu_report:?}, GPU {gpu_report:?}");
     assert_eq!(gpu_report.teleport_resets, 64, "every strand reset once");
@@ -425,7 +414,7 @@ fn a_strand_gone_non_finite_is_reset_and_reported_as_on_the_cpu() {
     let params = SimParams { gravity: [0.0, f32::NEG_INFINITY, 0.0], collision: false, ..SimParams::default() };
     let steps = 3;
     let [(cpu, cpu_report), (on_gpu, gpu_report)] =
-        run_both_reporting(&gpu, &rest, &collider, &params, &[], steps, head_pose);
+        run_both_reporting(&gpu, &rest, &collider, &params, &[], steps, head_pose, None);
     eprintln!("infinite gravity, {steps} steps: CPU {cpu_report:?}, GPU {gpu_report:?}");
     assert_eq!(gpu_report.nan_resets, 64 * steps as u32, "every strand, every step");
     assert_reports_agree(&cpu_report, &gpu_report);
@@ -480,7 +469,7 @@ fn more_substeps_than_the_buffers_were_made_for_step_as_on_the_cpu() {
     // 2.1 mm from the CPU; 2026-12-04, the same before a substep was split in dispatches.)
     let params = SimParams { substeps: 66, ..SimParams::default() };
     let [(cpu, cpu_report), (on_gpu, gpu_report)] =
-        run_both_reporting(&gpu, &rest, &collider, &params, &[], 1, head_pose);
+        run_both_reporting(&gpu, &rest, &collider, &params, &[], 1, head_pose, None);
     let (mean, max) = apart(&cpu, &on_gpu);
     eprintln!(
         "66 substeps, after a step: mean {mean:.2e} m, max {max:.2e} m apart; CPU {cpu_report:?}, GPU {gpu_report:?}"

@@ -174,7 +174,8 @@ pub struct SimParams {
     pub length_tolerance: f32,
     /// Müller's FTL velocity correction, 0..1 (inextensible model).
     pub ftl_damping: f32,
-    /// Local shape stiffness, 0..1: each segment toward its rest direction in its parent's frame.
+    /// Local shape stiffness, 0..1: each joint toward its rest bend, the segment turned toward
+    /// its rest direction in its parent's frame and the parent turned back by the reaction.
     pub local_stiffness: f32,
     /// Global shape stiffness at the root, 0..1: toward the rest pose carried by the head.
     pub global_stiffness_root: f32,

@@ -89,7 +89,7 @@ pub struct StepConstants {
     pub drag_factor: f32,
     /// The farthest a particle moves in one substep (the speed limit), metres.
     pub max_step_move: f32,
-    /// Local shape's pull per application.
+    /// Local shape's turn per application (the share of a joint's bend taken back).
     pub local_alpha: f32,
     /// Global shape's pull per application, per particle of a strand, root to tip.
     pub global_alpha: Vec<f32>,
