@@ -1,7 +1,8 @@
 //! Does hair come to rest under a still head? A groom on the procedural head, the head
 //! never moving, no wind: prints one JSON line per substep count with how far the
 //! particles moved in the step at 2 s and at 4 s (the largest move of any particle, and
-//! the mean), and how far a 0.17 µm nudge of every particle at 2 s has grown by 4 s.
+//! the mean), how far a 0.17 µm nudge of every particle at 2 s has grown by 4 s, and the
+//! speeds the solver keeps for the next step at 4 s (at rest they should be near zero).
 //!
 //! Drag alone takes 86 % of a motion's speed in 2 s (`drag` 1/s): hair whose motion does not
 //! fall by about that much between the two is being driven by the solver itself.
@@ -86,11 +87,17 @@ fn main() {
             }
         }
         let (grown_max, grown_mean) = apart(strands.positions(), nudged.expect("nudged").positions());
+        // What the solver keeps as velocity for the next step, against the moves above: FTL's
+        // velocity correction stores speed in hair at rest (README, Known limits).
+        let speeds: Vec<f32> = strands.velocities().iter().map(|v| v.length()).collect();
+        let stored_max = speeds.iter().copied().fold(0.0, f32::max);
+        let stored_mean = speeds.iter().sum::<f32>() / speeds.len() as f32;
         println!(
             "{{\"substeps\":{substeps},\"local_stiffness\":{},\"global_stiffness_root\":{},\"collision\":{},\
              \"max_move_m_at_2s\":{:.3e},\"max_move_m_at_4s\":{:.3e},\"mean_move_m_at_2s\":{:.3e},\
              \"mean_move_m_at_4s\":{:.3e},\"nudge_of_1.7e-7_m_after_2s_max\":{grown_max:.3e},\
-             \"nudge_mean\":{grown_mean:.3e}}}",
+             \"nudge_mean\":{grown_mean:.3e},\"stored_speed_m_s_at_4s_max\":{stored_max:.3e},\
+             \"stored_speed_mean\":{stored_mean:.3e}}}",
             params.local_stiffness,
             params.global_stiffness_root,
             params.collision,
