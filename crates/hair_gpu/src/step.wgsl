@@ -1199,8 +1199,9 @@ fn move_strand(strand: u32, first: u32, n: u32, k: u32) {
     // Each pass below goes over the strand once, root to tip, and does for each particle
     // in turn what the CPU does for the whole strand in turn, with the same arithmetic: a
     // particle's step reads only its own values and those of the particles just above it,
-    // and where a later stage reads them as an earlier stage left them, they are carried. Each pass
-    // reads and writes every particle: the fewer passes, the less the step waits on memory.
+    // and where a later stage reads them as an earlier stage left them, they are carried.
+    // Each pass reads and writes every particle: the fewer passes, the less the step waits
+    // on memory.
 
     // 1. Forces and integration (the start of the substep kept first); 2. the root
     //    follows the head.
@@ -1370,9 +1371,6 @@ fn integrator_step(first: u32) -> f32 {
     return step.gravity_h.w;
 }
 
-// 5. Velocities from where the particles ended up, less FTL's correction; the integrator
-// advanced them `1 / inverse_step` (the substep, or the spring model's). In the pass that
-// places the particles last where it can, else in a pass of its own.
 // hair_sim's `bend`: the moves of particles j - 2, j - 1 and j (slot `i`), at
 // `grandparent`, `parent` and `x`, that take the joint at j - 1 as far toward its rest bend
 // as moving particle j by `turn` alone would, the parent segment taking the reaction.
@@ -1402,6 +1400,9 @@ fn place_shaped(first: u32, j: u32, n: u32, parent: vec3<f32>, shaped: vec3<f32>
     return placed;
 }
 
+// 5. Velocities from where the particles ended up, less FTL's correction; the integrator
+// advanced them `1 / inverse_step` (the substep, or the spring model's). In the pass that
+// places the particles last where it can, else in a pass of its own.
 fn update_velocities(first: u32, n: u32, h: f32, inverse_step: f32) {
     set_root_velocity(first, h);
     for (var j = 1u; j < n; j++) {

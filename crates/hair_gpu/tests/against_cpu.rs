@@ -254,7 +254,8 @@ fn without_collision_the_gpu_follows_the_cpu_to_rounding() {
     eprintln!("without collision, after 120 steps: mean {:.2e} m, max {:.2e} m apart", mean, max);
     assert!(on_gpu.iter().all(|p| p.is_finite()));
     // Rounding (the GPU may fuse a multiply and an add) grows along a whipping strand: on
-    // lavapipe 0.8 µm on average and 0.25 mm at the worst tip (2026-12-03).
+    // lavapipe 0.8 µm on average and 0.25 mm at the worst tip (2026-12-03); 0.1 µm and
+    // 12 µm since local shape is a bend (2026-12-04).
     assert!(mean < 1e-5 && max < 1e-3, "mean {mean} m, max {max} m");
     assert!(max_stretch(&on_gpu, &rest) < 1e-4, "stretch {}", max_stretch(&on_gpu, &rest));
 }
@@ -303,8 +304,9 @@ fn with_collision_the_gpu_stays_near_the_cpu_and_out_of_the_head() {
             crossing_segments(&cpu, n, &collider, pose)
         );
         assert!(on_gpu.iter().all(|p| p.is_finite()));
-        // Lavapipe, 2026-12-04: normal response 491,924 contacts against the CPU's 491,925,
-        // 65 segment turns on both; the centre ray 489,461 and 565 on both.
+        // Lavapipe, 2026-12-04 (local shape a bend): normal response 473,561 contacts and 5
+        // segment turns on both; the centre ray 469,752 contacts against the CPU's 469,745,
+        // 373 turns on both.
         assert_reports_agree(&cpu_report, &gpu_report);
         assert!(gpu_report.contacts > 0 && gpu_report.segment_turns > 0, "{gpu_report:?}");
         // The GPU finds the closest points the CPU finds (the same candidate lists) and
@@ -354,6 +356,8 @@ fn the_spring_model_follows_the_cpu() {
         // mean 1.03 µm, max 114 µm on an NVIDIA H200, whose compiler fuses multiply-adds
         // that the CPU rounds twice. With collision on lavapipe: 0.34 µm, 16 µm (taking
         // the velocities over the substep instead of the spring model's step: 7.3 mm).
+        // Since local shape is a bend (lavapipe): 0.09 µm, 1.4 µm; with collision 0.1 µm,
+        // 0.75 µm.
         assert!(mean < 3e-6 && max < 5e-4, "mean {mean} m, max {max} m");
     }
     // ... and after 120, with collision too, by what chaos leaves alone: the length bound,
@@ -476,7 +480,8 @@ fn more_substeps_than_the_buffers_were_made_for_step_as_on_the_cpu() {
     );
     assert!(on_gpu.iter().all(|p| p.is_finite()));
     // Lavapipe, 2026-12-04: mean 1.3 µm, max 32 µm; 8,328 contacts against the CPU's 8,315
-    // (at 64 and 65 substeps, 8,207 and 8,273 against 8,210 and 8,269).
+    // (at 64 and 65 substeps, 8,207 and 8,273 against 8,210 and 8,269); since local shape
+    // is a bend 0.3 µm, 5 µm, 8,933 contacts on both.
     assert!(mean < 1e-5 && max < 1e-4, "mean {mean} m, max {max} m apart");
     assert_eq!(gpu_report.nan_resets + gpu_report.teleport_resets, 0, "{gpu_report:?}");
     let (g, c) = (gpu_report.contacts as f32, cpu_report.contacts as f32);
@@ -536,7 +541,9 @@ fn a_one_second_hitch_is_taken_as_on_the_cpu() {
     // the grid's gradient standing in for the CPU's BVH walk there, mean 0.007 mm and max
     // 3.2 mm (lavapipe and an NVIDIA H200, 2026-12-04); with the exact query there for a
     // particle's contact (every triangle tested, then the BVH walked), mean 0.1 µm and max
-    // 1.6–1.9 µm (lavapipe).
+    // 1.6–1.9 µm (lavapipe). Since local shape is a bend (lavapipe, 2026-12-04): mean
+    // 1.8 µm, max 2.13 mm, where the nudged CPU parts from itself by 2.13 mm (one contact
+    // tipped the other way).
     assert_follows((mean, max), spread);
     assert!(depth <= 5e-4, "{depth} m inside the head");
     assert!(stretch <= 1e-4, "stretch {stretch}");

@@ -1440,8 +1440,8 @@ mod tests {
     }
 
     /// A bend is internal: the three particles it moves keep their centre and their angular
-    /// momentum about it (the joint's reaction), and the segments their lengths, to first
-    /// order. The follower pull it replaces moved the child alone.
+    /// momentum about the joint (the reaction). The follower pull it replaces moved the
+    /// child alone.
     #[test]
     fn a_bend_keeps_the_centre_and_the_spin_of_the_particles_it_moves() {
         let rest = vec![Vec3::ZERO, Vec3::NEG_Y, Vec3::new(0.0, -2.0, 0.0), Vec3::new(0.0, -3.0, 0.0)];
