@@ -556,8 +556,10 @@ fn beside_the_cpu(mut app: App, backend: HairBackend, frames: usize) -> Beside {
     }
     let fallbacks = std::mem::take(&mut app.world_mut().resource_mut::<GpuFallbacks>().0);
     let diagnostics = app.world().resource::<bevy::diagnostic::DiagnosticsStore>();
-    let gpu_step_ms = diagnostics.get(&HairDiagnostics::GPU_STEP_TIME).map(|d| d.values().copied().collect());
-    let values = |path| diagnostics.get(path).map(|d| d.values().copied().collect::<Vec<f64>>()).unwrap_or_default();
+    let values = |path: &bevy::diagnostic::DiagnosticPath| {
+        diagnostics.get(path).map(|d| d.values().copied().collect::<Vec<f64>>()).unwrap_or_default()
+    };
+    let gpu_step_ms = values(&HairDiagnostics::GPU_STEP_TIME);
     let (submit_ms, step_ms) = (values(&HairDiagnostics::GPU_SUBMIT_TIME), values(&HairDiagnostics::STEP_TIME));
     // The latest of each, side by side (each keeps its own history).
     let submit_and_step_ms = submit_ms.iter().rev().copied().zip(step_ms.iter().rev().copied()).collect();
@@ -567,7 +569,7 @@ fn beside_the_cpu(mut app: App, backend: HairBackend, frames: usize) -> Beside {
         on_cpu: positions(&cpu, cpu_head),
         fallbacks,
         reported,
-        gpu_step_ms: gpu_step_ms.unwrap_or_default(),
+        gpu_step_ms,
         submit_and_step_ms,
     }
 }

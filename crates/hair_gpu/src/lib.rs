@@ -631,7 +631,8 @@ impl GpuStrands {
 
     /// The world positions, one `vec4<f32>` per particle (w unused), as `layout.wgsl` (the
     /// start of [`SHADER`]) lays them out: particle `j` of strand `s` at
-    /// `particle_slot(root_slot(s, n), j)`. What a renderer reads without a trip through the CPU.
+    /// `particle_slot(root_slot(s, n), j)`. What a renderer reads without a trip through the
+    /// CPU.
     pub fn positions_buffer(&self) -> &wgpu::Buffer {
         &self.positions
     }

@@ -1668,6 +1668,12 @@ fn strand_of(id: vec3<u32>, groups: vec3<u32>) -> vec2<u32> {
     return vec2<u32>(strand, root_slot(strand, step.counts.y));
 }
 
+// Whether strand `s` (`strand_of`) is one this step's later dispatches step on: a strand,
+// and not started over.
+fn stepping(s: vec2<u32>) -> bool {
+    return s.x < step.counts.x && !started_over(s.y);
+}
+
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn move_strands(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let s = strand_of(id, groups);
@@ -1706,7 +1712,7 @@ fn collide_particles(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn place_strands(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let s = strand_of(id, groups);
-    if s.x >= step.counts.x || started_over(s.y) {
+    if !stepping(s) {
         return;
     }
     place_strand(s.y, step.counts.y, phase.x);
@@ -1720,7 +1726,7 @@ fn place_strands(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_work
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn turn_strands(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let s = strand_of(id, groups);
-    if s.x >= step.counts.x || started_over(s.y) {
+    if !stepping(s) {
         return;
     }
     turn_segments(s.y, step.counts.y, phase.x);
