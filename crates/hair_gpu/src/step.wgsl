@@ -1213,7 +1213,7 @@ fn move_strand(strand: u32, first: u32, n: u32, k: u32) {
         motion[slots() + i] = vec4<f32>(x, 0.0);
         motion[2u * slots() + i] = vec4<f32>(0.0);
         if integrate && j > 0u {
-            let v = (velocity(i) + acceleration(i, wind) * h) * step.motion.x;
+            let v = velocity(i) * step.motion.x + acceleration(i, wind) * h;
             positions[i] = vec4<f32>(x + clamp_length_max(v * h, step.motion.y), 0.0);
         }
     }
@@ -1400,7 +1400,8 @@ fn place_shaped(first: u32, j: u32, n: u32, parent: vec3<f32>, shaped: vec3<f32>
     return placed;
 }
 
-// 5. Velocities from where the particles ended up, less FTL's correction; the integrator
+// 5. Velocities from where the particles ended up, slowed by FTL's correction as a brake
+// (hair_sim's `ftl_brake`: it only slows, so hair at rest keeps no speed); the integrator
 // advanced them `1 / inverse_step` (the substep, or the spring model's). In the pass that
 // places the particles last where it can, else in a pass of its own.
 fn update_velocities(first: u32, n: u32, h: f32, inverse_step: f32) {
@@ -1433,13 +1434,21 @@ fn settle_behind(i: u32, j: u32, n: u32, parent: vec3<f32>, placed: vec3<f32>, i
 }
 
 // Particle `i`'s velocity, it ending at `x` and the particle below it corrected by `next`
-// (zero at the tip).
+// (zero at the tip): the motion, slowed where Müller's term opposes it, by at most all of it.
 fn set_velocity(i: u32, x: vec3<f32>, next: vec3<f32>, inverse_step: f32) {
     var base = start(i);
     if step.spring_flags.x == 1u {
         base = springs_base(i);
     }
-    let v = (x - base) * inverse_step - next * step.motion.w;
+    let moved = (x - base) * inverse_step;
+    let opposing = dot(next, moved) * step.motion.w;
+    let share = clamp(opposing * (1.0 / max(dot(moved, moved), 1e-30)), 0.0, 1.0);
+    var v = moved * (1.0 - share);
+    // A correction gone non-finite leaves the velocity so (the clamp would hide it), and
+    // the strand is reset, as on the CPU.
+    if !finite(next) {
+        v = next;
+    }
     motion[i] = vec4<f32>(clamp_length_max(v, step.limits.x), 0.0);
 }
 
@@ -1499,7 +1508,7 @@ fn implicit_springs(first: u32, n: u32, h: f32, wind: vec3<f32>) -> f32 {
         let x = start(i);
         let v = velocity(i);
         let base = x * current - springs_previous_position(i) * previous;
-        let new_v = (v * current - springs_previous_velocity(i) * previous + acceleration(i, wind) * step_length) * drag;
+        let new_v = (v * current - springs_previous_velocity(i) * previous) * drag + acceleration(i, wind) * step_length;
         springs[i] = vec4<f32>(x, 0.0);
         springs[slots() + i] = vec4<f32>(v, 0.0);
         springs[2u * slots() + i] = vec4<f32>(base, 0.0);

@@ -54,12 +54,13 @@ fn elongations(strands: &Strands, rest_length: f64) -> Vec<f64> {
 
 /// A strand of 11 particles of 1 g hanging at rest: segment `j` carries the weight of the
 /// `n − j` particles below it, so it stretches by `(n − j) m g / k_s`. From 100 N/m (the
-/// top segment 3.9 % long) to 10⁴ N/m (0.04 %, 9.8 µm): within 2 % of that, every segment.
+/// top segment 3.9 % long) to 10⁴ N/m (0.04 %, 9.8 µm): within 0.1 % of that, every
+/// segment, whatever the air drag (it acts on motion, not on where hair hangs).
 #[test]
 fn a_hanging_strand_stretches_by_the_weight_below_over_the_stiffness() {
     let (n, segment) = (11, 0.025);
-    for stiffness in [100.0f32, 1e3, 1e4] {
-        let params = springs(stiffness, 0.02);
+    for (stiffness, drag) in [100.0f32, 1e3, 1e4].into_iter().flat_map(|k| [0.0, 1.0, 5.0].map(|d| (k, d))) {
+        let params = SimParams { drag, ..springs(stiffness, 0.02) };
         let mut strands = hanging_strand(n, segment);
         for k in 0..600 {
             step(&mut strands, &params, k);
@@ -76,11 +77,11 @@ fn a_hanging_strand_stretches_by_the_weight_below_over_the_stiffness() {
             worst = worst.max(((e - expected).abs() - rounding).max(0.0) / expected);
         }
         println!(
-            "k_s = {stiffness}: top segment {:.4} mm (law {:.4} mm), worst relative error {worst:.5}",
+            "k_s = {stiffness}, drag {drag}: top segment {:.5} mm (law {:.5} mm), worst relative error {worst:.6}",
             measured[0] * 1e3,
             (n - 1) as f64 * MASS * GRAVITY / f64::from(stiffness) * 1e3
         );
-        assert!(worst < 0.02, "k_s = {stiffness}: a segment is {worst:.4} off the law");
+        assert!(worst < 1e-3, "k_s = {stiffness}, drag {drag}: a segment is {worst:.5} off the law");
         // Settled: nothing is moving any more.
         let fastest = strands.velocities().iter().map(|v| v.length()).fold(0.0, f32::max);
         assert!(fastest < 1e-4, "k_s = {stiffness}: still moving at {fastest} m/s");

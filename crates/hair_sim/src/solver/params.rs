@@ -14,7 +14,8 @@ use bevy_reflect::Reflect;
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub enum LengthMode {
     /// Follow-The-Leader (Müller et al. 2012): every segment keeps its rest length exactly;
-    /// the velocity correction `ftl_damping` removes the energy FTL would add.
+    /// the velocity correction `ftl_damping`, applied as a brake, removes the energy FTL's
+    /// one-sided projection would add, and leaves hair at rest without velocity.
     #[default]
     Inextensible,
     /// The reference mass-spring model: `F_s = k_s (l − l0)`, `F_d = k_d v` along each
@@ -160,7 +161,8 @@ pub struct SimParams {
     pub substeps: u32,
     /// Constraint iterations per substep.
     pub iterations: u32,
-    /// Air drag, 1/s: velocity decays as `exp(−drag·t)`.
+    /// Air drag, 1/s: velocity decays as `exp(−drag·t)`. It acts on motion only: where
+    /// hair hangs at rest does not depend on it.
     pub drag: f32,
     /// Inextensible (default) or the reference's mass-spring model.
     pub length_mode: LengthMode,
@@ -172,7 +174,9 @@ pub struct SimParams {
     pub spring_damping: f32,
     /// Allowed stretch or shrink of a segment as a fraction of rest length (spring model).
     pub length_tolerance: f32,
-    /// Müller's FTL velocity correction, 0..1 (inextensible model).
+    /// Müller's FTL velocity correction, 0..1 (inextensible model): how much of the
+    /// reaction of its child's correction slows a particle. It only ever slows (a brake
+    /// along the particle's own motion), so it never stores a velocity in hair at rest.
     pub ftl_damping: f32,
     /// Local shape stiffness, 0..1: each joint toward its rest bend, the segment turned toward
     /// its rest direction in its parent's frame and the parent turned back by the reaction.

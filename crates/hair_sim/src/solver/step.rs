@@ -7,7 +7,8 @@
 //! 4. collision with the head (head-local) and the extra colliders, with friction, then a
 //!    final length pass that may turn a segment about its parent but never moves a
 //!    particle back inside a collider ([`keep_outside`]);
-//! 5. velocities from the position change, plus Müller's FTL correction.
+//! 5. velocities from the position change, slowed by Müller's FTL correction as a brake
+//!    ([`ftl_brake`]).
 //!
 //! Strands go through this 16, 32 or 64 at a time (by the SIMD path), side by side in
 //! SIMD lanes ([`lanes`](super::lanes)); collision, whose path differs per particle, takes
@@ -555,7 +556,9 @@ fn substep<S: Simd>(
         LengthMode::Inextensible => {
             let (drag, max_move) = (Wide::splat(c.shared.drag_factor), Wide::splat(c.shared.max_step_move));
             for j in 1..n {
-                let v = (g.velocities[j] + g.accel[j] * h) * drag;
+                // Drag takes its share of the velocity carried over, not of what gravity
+                // adds this substep: at rest that would hold back part of the weight.
+                let v = g.velocities[j] * drag + g.accel[j] * h;
                 g.positions[j] += (v * h).clamp_length_max(max_move);
             }
             g.base.copy_from_slice(&g.start);
@@ -590,16 +593,37 @@ fn substep<S: Simd>(
     }
 
     // 5. Velocities: what the integrator's `x = base + step · v` makes of where the
-    //    particles ended up. The root moves with the head; its speed feeds spring damping,
-    //    so it gets the same limit.
+    //    particles ended up, less FTL's brake ([`ftl_brake`]). The root moves with the
+    //    head; its speed feeds spring damping, so it gets the same limit.
     let (max_speed, ftl_velocity) = (Wide::splat(p.max_speed), Wide::splat(c.shared.ftl_velocity));
     g.velocities[0] = ((g.positions[0] - g.start[0]) * h.recip()).clamp_length_max(max_speed);
     let inv_step = g.step.recip();
     for j in 1..n {
+        let moved = (g.positions[j] - g.base[j]) * inv_step;
         let next_correction = if j + 1 < n { g.ftl_correction[j + 1] } else { V3::zero() };
-        let v = (g.positions[j] - g.base[j]) * inv_step - next_correction * ftl_velocity;
-        g.velocities[j] = v.clamp_length_max(max_speed);
+        g.velocities[j] = ftl_brake(moved, next_correction, ftl_velocity).clamp_length_max(max_speed);
     }
+}
+
+/// Follow-The-Leader's velocity correction as a brake: the velocity `moved` a particle's
+/// positions give, slowed by Müller's term `−ftl_velocity · next_correction` (its child's
+/// correction, the reaction FTL's one-sided projection leaves out) where that term opposes
+/// the motion, and by at most the whole speed; where it would push, nothing.
+///
+/// Müller adds the term whole. That keeps a whipped strand from gaining energy, but it
+/// also turns the tension that holds hanging hair up into a velocity the hair does not
+/// have (a still strand's child is pulled back up every substep, so its parent is sent
+/// down): hair at rest kept speeds of about `9 g h` near the root, and contacts and
+/// segment turns made that a jitter. As a brake it still slows a parent that drags its
+/// child (what stops the whip), only ever takes energy out, and gives a particle that did
+/// not move no velocity at all.
+#[inline(always)]
+fn ftl_brake<S: Simd>(moved: V3<S>, next_correction: V3<S>, ftl_velocity: Wide<S>) -> V3<S> {
+    let opposing = next_correction.dot(moved) * ftl_velocity;
+    let share = (opposing * moved.dot(moved).max(Wide::splat(1e-30)).recip()).clamp(Wide::zero(), Wide::one());
+    // A correction gone non-finite leaves the velocity non-finite (the clamp would hide
+    // it), so that the strand is reset: `× 0` is NaN for NaN and ±∞, and exactly 0 else.
+    moved * (Wide::one() - share) + next_correction * Wide::zero()
 }
 
 /// The reference mass-spring model, `F_s = k_s (l − l0)` and `F_d = k_d (Δv · dir)`
@@ -633,7 +657,9 @@ fn implicit_springs<S: Simd>(g: &mut GroupState<S>, c: &Constants<S>, p: &SimPar
     for j in 1..n {
         let (x, v) = (g.start[j], g.velocities[j]);
         g.base[j] = x * current - g.previous_positions[j] * previous;
-        g.velocities[j] = (v * current - g.previous_velocities[j] * previous + g.accel[j] * step) * drag;
+        // Drag on the carried velocity only, so that at rest the springs carry the whole
+        // weight: the static balance does not depend on the air.
+        g.velocities[j] = (v * current - g.previous_velocities[j] * previous) * drag + g.accel[j] * step;
         g.previous_positions[j] = x;
         g.previous_velocities[j] = v;
         g.positions[j] = g.base[j] + g.velocities[j] * step;
