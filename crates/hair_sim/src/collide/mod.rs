@@ -55,6 +55,12 @@ pub enum ColliderError {
     Mesh(MeshError),
     /// The grid resolution is outside [`GRID_RESOLUTIONS`].
     GridResolution(u32),
+    /// The mesh encloses negative volume: it is wound inside out, and a collider built
+    /// from it would call the inside outside. [`HeadMesh::repaired`] turns it over.
+    InsideOut {
+        /// The volume it encloses, m³ (negative).
+        volume: f32,
+    },
 }
 
 impl std::fmt::Display for ColliderError {
@@ -66,6 +72,11 @@ impl std::fmt::Display for ColliderError {
                 "a collider grid of {r} cells per side was asked for; use {} to {} (default {DEFAULT_GRID_RESOLUTION})",
                 GRID_RESOLUTIONS.start(),
                 GRID_RESOLUTIONS.end()
+            ),
+            ColliderError::InsideOut { volume } => write!(
+                f,
+                "the head mesh is wound inside out (it encloses {volume} m³); turn its triangles over, \
+                 or build it with HeadMesh::repaired"
             ),
         }
     }
@@ -229,9 +240,11 @@ impl ContactHint {
 
 impl HeadCollider {
     /// Builds the BVH and bakes the distance grid (`resolution` cells along the longest
-    /// side, within [`GRID_RESOLUTIONS`]). The mesh should be closed and wound outward
-    /// ([`HeadMesh::repaired`] turns an inside-out one over); on an open mesh the inside
-    /// test still works locally, near each surface, through parry's pseudo-normals.
+    /// side, within [`GRID_RESOLUTIONS`]). The mesh should be closed and wound outward: one
+    /// that encloses negative volume (wound inside out) is refused
+    /// ([`ColliderError::InsideOut`]; [`HeadMesh::repaired`] turns it over). On an open
+    /// mesh the inside test still works locally, near each surface, through parry's
+    /// pseudo-normals.
     /// Triangles without area are left out: their normal is noise and would read points
     /// far away as inside.
     pub fn new(head: &HeadMesh, resolution: u32) -> Result<Self, ColliderError> {
@@ -239,6 +252,10 @@ impl HeadCollider {
             return Err(ColliderError::GridResolution(resolution));
         }
         head.validate()?;
+        let volume = head.signed_volume();
+        if volume < 0.0 {
+            return Err(ColliderError::InsideOut { volume });
+        }
         let triangles: Vec<[u32; 3]> =
             head.triangles.iter().copied().filter(|t| !crate::mesh::is_degenerate(head.corners(t))).collect();
         let flags =
@@ -1047,6 +1064,25 @@ mod tests {
             assert_eq!(err, Some(ColliderError::GridResolution(bad)));
             assert!(err.unwrap().to_string().contains("use 8 to 256"));
         }
+    }
+
+    /// A closed head wound inside out would make a collider that calls the inside outside:
+    /// it is refused, by name, and the repaired mesh (turned over) collides as the original.
+    #[test]
+    fn an_inside_out_head_is_refused_and_its_repair_collides() {
+        let head = test_head(2);
+        let mut flipped = head.clone();
+        flipped.triangles.iter_mut().for_each(|t| t.swap(1, 2));
+        let err = HeadCollider::new(&flipped, 16).err();
+        assert!(matches!(err, Some(ColliderError::InsideOut { volume }) if volume < 0.0), "{err:?}");
+        assert!(err.unwrap().to_string().contains("inside out"));
+        let (repaired, repairs) = HeadMesh::repaired(flipped.positions, flipped.triangles).unwrap();
+        assert!(repairs.flipped_winding);
+        let (original, fixed) = (HeadCollider::new(&head, 16).unwrap(), HeadCollider::new(&repaired, 16).unwrap());
+        for p in [Vec3::ZERO, Vec3::new(0.0, 0.2, 0.0), Vec3::new(0.05, 0.03, 0.02)] {
+            assert_eq!(original.signed_distance(p), fixed.signed_distance(p), "at {p}");
+        }
+        assert!(fixed.signed_distance(Vec3::ZERO) < 0.0, "the centre is inside");
     }
 
     #[test]

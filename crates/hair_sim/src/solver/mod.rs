@@ -187,7 +187,8 @@ pub struct StepInput<'a> {
     /// The part of the head that moves against the collider's frame (a skinned neck
     /// bending), as it is at the end of the step, head-local like the collider.
     pub surface_patch: Option<&'a SurfacePatch>,
-    /// Settings; pass them through [`SimParams::sanitized`] first.
+    /// Settings. The step runs on what [`SimParams::sanitized`] makes of them: call it
+    /// first to learn (and report) which values were not usable.
     pub params: &'a SimParams,
 }
 

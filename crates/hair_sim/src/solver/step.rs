@@ -377,6 +377,11 @@ pub(super) fn step_chunk(
     state: &mut ChunkState,
     input: &StepInput,
 ) -> StepReport {
+    // Public fields allow any value: the step runs on what `sanitized` makes of them, so
+    // that no setting panics or poisons a strand (a caller learns what was changed by
+    // calling it first).
+    let (params, _) = input.params.sanitized();
+    let input = &StepInput { params: &params, ..*input };
     match input.params.simd.resolved() {
         #[cfg(target_arch = "x86_64")]
         // SAFETY: `resolved` picks a path only where the CPU has its instructions.
