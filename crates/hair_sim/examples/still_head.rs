@@ -87,8 +87,8 @@ fn main() {
             }
         }
         let (grown_max, grown_mean) = apart(strands.positions(), nudged.expect("nudged").positions());
-        // What the solver keeps as velocity for the next step, against the moves above: FTL's
-        // velocity correction stores speed in hair at rest (README, Known limits).
+        // What the solver keeps as velocity for the next step, against the moves above: at
+        // rest it should keep none (docs/simulation.md, hair at rest).
         let speeds: Vec<f32> = strands.velocities().iter().map(|v| v.length()).collect();
         let stored_max = speeds.iter().copied().fold(0.0, f32::max);
         let stored_mean = speeds.iter().sum::<f32>() / speeds.len() as f32;
