@@ -748,6 +748,9 @@ impl GpuStrands {
     }
 
     fn encode_step(&mut self, input: &StepInput, timestamps: Option<&Timestamps>) -> Result<(), GpuError> {
+        // As on the CPU: the step runs on what `sanitized` makes of the settings.
+        let (params, _) = input.params.sanitized();
+        let input = &StepInput { params: &params, ..*input };
         let p = input.params;
         let collide_head = p.collision && input.collider.is_some();
         if collide_head && self.grid_info.is_none() {
