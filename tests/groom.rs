@@ -17,8 +17,7 @@ use head_asset::paint::{SKIN_COLOR, in_ear};
 /// `assets/head.glb`, parsed by the converter's own reader (the demo loads the same file
 /// through Bevy's glTF loader).
 fn shipped_head() -> HeadAsset {
-    let bytes = std::fs::read(head_asset::default_output_path()).expect("assets/head.glb is committed");
-    head_asset::glb::read(&bytes).expect("assets/head.glb parses")
+    head_asset::read_committed().expect("assets/head.glb is committed and parses")
 }
 
 /// The head as the Bevy mesh the glTF loader makes of it: positions, normals, COLOR_0, indices.

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{Groom, GroomSpec, groom_on_upper_half, proptest_config, wild_f32};
+use common::{Groom, GroomSpec, groom_on_upper_half, proptest_config, step_input, wild_f32};
 use hair_sim::prelude::*;
 use hair_sim::solver::{MIN_STEP, ParamIssue};
 use proptest::prelude::*;
@@ -368,20 +368,10 @@ fn step_runs_any_settings_as_their_sanitized_form() {
     let run = |params: &SimParams| {
         let mut strands = Strands::new(g.rest.clone(), Pose::IDENTITY);
         let mut resets = 0;
+        let turned = |k: usize| Pose::new(Quat::from_rotation_y(0.1 * k as f32), Vec3::ZERO);
         for k in 0..4usize {
-            let to = Pose::new(Quat::from_rotation_y(0.1 * k as f32), Vec3::ZERO);
-            let from = Pose::new(Quat::from_rotation_y(0.1 * k.saturating_sub(1) as f32), Vec3::ZERO);
-            let report = strands.step(&StepInput {
-                dt: 1.0 / 60.0,
-                time: k as f32 / 60.0,
-                head_from: if k == 0 { to } else { from },
-                head_to: to,
-                collider: Some(&g.collider),
-                extra_colliders: &[],
-                surface_patch: None,
-                params,
-            });
-            resets += report.nan_resets;
+            let from = turned(k.saturating_sub(1));
+            resets += strands.step(&step_input(k, from, turned(k), Some(&g.collider), params)).nan_resets;
         }
         (strands.positions().iter().map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<_>>(), resets)
     };

@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::{Groom, GroomSpec, groom_on_upper_half, max_distance_from_rest};
+use common::{Groom, GroomSpec, groom_on_upper_half, max_distance_from_rest, step_input as input};
 use hair_sim::prelude::*;
 use std::sync::OnceLock;
 
@@ -23,25 +23,6 @@ fn moving_head(k: usize) -> Pose {
         Quat::from_rotation_y(0.9 * (2.1 * t).sin()) * Quat::from_rotation_x(0.4 * (3.3 * t).sin()),
         Vec3::new(0.08 * (1.7 * t).sin(), 1.6 + 0.03 * (4.0 * t).sin(), 0.0),
     )
-}
-
-fn input<'a>(
-    k: usize,
-    from: Pose,
-    to: Pose,
-    collider: Option<&'a HeadCollider>,
-    params: &'a SimParams,
-) -> StepInput<'a> {
-    StepInput {
-        dt: DT,
-        time: k as f32 * DT,
-        head_from: from,
-        head_to: to,
-        collider,
-        extra_colliders: &[],
-        surface_patch: None,
-        params,
-    }
 }
 
 /// Runs `steps` steps with the head still at the identity pose.

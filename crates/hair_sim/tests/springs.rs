@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{GroomSpec, groom_on_upper_half};
+use common::{GroomSpec, groom_on_upper_half, step_input};
 use hair_sim::prelude::*;
 
 const DT: f32 = 1.0 / 60.0;
@@ -34,16 +34,7 @@ fn hanging_strand(n: usize, segment: f32) -> Strands {
 }
 
 fn step(strands: &mut Strands, params: &SimParams, k: usize) -> StepReport {
-    strands.step(&StepInput {
-        dt: DT,
-        time: k as f32 * DT,
-        head_from: Pose::IDENTITY,
-        head_to: Pose::IDENTITY,
-        collider: None,
-        extra_colliders: &[],
-        surface_patch: None,
-        params,
-    })
+    strands.step(&step_input(k, Pose::IDENTITY, Pose::IDENTITY, None, params))
 }
 
 /// Each segment's length minus its rest length, metres.
@@ -193,16 +184,7 @@ fn any_stiffness_is_stable_and_the_clamp_holds_while_the_head_whips() {
             let mut strands = Strands::new(g.rest.clone(), whip(0));
             let (mut worst, mut resets, mut fastest) = (0.0f32, 0, 0.0f32);
             for k in 0..120 {
-                let report = strands.step(&StepInput {
-                    dt: DT,
-                    time: k as f32 * DT,
-                    head_from: whip(k),
-                    head_to: whip(k + 1),
-                    collider: Some(&g.collider),
-                    extra_colliders: &[],
-                    surface_patch: None,
-                    params: &params,
-                });
+                let report = strands.step(&step_input(k, whip(k), whip(k + 1), Some(&g.collider), &params));
                 resets += report.nan_resets + report.teleport_resets;
                 worst = worst.max(strands.max_stretch());
                 fastest = strands.velocities().iter().map(|v| v.length()).fold(fastest, f32::max);

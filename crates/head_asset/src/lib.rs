@@ -376,6 +376,13 @@ pub fn default_output_path() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/head.glb")
 }
 
+/// The committed asset ([`default_output_path`]), read and parsed.
+pub fn read_committed() -> Result<HeadAsset, Error> {
+    let path = default_output_path();
+    let bytes = std::fs::read(&path).map_err(|source| Error::Io { path, source })?;
+    glb::read(&bytes)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -3,14 +3,14 @@
 
 use head_asset::paint::{SCALP_COLOR, SKIN_COLOR, is_scalp};
 use head_asset::topology::check_closed;
-use head_asset::{HeadAsset, collider_check, convert_file, default_obj_path, default_output_path, glb, rig};
+use head_asset::{HeadAsset, collider_check, convert_file, default_obj_path, default_output_path, read_committed, rig};
 
 fn committed_bytes() -> Vec<u8> {
     std::fs::read(default_output_path()).expect("assets/head.glb is committed")
 }
 
 fn committed() -> HeadAsset {
-    glb::read(&committed_bytes()).expect("assets/head.glb parses")
+    read_committed().expect("assets/head.glb is committed and parses")
 }
 
 fn le(bytes: &[u8], at: usize) -> usize {

@@ -83,85 +83,23 @@ pub fn proptest_config(cases: u32) -> ProptestConfig {
     config
 }
 
-/// `assets/head.glb` as the converter reads it: the head mesh and its painted scalp.
-pub fn shipped_head() -> (HeadMesh, Vec<f32>) {
-    let bytes = std::fs::read(head_asset::default_output_path()).expect("assets/head.glb is committed");
-    let asset = head_asset::glb::read(&bytes).expect("assets/head.glb parses");
-    let head = asset.head_mesh();
-    let labels: Vec<f32> = asset.scalp_vertices().iter().map(|&s| f32::from(u8::from(s))).collect();
-    let weights = hair_sim::groom::triangle_weights(&head, &labels);
-    (head, weights)
-}
-
-/// `strands` guides × 16 particles, 25 cm, on the shipped head's scalp, settled as the
-/// plugin settles a groom (180 steps, combed by `comb`), with the collider.
-pub fn shipped_groom(strands: usize, comb: Vec3) -> (HeadCollider, RestShape) {
-    let (head, weights) = shipped_head();
-    let collider = HeadCollider::new(&head, DEFAULT_GRID_RESOLUTION).expect("shipped head");
-    let roots = sample_roots(&head, &weights, strands, 7).expect("scalp");
-    let grow = GuideParams { segments: 15, length: 0.25, comb, ..GuideParams::default() };
-    let rest = RestShape::new(grow_guides(&head, &roots, &grow, 7).expect("roots"), 16).expect("guides");
-    let rest = settle(rest, Some(&collider), &SimParams::default(), 180, comb).expect("settle");
-    (collider, rest)
-}
-
-/// How still hair is under a still head: over the watched steps, the largest move of any
-/// particle in a step, the strands with a particle moving more than 10 µm in a step, the
-/// particle-steps that go back where they were the step before (alternating between two
-/// places), and the speeds the solver keeps at the end.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct StillReport {
-    pub max_move: f32,
-    pub moving_strands: usize,
-    pub alternations: usize,
-    pub mean_speed: f32,
-    pub max_speed: f32,
-}
-
-/// Steps `rest` at rest under a still head for `settle_steps` of 1/60 s, then watches
-/// `watch_steps` more ([`StillReport`]).
-pub fn still_report(
-    rest: &RestShape,
-    collider: Option<&HeadCollider>,
-    params: &SimParams,
-    settle_steps: usize,
-    watch_steps: usize,
-) -> StillReport {
-    let n = rest.particles_per_strand;
-    let mut strands = Strands::new(rest.clone(), Pose::IDENTITY);
-    let mut report = StillReport::default();
-    let mut moving = vec![false; rest.strand_count()];
-    let (mut before, mut earlier): (Vec<Vec3>, Option<Vec<Vec3>>) = (strands.positions().to_vec(), None);
-    for k in 0..settle_steps + watch_steps {
-        let input = StepInput {
-            dt: 1.0 / 60.0,
-            time: k as f32 / 60.0,
-            head_from: Pose::IDENTITY,
-            head_to: Pose::IDENTITY,
-            collider,
-            extra_colliders: &[],
-            surface_patch: None,
-            params,
-        };
-        strands.step(&input);
-        let now = strands.positions();
-        if k >= settle_steps {
-            for (i, (&x, &b)) in now.iter().zip(&before).enumerate() {
-                let step = x.distance(b);
-                report.max_move = report.max_move.max(step);
-                moving[i / n] |= step > 1e-5;
-                // Back where it was two steps ago, after a step of more than 1 µm.
-                if let Some(earlier) = &earlier {
-                    let back = x.distance(earlier[i]);
-                    report.alternations += usize::from(step > 1e-6 && back < 0.25 * step);
-                }
-            }
-        }
-        earlier = Some(std::mem::replace(&mut before, now.to_vec()));
+/// Step `k` of 1/60 s, the head moving from `from` to `to`, with the head collider only.
+pub fn step_input<'a>(
+    k: usize,
+    from: Pose,
+    to: Pose,
+    collider: Option<&'a HeadCollider>,
+    params: &'a SimParams,
+) -> StepInput<'a> {
+    let dt = 1.0 / 60.0;
+    StepInput {
+        dt,
+        time: k as f32 * dt,
+        head_from: from,
+        head_to: to,
+        collider,
+        extra_colliders: &[],
+        surface_patch: None,
+        params,
     }
-    report.moving_strands = moving.iter().filter(|&&m| m).count();
-    let speeds: Vec<f32> = strands.velocities().iter().map(|v| v.length()).collect();
-    report.mean_speed = speeds.iter().sum::<f32>() / speeds.len() as f32;
-    report.max_speed = speeds.iter().copied().fold(0.0, f32::max);
-    report
 }
