@@ -422,6 +422,39 @@ fn a_teleport_resets_the_strands_as_on_the_cpu() {
     assert!(apart(&on_gpu, &rest_there).1 < 1e-5, "at rest under the new pose");
 }
 
+/// A particle placed as far out as an `f32` reaches (finite, so `set_positions` takes it)
+/// makes its strand's velocity overflow in the first substep: both backends put every such
+/// strand back at rest under the step's pose, and say so.
+#[test]
+fn a_strand_gone_non_finite_is_reset_and_reported_as_on_the_cpu() {
+    let Some(gpu) = gpu() else { return };
+    let (_, collider, rest) = groom(64);
+    let n = rest.particles_per_strand;
+    let params = SimParams { collision: false, ..SimParams::default() };
+    let mut cpu = Strands::new(rest.clone(), head_pose(0.0));
+    let mut on_gpu = GpuStrands::new(&gpu, &rest, head_pose(0.0), Some(&collider)).expect("GPU strands");
+    // The roots stay (a root that far would be a teleport); every tip goes far out.
+    let far: Vec<Vec3> = cpu
+        .positions()
+        .iter()
+        .enumerate()
+        .map(|(i, &p)| if i % n == n - 1 { Vec3::new(3e38, 0.0, 0.0) } else { p })
+        .collect();
+    cpu.set_positions(&far).expect("finite");
+    assert!(on_gpu.set_positions(&far), "finite positions are taken");
+    let input = input_at(0, head_pose, &collider, &params);
+    let cpu_report = cpu.step(&input);
+    on_gpu.step(&input).expect("GPU step");
+    let gpu_report = on_gpu.report().expect("report");
+    eprintln!("tips at 3e38 m: CPU {cpu_report:?}, GPU {gpu_report:?}");
+    assert_eq!(cpu_report.nan_resets, 64, "every strand on the CPU");
+    assert_reports_agree(&cpu_report, &gpu_report);
+    let rest_there: Vec<Vec3> = rest.positions.iter().map(|&p| head_pose(DT).transform_point(p)).collect();
+    let on_gpu = on_gpu.positions().expect("read back");
+    assert!(apart(&on_gpu, &rest_there).1 < 1e-5, "at rest under the step's pose");
+    assert!(apart(cpu.positions(), &rest_there).1 < 1e-5, "the CPU too");
+}
+
 /// Infinite gravity, which a public field allows: both backends step on its sanitized form
 /// (the default gravity), so neither goes non-finite nor resets a strand, and they agree.
 #[test]
