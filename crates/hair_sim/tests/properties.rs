@@ -55,7 +55,18 @@ fn wild_params() -> impl Strategy<Value = SimParams> {
     (
         (prop::array::uniform3(wild_f32()), wild_count(), wild_count(), wild_f32(), mode, wild_f32(), wild_f32()),
         (wild_f32(), wild_f32(), wild_f32(), wild_f32(), wild_f32(), wild_f32(), wind),
-        (any::<bool>(), wild_f32(), response, any::<bool>(), wild_f32(), wild_f32(), wild_f32(), simd),
+        (
+            any::<bool>(),
+            wild_f32(),
+            response,
+            any::<bool>(),
+            wild_f32(),
+            wild_f32(),
+            wild_f32(),
+            simd,
+            wild_f32(),
+            wild_f32(),
+        ),
     )
         .prop_map(
             |(
@@ -70,6 +81,8 @@ fn wild_params() -> impl Strategy<Value = SimParams> {
                     max_speed,
                     teleport_distance,
                     simd,
+                    sleep_distance,
+                    sleep_time,
                 ),
             )| SimParams {
                 gravity,
@@ -94,6 +107,8 @@ fn wild_params() -> impl Strategy<Value = SimParams> {
                 max_speed,
                 teleport_distance,
                 simd,
+                sleep_distance,
+                sleep_time,
             },
         )
 }
@@ -162,6 +177,8 @@ fn float_fields(p: &SimParams) -> Vec<f32> {
         p.collision_thickness,
         p.friction,
         p.max_speed,
+        p.sleep_distance,
+        p.sleep_time,
         p.teleport_distance,
         gx,
         gy,
@@ -351,6 +368,8 @@ fn float_setters() -> Vec<(&'static str, fn(&mut SimParams) -> &mut f32)> {
         ("collision_thickness", |p| &mut p.collision_thickness),
         ("friction", |p| &mut p.friction),
         ("max_speed", |p| &mut p.max_speed),
+        ("sleep_distance", |p| &mut p.sleep_distance),
+        ("sleep_time", |p| &mut p.sleep_time),
         ("teleport_distance", |p| &mut p.teleport_distance),
         ("gravity.x", |p| &mut p.gravity[0]),
         ("gravity.y", |p| &mut p.gravity[1]),

@@ -23,6 +23,9 @@ fn springs(stiffness: f32, damping: f32) -> SimParams {
         global_stiffness_root: 0.0,
         global_stiffness_tip: 0.0,
         collision: false,
+        // These measure the law to the micrometre; sleeping would hold a strand wherever it
+        // stopped moving by more than a millimetre.
+        sleep_distance: 0.0,
         ..SimParams::default()
     }
 }

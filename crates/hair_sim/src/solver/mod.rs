@@ -9,6 +9,7 @@ mod detail;
 mod lanes;
 mod params;
 mod rest_lanes;
+mod sleep;
 mod step;
 
 pub use detail::HeadSpaceFollowers;
@@ -20,7 +21,9 @@ pub use step::{MIN_STEP, StepConstants};
 mod wind;
 
 pub use params::{CollisionResponse, LengthMode, ParamIssue, SimParams, SimdPath, Wind, stiffness_per_application};
-pub use wind::wind_at;
+use sleep::SleepWatch;
+pub use sleep::Stillness;
+pub use wind::{is_calm, wind_at};
 
 use crate::collide::{ContactHint, ExtraCollider, HeadCollider, SurfacePatch};
 use crate::math::{Pose, Quat, Vec3};
@@ -155,6 +158,8 @@ pub struct StepReport {
     /// Segments turned because they cut through the head between two particles outside it
     /// (an ear's rim). Summed over substeps.
     pub segment_turns: u32,
+    /// Strands left asleep through the step (see [`SimParams::sleep_distance`]).
+    pub sleeping: u32,
 }
 
 impl StepReport {
@@ -166,6 +171,7 @@ impl StepReport {
         self.max_depth = self.max_depth.max(other.max_depth);
         self.contact_stretches += other.contact_stretches;
         self.segment_turns += other.segment_turns;
+        self.sleeping += other.sleeping;
     }
 }
 
@@ -209,6 +215,10 @@ pub struct Strands {
     /// Per strand, the substep length that memory was taken at; 0 when there is none
     /// (after a reset, or in the inextensible model, which keeps none).
     history_step: Vec<f32>,
+    /// Per strand, how long it has stayed where it is ([`sleep`]), and per particle where
+    /// that watch began.
+    sleep: Vec<SleepWatch>,
+    anchors: Vec<Vec3>,
     /// Levels of detail, once asked for ([`Self::set_detail_level`]).
     detail: Option<Detail>,
 }
@@ -223,6 +233,8 @@ impl Strands {
             previous_positions: positions.clone(),
             previous_velocities: velocities.clone(),
             history_step: vec![0.0; rest.strand_count()],
+            sleep: vec![SleepWatch::default(); rest.strand_count()],
+            anchors: positions.clone(),
             rest_lanes: RestLanes::new(&rest),
             rest,
             positions,
@@ -275,7 +287,8 @@ impl Strands {
     /// small, so `f32` resolves millimetres and less wherever in the world the head is.
     pub fn translate(&mut self, offset: Vec3) {
         if offset != Vec3::ZERO && offset.is_finite() {
-            self.positions.iter_mut().chain(&mut self.previous_positions).for_each(|p| *p += offset);
+            let moved = self.positions.iter_mut().chain(&mut self.previous_positions).chain(&mut self.anchors);
+            moved.for_each(|p| *p += offset);
             if let Some(detail) = &mut self.detail {
                 detail.translate(offset);
             }
@@ -298,6 +311,7 @@ impl Strands {
         self.previous_positions.copy_from_slice(positions);
         self.previous_velocities.fill(Vec3::ZERO);
         self.history_step.fill(0.0);
+        self.wake();
         if let Some(detail) = &mut self.detail {
             detail.placed(positions);
         }
@@ -314,9 +328,22 @@ impl Strands {
         self.previous_positions.copy_from_slice(&self.positions);
         self.previous_velocities.fill(Vec3::ZERO);
         self.history_step.fill(0.0);
+        self.wake();
         if let Some(detail) = &mut self.detail {
             detail.placed(&self.positions);
         }
+    }
+
+    /// Wakes every sleeping strand ([`SimParams::sleep_distance`]): the next step steps it.
+    pub fn wake(&mut self) {
+        self.sleep.fill(SleepWatch::default());
+        self.anchors.copy_from_slice(&self.positions);
+    }
+
+    /// Strands asleep under `params` ([`SimParams::sleep_distance`]).
+    pub fn sleeping(&self, params: &SimParams) -> usize {
+        let (params, _) = params.sanitized();
+        self.sleep.iter().filter(|w| sleep::asleep(w, &params)).count()
     }
 
     /// Splits the state into chunks of `strands_per_chunk` strands (the last may be
@@ -333,9 +360,16 @@ impl Strands {
             .zip(self.hints.chunks_mut(size))
             .zip(self.previous_positions.chunks_mut(size).zip(self.previous_velocities.chunks_mut(size)))
             .zip(self.history_step.chunks_mut(strands))
+            .zip(self.sleep.chunks_mut(strands).zip(self.anchors.chunks_mut(size)))
             .enumerate()
             .map(
-                |(c, ((((positions, velocities), hints), (previous_positions, previous_velocities)), history_step))| {
+                |(
+                    c,
+                    (
+                        ((((positions, velocities), hints), (previous_positions, previous_velocities)), history_step),
+                        (sleep, anchors),
+                    ),
+                )| {
                     StrandChunk {
                         first_strand: c * strands,
                         rest: step::Rest { shape: &self.rest, lanes: &self.rest_lanes },
@@ -347,6 +381,8 @@ impl Strands {
                             previous_positions,
                             previous_velocities,
                             history_step,
+                            sleep,
+                            anchors,
                         },
                     }
                 },
@@ -527,6 +563,8 @@ struct ChunkState<'a> {
     previous_positions: &'a mut [Vec3],
     previous_velocities: &'a mut [Vec3],
     history_step: &'a mut [f32],
+    sleep: &'a mut [SleepWatch],
+    anchors: &'a mut [Vec3],
 }
 
 impl StrandChunk<'_> {

@@ -208,6 +208,16 @@ pub struct SimParams {
     pub friction: f32,
     /// Speed limit, m/s, per particle (the per-step displacement clamp).
     pub max_speed: f32,
+    /// A strand whose every particle stays within this distance, m, of where it was for
+    /// [`Self::sleep_time`] under a still head sleeps: it is no longer stepped, and holds
+    /// its place exactly, until the head moves, the wind blows, the skin moves or a setting
+    /// changes ([`Stillness`]). 0 never sleeps: for measuring where hair comes to rest
+    /// more finely than this distance.
+    ///
+    /// [`Stillness`]: super::Stillness
+    pub sleep_distance: f32,
+    /// Seconds a strand must stay within [`Self::sleep_distance`] to fall asleep.
+    pub sleep_time: f32,
     /// A root moving further than this in one step, m, resets its strand to the rest pose.
     pub teleport_distance: f32,
     /// The SIMD instructions to step with; the same results on every path. A path this
@@ -238,6 +248,8 @@ impl Default for SimParams {
             segment_collision: true,
             friction: 0.3,
             max_speed: 15.0,
+            sleep_distance: 1e-3,
+            sleep_time: 0.5,
             teleport_distance: 0.5,
             simd: SimdPath::Auto,
         }
@@ -308,6 +320,8 @@ impl SimParams {
         fix("collision_thickness", &mut p.collision_thickness, defaults.collision_thickness, 0.0, 0.1);
         fix("friction", &mut p.friction, defaults.friction, 0.0, 1.0);
         fix("max_speed", &mut p.max_speed, defaults.max_speed, 1e-3, 1e3);
+        fix("sleep_distance", &mut p.sleep_distance, defaults.sleep_distance, 0.0, 1.0);
+        fix("sleep_time", &mut p.sleep_time, defaults.sleep_time, 0.0, 1e3);
         fix("teleport_distance", &mut p.teleport_distance, defaults.teleport_distance, 1e-3, 1e4);
         if let CollisionResponse::CentreRay { offset: [x, y, z] } = &mut p.collision_response {
             for (field, v) in [

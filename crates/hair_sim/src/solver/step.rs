@@ -19,6 +19,7 @@ use super::detail::Role;
 use super::lanes::{Baseline, M3, MAX_LANES, Mask, PoseLanes, Simd, V3, Wide};
 use super::params::{CollisionResponse, LengthMode, SimParams, stiffness_per_application};
 use super::rest_lanes::{RestLanes, Row};
+use super::sleep::{self, SleepWatch, Stillness};
 use super::wind::wind_at;
 use super::{ChunkState, RestShape, StepInput, StepReport};
 #[cfg(target_arch = "x86_64")]
@@ -218,6 +219,8 @@ struct GroupState<S: Simd> {
     normals: Vec<V3<S>>,
     /// Positions right after collision, before the final length pass.
     collided: Vec<V3<S>>,
+    /// Positions before collision: what collision moved a particle by, it did.
+    shaped: Vec<V3<S>>,
     /// Per particle, how far `collided` is at least from the head's surface: what the
     /// collision pass knows without asking again (the thickness, less any slide after).
     clearance: Vec<Wide<S>>,
@@ -267,6 +270,7 @@ impl<S: Simd> GroupState<S> {
             local: vec![V3::zero(); n],
             pushed: vec![V3::zero(); n],
             normals: vec![V3::zero(); n],
+            shaped: vec![V3::zero(); n],
             collided: vec![V3::zero(); n],
             clearance: vec![Wide::zero(); n],
             moved: vec![0; n],
@@ -441,21 +445,23 @@ fn step_chunk_on<S: Simd>(
     let history = p.length_mode == LengthMode::Springs;
     let mut group_state = GroupState::<S>::new(n, history);
 
+    let stillness = Stillness::of(input);
+
     // Chunk-local indices of the strands gathered for the next group.
     let mut group = [0usize; MAX_LANES];
     let mut lanes = 0;
     let strands = state.positions.len() / n;
     for k in 0..strands {
         let rest_x = &rest.shape.positions[(first_strand + k) * n..][..n];
-        let jumped = || {
-            let root_jump = (head_to.transform_point(rest_x[0]) - state.positions[k * n]).length();
-            root_jump.is_nan() || root_jump > p.teleport_distance
-        };
+        let (root, pinned) = (state.positions[k * n], head_to.transform_point(rest_x[0]));
+        let root_jump = (pinned - root).length();
         if roles.is_some_and(|r| !r[k].stepped()) {
             // Placed from its leaders after the step (`Strands::follow_leaders`).
-        } else if jumped() {
+        } else if root_jump.is_nan() || root_jump > p.teleport_distance {
             reset_strand(state, k, n, rest_x, &head_to);
             report.teleport_resets += 1;
+        } else if sleep::stays_asleep(&state.sleep[k], stillness, p, root, pinned) {
+            report.sleeping += 1;
         } else {
             group[lanes] = k;
             lanes += 1;
@@ -465,10 +471,13 @@ fn step_chunk_on<S: Simd>(
             step_group(&mut group_state, state, &c, input, &mut report);
             group_state.store(state, history);
             for &k in &group[..lanes] {
-                let (xs, vs) = (&state.positions[k * n..][..n], &state.velocities[k * n..][..n]);
-                if !xs.iter().chain(vs).all(|v| v.is_finite()) {
+                let (xs, vs) = (&state.positions[k * n..][..n], &mut state.velocities[k * n..][..n]);
+                if !xs.iter().chain(vs.iter()).all(|v| v.is_finite()) {
                     reset_strand(state, k, n, &rest.shape.positions[(first_strand + k) * n..][..n], &head_to);
                     report.nan_resets += 1;
+                } else {
+                    let anchors = &mut state.anchors[k * n..][..n];
+                    sleep::watch(&mut state.sleep[k], anchors, xs, vs, stillness, p, input.dt);
                 }
             }
             lanes = 0;
@@ -487,6 +496,8 @@ fn reset_strand(state: &mut ChunkState, k: usize, n: usize, rest_x: &[Vec3], pos
     state.previous_positions[k * n..][..n].copy_from_slice(&state.positions[k * n..][..n]);
     state.previous_velocities[k * n..][..n].fill(Vec3::ZERO);
     state.history_step[k] = 0.0;
+    state.sleep[k] = SleepWatch::default();
+    state.anchors[k * n..][..n].copy_from_slice(&state.positions[k * n..][..n]);
 }
 
 #[inline(always)]
@@ -588,10 +599,12 @@ fn substep<S: Simd>(
     //    That pass must not put a particle back inside, so it turns segments where it
     //    would.
     if p.collision {
+        g.shaped.copy_from_slice(&g.positions);
         collide(g, state, p, c, poses, input, report);
         g.collided.copy_from_slice(&g.positions);
         length_pass(g, p);
         keep_outside(g, state, p, poses, input, report);
+
         if p.segment_collision && poses.last {
             keep_segments_outside(g, state, p, poses, input, report);
         }
@@ -604,10 +617,38 @@ fn substep<S: Simd>(
     g.velocities[0] = ((g.positions[0] - g.start[0]) * h.recip()).clamp_length_max(max_speed);
     let inv_step = g.step.recip();
     for j in 1..n {
-        let moved = (g.positions[j] - g.base[j]) * inv_step;
+        let mut moved = (g.positions[j] - g.base[j]) * inv_step;
+        if p.collision {
+            moved = without_rebound(g, j, moved, inv_step, h, poses);
+        }
         let next_correction = if j + 1 < n { g.ftl_correction[j + 1] } else { V3::zero() };
         g.velocities[j] = ftl_brake(moved, next_correction, ftl_velocity).clamp_length_max(max_speed);
     }
+}
+
+/// The velocity `moved` that particle `j`'s positions give, less what collision's shove
+/// (every move from `g.shaped` on: contacts, friction, the final length pass, segment
+/// turns) added along its own direction: relative to the head's surface there, a shove may
+/// stop a particle coming in, but not send it off faster than it was leaving before.
+///
+/// Contacts are inelastic. Counted whole, a shove becomes speed: a particle pushed out of
+/// the head or turned off an ear's rim flew on past where it was put and fell back, and at
+/// rest that repeated every few steps (the spring model swung strands by centimetres).
+#[inline(always)]
+fn without_rebound<S: Simd>(
+    g: &GroupState<S>,
+    j: usize,
+    moved: V3<S>,
+    inv_step: Wide<S>,
+    h: Wide<S>,
+    poses: &SubstepPoses<S>,
+) -> V3<S> {
+    let shaped = g.shaped[j];
+    let shove = (g.positions[j] - shaped).normalize_or(V3::zero());
+    let surface = (poses.now.world_point(poses.before_lanes.local_point(shaped)) - shaped) * h.recip();
+    let leaving_before = ((shaped - g.base[j]) * inv_step - surface).dot(shove).max(Wide::zero());
+    let leaving = (moved - surface).dot(shove);
+    moved - shove * (leaving - leaving_before).max(Wide::zero())
 }
 
 /// Follow-The-Leader's velocity correction as a brake: the velocity `moved` a particle's
@@ -918,6 +959,12 @@ fn head_contact(
     }
 }
 
+/// How far outside the surface [`turn_out_of`] lifts the middle of a segment's crossed
+/// stretch, m: just clear of it. Lifted onto the particles' collision shell, a segment
+/// resting on an ear's rim rose further than gravity brings it back in a step, and fell
+/// through the rim again a few steps later, over and over.
+const SEGMENT_CLEARANCE: f32 = 1e-4;
+
 /// How many times [`outside_at_length`] turns one segment before collision simply wins.
 const MAX_TURNS: usize = 4;
 
@@ -1059,7 +1106,7 @@ fn contact_at<S: Simd>(
 /// lane-wide sum and one table lookup per segment. What remains is tested exactly
 /// ([`HeadCollider::segment_crossing`]: by a sharp feature, against the triangles listed
 /// in reach; elsewhere, a ray through the BVH). Where it crosses, it turns about its
-/// parent until the middle of the crossed stretch is out on the collision shell (a few
+/// parent until the middle of the crossed stretch is just outside the surface (a few
 /// turns at most), the strand below follows it as a leader, and the final pass places the rest
 /// outside from there ([`place_outside`]).
 #[inline(always)]
@@ -1102,7 +1149,7 @@ fn keep_segments_outside<S: Simd>(
             }
             let (parent, child, length) = (g.positions[j - 1].lane(l), g.positions[j].lane(l), length.get(l));
             let (local_parent, local_child) = (poses.now_one.local_point(parent), poses.now_one.local_point(child));
-            let local_turned = turn_out_of(collider, local_parent, local_child, length, p);
+            let local_turned = turn_out_of(collider, local_parent, local_child, length);
             if local_turned == local_child {
                 continue;
             }
@@ -1138,18 +1185,18 @@ fn keep_segments_outside<S: Simd>(
 
 /// Where to put `child` (head-local, `length` from `parent`) so that the segment between
 /// them no longer runs through the head: turned about the parent until the middle of the
-/// crossed stretch is out on the collision shell, a few turns at most. Where that does not
+/// crossed stretch is just outside the surface ([`SEGMENT_CLEARANCE`]), a few turns at most. Where that does not
 /// clear it (a fold of the surface, an ear's rim seen edge-on), the segment turns toward
 /// the surface's normal at the parent instead, as little as bisection finds enough.
 /// Returns `child` itself when the segment crosses nothing.
-fn turn_out_of(collider: &HeadCollider, parent: Vec3, child: Vec3, length: f32, p: &SimParams) -> Vec3 {
+fn turn_out_of(collider: &HeadCollider, parent: Vec3, child: Vec3, length: f32) -> Vec3 {
     let mut turned = child;
     for _ in 0..MAX_TURNS {
         let Some((enters, leaves)) = collider.segment_crossing(parent, turned) else { return turned };
         // The middle of the stretch inside, out onto the shell.
         let inside = parent + (turned - parent) * (0.5 * (enters + leaves) / length.max(1e-9));
         let mut hint = ContactHint::NONE;
-        let Some(contact) = collider.resolve_hinted(inside, p.collision_thickness, &mut hint) else { break };
+        let Some(contact) = collider.resolve_hinted(inside, SEGMENT_CLEARANCE, &mut hint) else { break };
         turned = parent + (contact.position - parent).normalize_or(Vec3::Y) * length;
     }
     if collider.segment_crossing(parent, turned).is_none() {

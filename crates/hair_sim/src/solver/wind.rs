@@ -26,15 +26,20 @@ fn value_noise(seed: u32, t: f32) -> f32 {
     (a + (b - a) * s) * 2.0 - 1.0
 }
 
+/// Whether `wind` blows nowhere, at no time: no strength or no direction.
+pub fn is_calm(wind: &Wind) -> bool {
+    wind.strength == 0.0 || Vec3::from_array(wind.direction).normalize_or_zero() == Vec3::ZERO
+}
+
 /// The wind acceleration felt by strand `strand` at `time`, before the perpendicular
 /// projection: direction × strength × (1 + gust · noise). Neighbouring strands share most
 /// of a gust (a slow shared term) and differ a little (a per-strand term).
 #[inline]
 pub fn wind_at(wind: &Wind, strand: u32, time: f32) -> Vec3 {
-    let direction = Vec3::from_array(wind.direction).normalize_or_zero();
-    if wind.strength == 0.0 || direction == Vec3::ZERO {
+    if is_calm(wind) {
         return Vec3::ZERO;
     }
+    let direction = Vec3::from_array(wind.direction).normalize_or_zero();
     let t = time * wind.gust_frequency;
     let shared = value_noise(0x5eed, t);
     let own = value_noise(strand.wrapping_mul(0x2545_f491), t * 1.7 + hash01(strand) * 16.0);
