@@ -48,7 +48,7 @@
 use bytemuck::{Pod, Zeroable};
 use hair_sim::collide::HeadCollider;
 use hair_sim::math::{Pose, Vec3};
-use hair_sim::solver::{LengthMode, RestShape, StepConstants, StepInput, StepReport};
+use hair_sim::solver::{LengthMode, RestShape, StepConstants, StepInput, StepReport, Stillness};
 use layout::Slots;
 use recorder::Recorder;
 use wgpu::util::DeviceExt;
@@ -208,6 +208,7 @@ struct StepUniform {
     offset: [f32; 4],
     skin: [u32; 4],
     bvh: [u32; 4],
+    sleep: [f32; 4],
 }
 
 /// The head as the shader reads it: its distance grid, and where the exact near query's
@@ -320,6 +321,9 @@ pub struct GpuStrands {
     springs: wgpu::Buffer,
     /// Whether the last step used the spring model, so its memory is current.
     springs_remembered: bool,
+    /// The last step's settings and extra colliders ([`Stillness::key`]): strands sleep
+    /// through a step only under those they fell asleep under.
+    last_settings: Option<u64>,
     grid_info: Option<GridInfo>,
     /// The translation pass (`translate_particles`).
     translate: wgpu::ComputePipeline,
@@ -424,8 +428,9 @@ impl Phases {
     }
 }
 
-/// Bytes per slot in `motion`: velocity, substep start and FTL correction.
-const MOTION_BYTES: u64 = 3 * 16;
+/// Bytes per slot in `motion`: velocity, substep start, FTL correction, position before
+/// collision and sleep anchor (`step.wgsl`'s `PLANES`).
+const MOTION_BYTES: u64 = 5 * 16;
 /// Bytes per strand of the step report after the particles in `motion` (`step.wgsl`'s
 /// `Tally`, added up).
 const REPORT_BYTES: u64 = 2 * 16;
@@ -572,6 +577,7 @@ impl GpuStrands {
             head,
             springs,
             springs_remembered: false,
+            last_settings: None,
             grid_info,
             translate,
             rest_positions: rest.positions.clone(),
@@ -767,7 +773,10 @@ impl GpuStrands {
             self.rebind();
         }
         let patch = self.upload_colliders(input);
-        let (mut uniform, tables) = self.constants(input, &constants, collide_head);
+        let stillness = Stillness::of(input);
+        let still = stillness.still && self.last_settings == Some(stillness.key);
+        self.last_settings = Some(stillness.key);
+        let (mut uniform, tables) = self.constants(input, &constants, collide_head, still);
         uniform.skin = patch;
         // What the shader decides from the uniform: whether particles collide, and whether
         // the last substep turns segments out of the head (`turns_segments`).
@@ -814,8 +823,14 @@ impl GpuStrands {
     }
 
     /// The uniform and the pose and alpha table for one step with `c`'s constants (the
-    /// CPU solver's own).
-    fn constants(&self, input: &StepInput, c: &StepConstants, collide_head: bool) -> (StepUniform, Vec<[f32; 4]>) {
+    /// CPU solver's own); `still`: whether the step may keep strands asleep.
+    fn constants(
+        &self,
+        input: &StepInput,
+        c: &StepConstants,
+        collide_head: bool,
+        still: bool,
+    ) -> (StepUniform, Vec<[f32; 4]>) {
         let p = input.params;
         let substeps = (c.poses.len() - 1) as u32;
         let mut tables: Vec<[f32; 4]> = Vec::with_capacity(4 * c.poses.len() + c.global_alpha.len().div_ceil(4));
@@ -858,6 +873,7 @@ impl GpuStrands {
             offset: [0.0; 4],
             skin: [0; 4],
             bvh: grid.map_or([0; 4], |g| g.bvh),
+            sleep: [p.sleep_distance, p.sleep_time, f32::from(u8::from(still)), input.dt],
         };
         (uniform, tables)
     }

@@ -58,7 +58,7 @@ impl ReportCopy {
     fn sum(bytes: &[u8]) -> StepReport {
         let per_strand: &[[[f32; 4]; 2]] = bytemuck::cast_slice(bytes);
         let mut report = StepReport::default();
-        for &[[teleports, nans, contacts, depth], [stretches, turns, ..]] in per_strand {
+        for &[[teleports, nans, contacts, depth], [stretches, turns, sleeping, _]] in per_strand {
             report.merge(StepReport {
                 teleport_resets: teleports as u32,
                 nan_resets: nans as u32,
@@ -66,6 +66,7 @@ impl ReportCopy {
                 max_depth: depth,
                 contact_stretches: stretches as u32,
                 segment_turns: turns as u32,
+                sleeping: sleeping as u32,
             });
         }
         report

@@ -62,6 +62,10 @@ struct Step {
     // nodes (eight words each: lowest corner and the node after its subtree, highest corner
     // and a leaf's first triangle × 8 + count) and its triangle order start.
     bvh: vec4<u32>,
+    // Sleeping (hair_sim's `solver/sleep.rs`): the sleep distance and time, 1 where the step
+    // may keep strands asleep (still, under the settings of the step before; 0 wakes all),
+    // and the step's length.
+    sleep: vec4<f32>,
 }
 
 @group(0) @binding(0) var<uniform> step: Step;
@@ -71,9 +75,12 @@ struct Step {
 // The per-particle buffers are laid out as `layout.wgsl` (prepended) says: a plane of
 // `slots()` slots for each value.
 @group(0) @binding(2) var<storage, read_write> positions: array<vec4<f32>>;
-// Three planes: velocity, position at the substep's start, FTL correction. Then per strand
-// two vec4: what its steps did since the report was last taken (`Tally`, added up).
+// `PLANES` planes: velocity, position at the substep's start, FTL correction, position
+// before collision, sleep anchor (the last two's root slots hold the strand's sleep watch).
+// Then per strand two vec4: what its steps did since the report was last taken (`Tally`,
+// added up).
 @group(0) @binding(3) var<storage, read_write> motion: array<vec4<f32>>;
+const PLANES: u32 = 5u;
 // Two planes: head-local rest position with the rest length of the segment ending there
 // in w, and the rest direction in the parent segment's frame.
 @group(0) @binding(4) var<storage, read> rest: array<vec4<f32>>;
@@ -115,6 +122,7 @@ struct Tally {
     max_depth: f32,
     contact_stretches: f32,
     segment_turns: f32,
+    sleeping: f32,
 }
 
 var<private> tally: Tally;
@@ -135,7 +143,7 @@ fn touch(depth: f32) {
 // Adds this step's tally to the strand's report in `motion` (the deepest contact: the
 // deeper of the two).
 fn add_to_report(strand: u32) {
-    let at = 3u * slots() + 2u * strand;
+    let at = PLANES * slots() + 2u * strand;
     let kept = motion[at];
     motion[at] = vec4<f32>(
         kept.x + tally.teleport_resets,
@@ -144,7 +152,7 @@ fn add_to_report(strand: u32) {
         max(kept.w, tally.max_depth),
     );
     let more = motion[at + 1u];
-    motion[at + 1u] = vec4<f32>(more.x + tally.contact_stretches, more.y + tally.segment_turns, 0.0, 0.0);
+    motion[at + 1u] = vec4<f32>(more.x + tally.contact_stretches, more.y + tally.segment_turns, more.z + tally.sleeping, 0.0);
 }
 
 struct Pose {
@@ -172,6 +180,14 @@ fn alpha(j: u32) -> f32 {
 fn velocity(i: u32) -> vec3<f32> { return motion[i].xyz; }
 fn start(i: u32) -> vec3<f32> { return motion[slots() + i].xyz; }
 fn correction(i: u32) -> vec3<f32> { return motion[2u * slots() + i].xyz; }
+// Where collision found particle `i` (before it moved it); at a root, w: 1 while the
+// strand's sleep watch runs (0: begin it).
+fn shaped(i: u32) -> vec3<f32> { return motion[3u * slots() + i].xyz; }
+fn watching(first: u32) -> bool { return motion[3u * slots() + first].w == 1.0; }
+// Where particle `i` was when its strand's sleep watch began; at a root, w: how long the
+// watch has run, seconds.
+fn anchor(i: u32) -> vec3<f32> { return motion[4u * slots() + i].xyz; }
+fn quiet(first: u32) -> f32 { return motion[4u * slots() + first].w; }
 fn rest_position(i: u32) -> vec3<f32> { return rest[i].xyz; }
 fn rest_length(i: u32) -> f32 { return rest[i].w; }
 fn rest_direction(i: u32) -> vec3<f32> { return rest[slots() + i].xyz; }
@@ -784,6 +800,9 @@ fn crosses(a: vec3<f32>, b: vec3<f32>) -> bool {
 
 // How many times a segment turns before collision simply wins (hair_sim's `MAX_TURNS`).
 const MAX_TURNS: u32 = 4u;
+// How far outside the surface a turn lifts the middle of the crossed stretch, m (hair_sim's
+// `SEGMENT_CLEARANCE`).
+const SEGMENT_CLEARANCE: f32 = 1e-4;
 // Halvings of the angle between a crossing direction and a clear one in `turn_out_of`.
 const BISECTIONS: u32 = 5u;
 // Directions `clear_direction` tries over the whole sphere as its last resort.
@@ -807,7 +826,7 @@ fn turn_out_of(parent: vec3<f32>, child: vec3<f32>, segment: f32) -> vec3<f32> {
         if turn == MAX_TURNS {
             break;
         }
-        let contact = head_push(mix(parent, turned, 0.5 * (stretch.x + stretch.y)));
+        let contact = head_push_within(mix(parent, turned, 0.5 * (stretch.x + stretch.y)), SEGMENT_CLEARANCE);
         if !contact.hit {
             break;
         }
@@ -1176,6 +1195,7 @@ fn patch_contact(p: vec3<f32>) -> PatchContact {
 // --- The step ---
 
 fn reset_strand(first: u32, n: u32, to: Pose) {
+    motion[3u * slots() + first].w = 0.0;
     for (var j = 0u; j < n; j++) {
         let i = particle_slot(first, j);
         let x = world_point(to, rest_position(i));
@@ -1291,6 +1311,7 @@ fn collide_particle(i: u32, k: u32) {
     let before = pose(k - 1u);
     let now = pose(k);
     var x = positions[i].xyz;
+    motion[3u * slots() + i] = vec4<f32>(x, 0.0);
     if step.grid_dims.w == 1u {
         // Friction slides back along the tangent plane, which in a hollow dips under the
         // surface: out again from there (a second query), unless the slide is too short to
@@ -1440,7 +1461,10 @@ fn set_velocity(i: u32, x: vec3<f32>, next: vec3<f32>, inverse_step: f32) {
     if step.spring_flags.x == 1u {
         base = springs_base(i);
     }
-    let moved = (x - base) * inverse_step;
+    var moved = (x - base) * inverse_step;
+    if step.flags.x == 1u {
+        moved = without_rebound(i, x, base, moved, inverse_step);
+    }
     let opposing = dot(next, moved) * step.motion.w;
     let share = clamp(opposing * (1.0 / max(dot(moved, moved), 1e-30)), 0.0, 1.0);
     var v = moved * (1.0 - share);
@@ -1450,6 +1474,18 @@ fn set_velocity(i: u32, x: vec3<f32>, next: vec3<f32>, inverse_step: f32) {
         v = next;
     }
     motion[i] = vec4<f32>(clamp_length_max(v, step.limits.x), 0.0);
+}
+
+// The velocity `moved` of particle `i` ending at `x`, less what collision's shove added along
+// its own direction, relative to the head's surface there (hair_sim's `without_rebound`).
+fn without_rebound(i: u32, x: vec3<f32>, base: vec3<f32>, moved: vec3<f32>, inverse_step: f32) -> vec3<f32> {
+    let k = phase.x;
+    let from_ = shaped(i);
+    let shove = normalize_or(x - from_, vec3<f32>(0.0));
+    let surface = (world_point(pose(k), local_point(pose(k - 1u), from_)) - from_) * (1.0 / step.gravity_h.w);
+    let leaving_before = max(dot((from_ - base) * inverse_step - surface, shove), 0.0);
+    let leaving = dot(moved - surface, shove);
+    return moved - shove * max(leaving - leaving_before, 0.0);
 }
 
 // Gravity and the wind across particle `i`'s segment as the substep started.
@@ -1755,31 +1791,75 @@ fn begin_step(strand: u32, first: u32, n: u32) -> bool {
         add_to_report(strand);
         return false;
     }
+    if asleep(first) && step.sleep.z == 1.0 && jump <= ROOT_TOLERANCE {
+        // Left where it is: the step's other passes pass it by, as one started over.
+        motion[slots() + first].w = 1.0;
+        tally.sleeping = 1.0;
+        add_to_report(strand);
+        return false;
+    }
     if step.spring_flags.x == 1u && step.spring_flags.y == 0u {
         springs[first] = vec4<f32>(0.0);
     }
     return true;
 }
 
+// How far a sleeping strand's root may be from where the head puts it (hair_sim's
+// `sleep::ROOT_TOLERANCE`).
+const ROOT_TOLERANCE: f32 = 1e-6;
+
+// Whether the strand whose root is in slot `first` is asleep (hair_sim's `sleep::asleep`).
+fn asleep(first: u32) -> bool {
+    return watching(first) && step.sleep.x > 0.0 && quiet(first) >= step.sleep.y;
+}
+
+// After a step in which the strand was stepped, its sleep watch (hair_sim's `sleep::watch`):
+// it goes on while every particle stays near its anchor in a still step; else it starts
+// over from here. A strand that falls asleep keeps no velocity.
+fn watch(first: u32, n: u32) {
+    let limit = step.sleep.x * step.sleep.x;
+    var near = true;
+    for (var j = 0u; j < n; j++) {
+        let i = particle_slot(first, j);
+        let d = positions[i].xyz - anchor(i);
+        near = near && dot(d, d) <= limit;
+    }
+    if step.sleep.z == 1.0 && watching(first) && near {
+        motion[4u * slots() + first].w = quiet(first) + step.sleep.w;
+        if asleep(first) {
+            for (var j = 0u; j < n; j++) {
+                motion[particle_slot(first, j)] = vec4<f32>(0.0);
+            }
+        }
+    } else {
+        for (var j = 0u; j < n; j++) {
+            let i = particle_slot(first, j);
+            motion[4u * slots() + i] = vec4<f32>(positions[i].xyz, 0.0);
+        }
+        motion[3u * slots() + first].w = 1.0;
+    }
+}
+
 // A strand's substep ends: on the step's last, a particle or velocity that is not finite
 // starts it over at rest; what the substep did goes into the strand's report.
 fn end_substep(strand: u32, first: u32, n: u32, k: u32) {
-    if k == step.counts.z {
-        reset_if_not_finite(first, n, pose(k));
+    if k == step.counts.z && !reset_if_not_finite(first, n, pose(k)) {
+        watch(first, n);
     }
     add_to_report(strand);
 }
 
 // A strand with a particle or velocity that is not finite starts over at rest under `pose`.
-fn reset_if_not_finite(first: u32, n: u32, at: Pose) {
+fn reset_if_not_finite(first: u32, n: u32, at: Pose) -> bool {
     for (var j = 0u; j < n; j++) {
         let i = particle_slot(first, j);
         if !(finite(positions[i].xyz) && finite(velocity(i))) {
             reset_strand(first, n, at);
             tally.nan_resets = 1.0;
-            return;
+            return true;
         }
     }
+    return false;
 }
 
 // Moves every particle, and the spring model's memory of where it was, by `step.offset`:
@@ -1791,6 +1871,8 @@ fn translate_particles(@builtin(global_invocation_id) id: vec3<u32>, @builtin(nu
         return; // (the padding moves too: it is never read)
     }
     positions[i] = vec4<f32>(positions[i].xyz + step.offset.xyz, 0.0);
+    let anchor_at = 4u * slots() + i;
+    motion[anchor_at] = vec4<f32>(motion[anchor_at].xyz + step.offset.xyz, motion[anchor_at].w);
     if step.spring_flags.x == 1u {
         springs[i] = vec4<f32>(springs[i].xyz + step.offset.xyz, springs[i].w);
     }

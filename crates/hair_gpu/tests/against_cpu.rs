@@ -311,9 +311,7 @@ fn with_collision_the_gpu_stays_near_the_cpu_and_out_of_the_head() {
             crossing_segments(&cpu, n, &collider, pose)
         );
         assert!(on_gpu.iter().all(|p| p.is_finite()));
-        // Lavapipe, 2026-12-04 (local shape a bend): normal response 473,561 contacts and 5
-        // segment turns on both; the centre ray 469,752 contacts against the CPU's 469,745,
-        // 373 turns on both.
+        // The same contacts and turns on both, give or take the few that rounding tips.
         assert_reports_agree(&cpu_report, &gpu_report);
         assert!(gpu_report.contacts > 0 && gpu_report.segment_turns > 0, "{gpu_report:?}");
         // The GPU finds the closest points the CPU finds (the same candidate lists) and
@@ -326,7 +324,8 @@ fn with_collision_the_gpu_stays_near_the_cpu_and_out_of_the_head() {
         let tipped = cpu.chunks_exact(n).zip(on_gpu.chunks_exact(n)).filter(|(c, g)| apart(c, g).1 > bound).count();
         eprintln!("{name} response: {tipped} strands part by more than {:.3} mm", bound * 1e3);
         assert!(mean <= 1e-5f32.max(SPREAD_FACTOR * spread.0), "mean {mean} m apart (the twins {} m)", spread.0);
-        assert!(tipped <= 1 && max <= 1e-3, "{tipped} strands tipped, the furthest {max} m");
+        // The furthest: within the twins' own reach, or a millimetre for the one that tips.
+        assert!(tipped <= 1 && max <= bound.max(1e-3), "{tipped} strands tipped, the furthest {max} m");
         // Without the whole-segment test, 1 and 5 of the 7,168 segments below the roots cut
         // an ear's rim.
         assert_eq!(crossing, 0, "segments through the head");
@@ -420,6 +419,55 @@ fn a_teleport_resets_the_strands_as_on_the_cpu() {
     assert!(max < 1e-5, "both reset to the rest pose: {max} m apart");
     let rest_there: Vec<Vec3> = rest.positions.iter().map(|&p| jump(0.5).transform_point(p)).collect();
     assert!(apart(&on_gpu, &rest_there).1 < 1e-5, "at rest under the new pose");
+}
+
+/// Under a still head the strands fall asleep on both backends in the same steps and stay
+/// where they fell asleep; when the head moves again every one wakes on both.
+#[test]
+fn strands_fall_asleep_and_wake_as_on_the_cpu() {
+    let Some(gpu) = gpu() else { return };
+    let (_, collider, rest) = groom(64);
+    let params = SimParams::default();
+    // Two seconds still, then the keyframes.
+    let pose_at = |t: f32| head_pose((t - 2.0).max(0.0));
+    let mut cpu = Strands::new(rest.clone(), pose_at(0.0));
+    let mut on_gpu = GpuStrands::new(&gpu, &rest, pose_at(0.0), Some(&collider)).expect("GPU strands");
+    let (mut first_asleep, mut mismatched_steps, mut asleep_before_moving) = (None, 0, 0);
+    for k in 0..132 {
+        let input = input_at(k, pose_at, &collider, &params);
+        let cpu_report = cpu.step(&input);
+        on_gpu.step(&input).expect("GPU step");
+        let gpu_report = on_gpu.report().expect("report");
+        if cpu_report.sleeping > 0 && first_asleep.is_none() {
+            first_asleep = Some(k);
+        }
+        if cpu_report.sleeping != gpu_report.sleeping {
+            eprintln!("step {k}: {} asleep on the CPU, {} on the GPU", cpu_report.sleeping, gpu_report.sleeping);
+            // A strand whose particle moved a sleep distance, give or take rounding, falls
+            // asleep a step earlier or later on one of them.
+            assert!(cpu_report.sleeping.abs_diff(gpu_report.sleeping) <= 1, "step {k}");
+            mismatched_steps += 1;
+        }
+        if k == 110 {
+            asleep_before_moving = gpu_report.sleeping;
+            let (mean, max) = apart(cpu.positions(), &on_gpu.positions().expect("read back"));
+            eprintln!(
+                "still for 2 s: {} of 64 asleep on the GPU, {} on the CPU, {mean:.1e} m, {max:.1e} m apart",
+                gpu_report.sleeping, cpu_report.sleeping
+            );
+            assert!(max < 1e-4, "{max} m apart");
+        }
+        if k >= 120 {
+            assert_eq!((cpu_report.sleeping, gpu_report.sleeping), (0, 0), "the head moves: all awake");
+        }
+    }
+    eprintln!("first asleep at step {first_asleep:?}; {mismatched_steps} steps where the counts differ");
+    assert!(first_asleep.is_some_and(|k| k < 90), "asleep from step {first_asleep:?}");
+    assert_eq!(asleep_before_moving, 64, "every strand asleep before the head moves");
+    assert!(mismatched_steps <= 5, "{mismatched_steps} steps with different sleeping counts");
+    let (mean, max) = apart(cpu.positions(), &on_gpu.positions().expect("read back"));
+    eprintln!("moving again for 12 steps: {mean:.1e} m, {max:.1e} m apart");
+    assert!(mean < 1e-5 && max < 1e-4, "mean {mean} m, max {max} m apart");
 }
 
 /// A particle placed as far out as an `f32` reaches (finite, so `set_positions` takes it)
