@@ -999,15 +999,37 @@ fn outside_at_length(placed_in: vec3<f32>, parent: vec3<f32>, segment: f32, now:
     if best.w > -2.0 {
         return parent + best.xyz * segment;
     }
+    // Out of the collider, reached only through a thin part (hair_sim's
+    // `outside_at_length`): the segment pass turns it out of that.
+    for (var k = 0u; k <= TILTED; k++) {
+        var d = deep.normal;
+        if k > 0u {
+            d = tilted(deep.normal, k - 1u);
+        }
+        if (k == 0u || dot(d, wanted) > best.w) && outside_of_colliders(parent + d * segment, now) {
+            if k == 0u {
+                return parent + d * segment;
+            }
+            best = vec4<f32>(d, dot(d, wanted));
+        }
+    }
+    if best.w > -2.0 {
+        return parent + best.xyz * segment;
+    }
     tally.contact_stretches += 1.0;
     return deep.position - deep.normal * (step.limits.y - 1e-6);
+}
+
+// Whether world `x` is outside every collider (within a shell counts).
+fn outside_of_colliders(x: vec3<f32>, now: Pose) -> bool {
+    let contact = contact_at(x, now);
+    return !(contact.hit && contact.depth > step.limits.y);
 }
 
 // Whether world `x` is outside every collider (within a shell counts) and the segment to it
 // from world `parent` passes through no part of the head.
 fn outside_and_reached(parent: vec3<f32>, x: vec3<f32>, now: Pose) -> bool {
-    let contact = contact_at(x, now);
-    if contact.hit && contact.depth > step.limits.y {
+    if !outside_of_colliders(x, now) {
         return false;
     }
     return step.grid_dims.w == 0u || !crosses(local_point(now, parent), local_point(now, x));
@@ -1036,7 +1058,9 @@ fn keep_segments_outside(first: u32, n: u32, now: Pose) {
         if all(local_turned == local_child) {
             continue;
         }
-        let turned = world_point(now, local_turned);
+        // Only the turn's direction comes back from head-local space (hair_sim's
+        // `keep_segments_outside`).
+        let turned = parent + now.rotation * normalize_or(local_turned - local_parent, vec3<f32>(0.0, 1.0, 0.0)) * span;
         tally.segment_turns += 1.0;
         // The strand placed again from the turned particle; where placing it on the shell
         // took the segment back through (a fold), once more from the turned particle as it

@@ -301,3 +301,62 @@ proptest! {
         }
     }
 }
+
+/// 512 guides × 16 particles, 25 cm, on the shipped head's painted scalp (as its converter
+/// reads `assets/head.glb`), settled; with its own inside test.
+fn shipped() -> &'static (Groom, InsideTest) {
+    static SHIPPED: OnceLock<(Groom, InsideTest)> = OnceLock::new();
+    SHIPPED.get_or_init(|| {
+        let asset = head_asset::read_committed().expect("assets/head.glb is committed and parses");
+        let head = asset.head_mesh();
+        let labels: Vec<f32> = asset.scalp_vertices().iter().map(|&s| f32::from(u8::from(s))).collect();
+        let collider = HeadCollider::new(&head, DEFAULT_GRID_RESOLUTION).expect("the shipped head");
+        let roots = sample_roots(&head, &hair_sim::groom::triangle_weights(&head, &labels), 512, 7).expect("scalp");
+        let grow = GuideParams { segments: 15, length: 0.25, ..GuideParams::default() };
+        let rest = RestShape::new(grow_guides(&head, &roots, &grow, 7).expect("roots"), 16).expect("guides");
+        let rest = settle(rest, Some(&collider), &SimParams::default(), 180, Vec3::ZERO).expect("settle");
+        let test = InsideTest::new(&head);
+        (Groom { head, collider, rest }, test)
+    })
+}
+
+/// On the shipped head, whose ears, jaw and nose put collision and length at odds: under a
+/// 60 rad/s whip, a 1 s hitch while turning at 3 rad/s and a 20 m/s throw stopped dead,
+/// inextensible hair stretches by at most 1 % and springs stay within their band + 0.1 %,
+/// with no particle more than 0.5 mm inside the head (measured by [`InsideTest`]) and no
+/// segment through it (but one, once, on springs). The worst stretch of each run is
+/// printed.
+#[test]
+fn on_the_shipped_head_length_holds_at_the_limits() {
+    let (groom, test) = shipped();
+    let turning = spin(Vec3::Y, 3.0);
+    let hitch = move |t: f32| if t <= DT { turning(t) } else { turning(t + 1.0 - DT) };
+    let springs = SimParams { length_mode: LengthMode::Springs, ..SimParams::default() };
+    for (mode, params) in [("inextensible", SimParams::default()), ("springs", springs)] {
+        let bound = match params.length_mode {
+            LengthMode::Inextensible => 0.01,
+            LengthMode::Springs => params.length_tolerance + 0.001,
+        };
+        for (name, inside) in [
+            ("yaw at 60 rad/s", run_on(groom, test, &params, 60, DT, spin(Vec3::Y, 60.0))),
+            ("pitch at 60 rad/s", run_on(groom, test, &params, 60, DT, spin(Vec3::X, 60.0))),
+            ("a 1 s hitch while turning at 3 rad/s", run_on(groom, test, &params, 2, DT, &hitch)),
+            ("thrown at 20 m/s, stopped dead", run_on(groom, test, &params, 60, DT, throw(20.0))),
+        ] {
+            println!(
+                "shipped head, {mode}, {name}: worst stretch {:.2} %, {} particles stretched by contacts, \
+                 deepest {:.3} mm inside, {} crossing segments",
+                inside.stretch * 100.0,
+                inside.contact_stretches,
+                inside.all.deepest * 1e3,
+                inside.all.crossings
+            );
+            assert!(inside.all.deepest <= 5e-4, "{mode}, {name}: {} mm inside", inside.all.deepest * 1e3);
+            // Springs thrown at 20 m/s leave one segment-step of the run's 460,800 across the
+            // head (docs/simulation.md).
+            let crossings = if params.length_mode == LengthMode::Springs { 1 } else { 0 };
+            assert!(inside.all.crossings <= crossings, "{mode}, {name}: segments through the head");
+            assert!(inside.stretch <= bound, "{mode}, {name}: stretch {} > {bound}", inside.stretch);
+        }
+    }
+}

@@ -67,12 +67,18 @@ impl PoseMatrix {
         (self.rotation * Vec3A::from(p) + self.translation).into()
     }
 
+    /// Head-local direction → world.
+    #[inline]
+    fn rotate(&self, v: Vec3) -> Vec3 {
+        (self.rotation * Vec3A::from(v)).into()
+    }
+
     /// A head-local contact → world.
     #[inline]
     fn world_contact(&self, contact: Contact) -> Contact {
         Contact {
             position: self.world_point(contact.position),
-            normal: (self.rotation * Vec3A::from(contact.normal)).into(),
+            normal: self.rotate(contact.normal),
             depth: contact.depth,
         }
     }
@@ -1153,7 +1159,11 @@ fn keep_segments_outside<S: Simd>(
             if local_turned == local_child {
                 continue;
             }
-            let turned = poses.now_one.world_point(local_turned);
+            // Only the turn's direction comes back from head-local space, where a mesh far
+            // from its own origin leaves coordinates of many metres: the particle is placed
+            // at the segment's length from its parent in the solver's space.
+            let direction = poses.now_one.rotate((local_turned - local_parent).normalize_or(Vec3::Y));
+            let turned = parent + direction * length;
             // The strand below follows the turned particle as a leader: each particle is
             // drawn toward where it was, then placed outside.
             for k in j + 1..n {
@@ -1278,8 +1288,9 @@ const BISECTIONS: usize = 5;
 /// or a shell thicker than it), the length wins over the shell but not over the surface:
 /// the particle stays where the last turn put it if that is outside the collider itself,
 /// else goes to the nearest direction [`around`] the contact's normal that is outside it
-/// and that the segment `reaches` without passing through the head, and only where none is
-/// goes onto the surface, stretching the segment.
+/// and that the segment `reaches` without passing through the head, else to the nearest
+/// that is outside it at all, and only where none is goes onto the surface, stretching the
+/// segment.
 fn outside_at_length(
     mut placed: Vec3,
     parent: Vec3,
@@ -1310,11 +1321,15 @@ fn outside_at_length(
     let Some(deep) = contact_at(placed).filter(|c| c.depth > thickness) else { return (placed, true) };
     // Inside the collider, in a crease tighter than the segment: another direction at full
     // length that is out of it (and reached without passing through it), nearest the one
-    // the turns arrived at; failing that, onto its surface (1 µm out), stretching the
-    // segment.
+    // the turns arrived at; failing that, one out of it that the segment reaches only
+    // through a thin part (the segment pass turns it out of that; stretched onto the
+    // surface instead, a strand below an ear's rim was left half as long again); failing
+    // that, onto its surface (1 µm out), stretching the segment.
     let wanted = (placed - parent) / length;
-    let kept =
-        around(deep.normal, wanted).map(|d| parent + d * length).find(|&x| outside(&contact_at(x)) && reaches(x));
+    let kept = around(deep.normal, wanted)
+        .map(|d| parent + d * length)
+        .find(|&x| outside(&contact_at(x)) && reaches(x))
+        .or_else(|| around(deep.normal, wanted).map(|d| parent + d * length).find(|&x| outside(&contact_at(x))));
     match kept {
         Some(x) => (x, true),
         None => (deep.position - deep.normal * (thickness - 1e-6), false),
