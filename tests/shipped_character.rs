@@ -218,3 +218,73 @@ fn hair_on_the_shipped_character_follows_its_clip() {
     // Where the neck blends away from the scalp joint, the skin is collided with as drawn.
     assert!(neck.1 <= 1e-4, "a particle is {} mm inside the skinned neck", neck.1 * 1e3);
 }
+
+/// The head primitive of `head.glb` loaded as a user loads a mesh
+/// (`GltfAssetLabel::Primitive`), standing still, with the default groom at 600 guides,
+/// combed and not, at the default 2 substeps and at 8: after 4 s at 60 fps, over the next
+/// second, uncombed no particle moves more than 10 µm in a frame and none goes back to where
+/// it was two frames before; combed back, at most 1 % of the strands still move (a segment
+/// resting on an ear's rim, `docs/simulation.md`), and the rest are asleep.
+#[test]
+fn hair_on_the_still_shipped_head_is_still() {
+    let back = Vec3::new(0.0, 0.0, -1.5);
+    for (comb, substeps) in [(Vec3::ZERO, 2), (back, 2), (back, 8)] {
+        let mut app = App::new();
+        app.add_plugins((
+            MinimalPlugins,
+            TransformPlugin,
+            AssetPlugin::default(),
+            MeshPlugin,
+            AnimationPlugin,
+            WorldSerializationPlugin,
+            GltfPlugin::default(),
+            HairPlugin::default(),
+        ));
+        app.insert_resource(TimeUpdateStrategy::ManualDuration(common::FRAME));
+        app.finish();
+        app.cleanup();
+        let mesh = app
+            .world()
+            .resource::<AssetServer>()
+            .load::<Mesh>(GltfAssetLabel::Primitive { mesh: 0, primitive: 0 }.from_asset("head.glb"));
+        let params = SimParams { substeps, ..default() };
+        let groom = HairGroom { guides: 600, comb, ..default() };
+        let head =
+            app.world_mut().spawn((Mesh3d(mesh), Transform::default(), groom, HairSettingsOverride(params))).id();
+        wait_until_ready(&mut app, head);
+        for _ in 0..240 {
+            app.update();
+        }
+        let n = app.world().get::<HairState>(head).unwrap().particles_per_strand();
+        let positions = |app: &App| app.world().get::<HairState>(head).unwrap().current_positions().to_vec();
+        let (mut before, mut earlier) = (positions(&app), None::<Vec<Vec3>>);
+        let (mut largest, mut alternating) = (0.0f32, 0usize);
+        let mut moving = vec![false; before.len() / n];
+        for _ in 0..60 {
+            app.update();
+            let now = positions(&app);
+            for (i, (x, b)) in now.iter().zip(&before).enumerate() {
+                let moved = x.distance(*b);
+                largest = largest.max(moved);
+                moving[i / n] |= moved > 1e-5;
+                if let Some(earlier) = &earlier {
+                    alternating += usize::from(moved > 1e-6 && x.distance(earlier[i]) < 0.25 * moved);
+                }
+            }
+            earlier = Some(std::mem::replace(&mut before, now));
+        }
+        let moving = moving.iter().filter(|&&m| m).count();
+        let asleep = app.world().get::<HairState>(head).unwrap().last_report().sleeping;
+        println!(
+            "head.glb's head, still, comb {comb}, {substeps} substeps: largest move {:.2} µm in a frame, \
+             {moving} strands moving more than 10 µm, {alternating} particle-frames alternating; {asleep} of \
+             {} strands asleep",
+            largest * 1e6,
+            before.len() / n
+        );
+        if comb == Vec3::ZERO {
+            assert!(largest <= 1e-5 && alternating == 0, "{substeps} substeps: {largest} m");
+        }
+        assert!(moving * 100 <= before.len() / n, "comb {comb}, {substeps} substeps: {moving} strands moving");
+    }
+}

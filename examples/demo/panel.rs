@@ -227,6 +227,7 @@ fn simulation_section(ui: &mut egui::Ui, p: &mut SimParams) {
             );
         });
     });
+    ui.add(egui::Slider::new(&mut p.sleep_distance, 0.0..=0.005).text("sleep within (m, 0: never)").fixed_decimals(4));
     // The same positions on every path; only the step time (in the diagnostics) changes.
     ui.horizontal(|ui| {
         ui.label("SIMD");

@@ -197,10 +197,9 @@ pub struct SimParams {
     /// are outside can still cut through a thin part between them (an ear's rim). On (the
     /// default), at the end of each step every segment that may reach the head (see
     /// [`HeadCollider::rise_under`]) is tested exactly (a ray along it through the
-    /// collider's BVH) and turned out where it crosses. On the bench's groom (2,048 × 16
-    /// strands, 2 cores, 2026-12-02) that costs a third of the step (medians of seven
-    /// alternating runs: 2.05 ms off, 2.72 ms on); off saves it where no
-    /// segment can cut through anything (a head without ears, hair that cannot reach them).
+    /// collider's BVH) and turned out where it crosses. That costs about a third of a step
+    /// (`docs/benchmarks.md`); off saves it where no segment can cut through anything (a
+    /// head without ears, hair that cannot reach them).
     ///
     /// [`HeadCollider::rise_under`]: crate::collide::HeadCollider::rise_under
     pub segment_collision: bool,
