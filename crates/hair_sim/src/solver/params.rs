@@ -197,7 +197,7 @@ pub struct SimParams {
     /// are outside can still cut through a thin part between them (an ear's rim). On (the
     /// default), at the end of each step every segment that may reach the head (see
     /// [`HeadCollider::rise_under`]) is tested exactly (a ray along it through the
-    /// collider's BVH) and turned out where it crosses. That costs about a third of a step
+    /// collider's BVH) and turned out where it crosses. That costs about a fifth of a step
     /// (`docs/benchmarks.md`); off saves it where no segment can cut through anything (a
     /// head without ears, hair that cannot reach them).
     ///
