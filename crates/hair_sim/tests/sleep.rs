@@ -65,6 +65,9 @@ fn a_sleep_distance_of_zero_never_sleeps() {
     assert_eq!((strands.sleeping(&params), report.sleeping), (0, 0));
 }
 
+/// Something done to a sleeping groom, and how many strands the step after it left asleep.
+type Wake<'a> = Box<dyn Fn(&mut Strands) -> u32 + 'a>;
+
 /// From a sleeping groom, each thing that could move the hair wakes every strand in the
 /// step it happens: the head turning a milliradian, the head moved a centimetre between
 /// steps (still within the step), wind, gravity turned, a shoulder added, new positions
@@ -86,7 +89,7 @@ fn sleeping_hair_wakes_for_whatever_could_move_it() {
             StepInput { extra_colliders: extras, ..step_input(STILL_STEPS, from, to, Some(&g.collider), params) };
         strands.step(&input).sleeping
     };
-    let cases: [(&str, Box<dyn Fn(&mut Strands) -> u32>); 8] = [
+    let cases: [(&str, Wake); 8] = [
         ("nothing", Box::new(|s| step(s, STILL, STILL, &params, &[]))),
         ("the head turning", Box::new(|s| step(s, STILL, turned, &params, &[]))),
         ("the head moved between steps", Box::new(|s| step(s, moved, moved, &params, &[]))),
