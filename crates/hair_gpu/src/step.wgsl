@@ -180,8 +180,9 @@ fn alpha(j: u32) -> f32 {
 fn velocity(i: u32) -> vec3<f32> { return motion[i].xyz; }
 fn start(i: u32) -> vec3<f32> { return motion[slots() + i].xyz; }
 fn correction(i: u32) -> vec3<f32> { return motion[2u * slots() + i].xyz; }
-// Where collision found particle `i` (before it moved it); at a root, w: 1 while the
-// strand's sleep watch runs (0: begin it).
+// Where collision found particle `i` (before it moved it); in w, 1 where the head or the
+// skin touched it in the substep, and at a root, 1 while the strand's sleep watch runs (0:
+// begin it).
 fn shaped(i: u32) -> vec3<f32> { return motion[3u * slots() + i].xyz; }
 fn watching(first: u32) -> bool { return motion[3u * slots() + first].w == 1.0; }
 // Where particle `i` was when its strand's sleep watch began; at a root, w: how long the
@@ -923,6 +924,15 @@ fn orthonormal_pair(n: vec3<f32>) -> array<vec3<f32>, 2> {
 // (hair_sim's `LENGTH_SLACK`): collision left it at least three quarters of the thickness
 // above every surface, so it cannot reach one.
 const LENGTH_SLACK: f32 = 0.75;
+// The same for a particle the head or the skin touched in the substep (hair_sim's
+// `CONTACT_SLACK`).
+const CONTACT_SLACK: f32 = 0.1;
+
+// How far, as a share of the collision thickness, the final pass may move particle `i`
+// unchecked.
+fn unchecked_slack(i: u32) -> f32 {
+    return select(LENGTH_SLACK, CONTACT_SLACK, motion[3u * slots() + i].w == 1.0);
+}
 
 // Particle `i` placed at its segment's length from its (placed) parent, toward world
 // `toward`; where that is more than `unchecked` from `toward`, turned out of whatever
@@ -1366,6 +1376,9 @@ fn collide_particle(i: u32, k: u32) {
             x = world_point(now, with_friction(skin.position, skin.normal, local_point(before, start(i))));
         }
     }
+    // Whether the head or the skin touched it: the final pass checks such a particle more
+    // closely (`CONTACT_SLACK`).
+    motion[3u * slots() + i].w = select(0.0, 1.0, tally.contacts > 0.0);
     x = out_of_extras(x, start(i));
     positions[i] = vec4<f32>(x, 0.0);
     motion[slots() + i].w = tally.contacts;
@@ -1385,7 +1398,7 @@ fn place_strand(first: u32, n: u32, k: u32) {
         let i = particle_slot(first, j);
         tally.contacts += motion[slots() + i].w;
         tally.max_depth = max(tally.max_depth, motion[2u * slots() + i].w);
-        let placed = place_at_length(i, positions[i].xyz, LENGTH_SLACK * step.limits.y, now);
+        let placed = place_at_length(i, positions[i].xyz, unchecked_slack(i) * step.limits.y, now);
         if !segments {
             settle_behind(i, j, n, parent, placed, inverse_step);
         }

@@ -324,8 +324,7 @@ fn shipped() -> &'static (Groom, InsideTest) {
 /// 60 rad/s whip, a 1 s hitch while turning at 3 rad/s and a 20 m/s throw stopped dead,
 /// inextensible hair stretches by at most 1 % and springs stay within their band + 0.1 %,
 /// with no particle more than 0.5 mm inside the head (measured by [`InsideTest`]) and no
-/// segment through it (but one, once, on springs). The worst stretch of each run is
-/// printed.
+/// segment through it. The worst stretch of each run is printed.
 #[test]
 fn on_the_shipped_head_length_holds_at_the_limits() {
     let (groom, test) = shipped();
@@ -352,10 +351,7 @@ fn on_the_shipped_head_length_holds_at_the_limits() {
                 inside.all.crossings
             );
             assert!(inside.all.deepest <= 5e-4, "{mode}, {name}: {} mm inside", inside.all.deepest * 1e3);
-            // Springs thrown at 20 m/s leave one segment-step of the run's 460,800 across the
-            // head (docs/simulation.md).
-            let crossings = if params.length_mode == LengthMode::Springs { 1 } else { 0 };
-            assert!(inside.all.crossings <= crossings, "{mode}, {name}: segments through the head");
+            assert_eq!(inside.all.crossings, 0, "{mode}, {name}: segments through the head");
             assert!(inside.stretch <= bound, "{mode}, {name}: stretch {} > {bound}", inside.stretch);
         }
     }

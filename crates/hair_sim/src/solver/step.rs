@@ -984,8 +984,21 @@ const FRICTION_SLACK: f32 = 0.25;
 /// surface.
 const LENGTH_SLACK: f32 = 1.0 - FRICTION_SLACK;
 
+/// How far the final length pass may move a particle that touched the head this substep
+/// unchecked, m. Such a particle lies on the shell; moved into it by the full
+/// [`LENGTH_SLACK`], a little more each step, a strand bent over an ear's rim or the jaw's
+/// edge crept in until its segment crossed and was turned out again, over and over.
+#[inline(always)]
+fn contact_margin(p: &SimParams) -> f32 {
+    CONTACT_SLACK * p.collision_thickness
+}
+
+/// [`contact_margin`] as a share of the collision thickness.
+const CONTACT_SLACK: f32 = 0.1;
+
 /// Redoes the final length pass, one lane at a time, from the first particle it moved by
-/// more than [`LENGTH_SLACK`] of the collision thickness: only those can have gone back
+/// more than [`LENGTH_SLACK`] of the collision thickness ([`contact_margin`] for one that
+/// touched the head): only those can have gone back
 /// inside, because collision left every particle at least `(1 - FRICTION_SLACK) ×
 /// thickness` above every surface. From there, each particle is placed as the length pass
 /// places it (the same rule, one lane at a time) and, if that is inside a collider, its
@@ -1000,7 +1013,7 @@ fn keep_outside<S: Simd>(
     report: &mut StepReport,
 ) {
     let n = g.positions.len();
-    let margin = LENGTH_SLACK * p.collision_thickness;
+    let (margin, touching) = (Wide::splat(LENGTH_SLACK * p.collision_thickness), Wide::splat(contact_margin(p)));
     // Per lane, the first particle moved too far (n: none).
     let mut first = [n; MAX_LANES];
     let mut pending = g.real_lanes();
@@ -1008,7 +1021,8 @@ fn keep_outside<S: Simd>(
         if pending == 0 {
             break;
         }
-        let far = (g.positions[j] - g.collided[j]).length().cmpgt(Wide::splat(margin)).bitmask() & pending;
+        let margin = Wide::select(Mask::from_bits(g.moved[j]), touching, margin);
+        let far = (g.positions[j] - g.collided[j]).length().cmpgt(margin).bitmask() & pending;
         for l in (0..Wide::<S>::LANES).filter(|&l| far & (1 << l) != 0) {
             first[l] = j;
         }
@@ -1054,6 +1068,7 @@ fn place_outside<S: Simd>(
             }
         };
         let mut placed = parent + towards.normalize_or(down) * length;
+        let margin = if g.moved[j] & (1 << l) != 0 { contact_margin(p) } else { margin };
         if verify || (placed - collided).length() > margin {
             let clear = |x: Vec3| {
                 let local = |x: Vec3| poses.now_one.local_point(x);
