@@ -79,8 +79,9 @@ impl Skin {
     }
 }
 
-#[test]
-fn hair_on_the_shipped_character_follows_its_clip() {
+/// A headless app that loads glTF files and grows hair, its time advancing by `frame` per
+/// update.
+fn gltf_app(frame: Duration) -> App {
     let mut app = App::new();
     app.add_plugins((
         MinimalPlugins,
@@ -92,10 +93,16 @@ fn hair_on_the_shipped_character_follows_its_clip() {
         GltfPlugin::default(),
         HairPlugin::default(),
     ));
-    app.insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(1.0 / FPS)));
+    app.insert_resource(TimeUpdateStrategy::ManualDuration(frame));
     // `App::run` would do this; the glTF loader is registered in `GltfPlugin::finish`.
     app.finish();
     app.cleanup();
+    app
+}
+
+#[test]
+fn hair_on_the_shipped_character_follows_its_clip() {
+    let mut app = gltf_app(Duration::from_secs_f64(1.0 / FPS));
     let (scene, clip) = {
         let assets = app.world().resource::<AssetServer>();
         (
@@ -229,20 +236,7 @@ fn hair_on_the_shipped_character_follows_its_clip() {
 fn hair_on_the_still_shipped_head_is_still() {
     let back = Vec3::new(0.0, 0.0, -1.5);
     for (comb, substeps) in [(Vec3::ZERO, 2), (back, 2), (back, 8)] {
-        let mut app = App::new();
-        app.add_plugins((
-            MinimalPlugins,
-            TransformPlugin,
-            AssetPlugin::default(),
-            MeshPlugin,
-            AnimationPlugin,
-            WorldSerializationPlugin,
-            GltfPlugin::default(),
-            HairPlugin::default(),
-        ));
-        app.insert_resource(TimeUpdateStrategy::ManualDuration(common::FRAME));
-        app.finish();
-        app.cleanup();
+        let mut app = gltf_app(common::FRAME);
         let mesh = app
             .world()
             .resource::<AssetServer>()

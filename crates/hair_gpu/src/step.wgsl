@@ -992,42 +992,50 @@ fn outside_at_length(placed_in: vec3<f32>, parent: vec3<f32>, segment: f32, now:
         return placed; // inside the shell, outside the collider: the length stands
     }
     let wanted = (placed - parent) / segment;
-    var best = vec4<f32>(0.0, 0.0, 0.0, -2.0);
-    // Direction 0 is the normal itself, taken if it will do; then the tilted ones.
-    for (var k = 0u; k <= TILTED; k++) {
-        var d = deep.normal;
-        if k > 0u {
-            d = tilted(deep.normal, k - 1u);
-        }
-        if (k == 0u || dot(d, wanted) > best.w) && outside_and_reached(parent, parent + d * segment, now) {
-            if k == 0u {
-                return parent + d * segment;
-            }
-            best = vec4<f32>(d, dot(d, wanted));
-        }
+    var kept = direction_out(deep.normal, wanted, parent, segment, now, true);
+    if kept.w == 0.0 {
+        // Out of the collider, reached only through a thin part (hair_sim's
+        // `outside_at_length`): the segment pass turns it out of that.
+        kept = direction_out(deep.normal, wanted, parent, segment, now, false);
     }
-    if best.w > -2.0 {
-        return parent + best.xyz * segment;
-    }
-    // Out of the collider, reached only through a thin part (hair_sim's
-    // `outside_at_length`): the segment pass turns it out of that.
-    for (var k = 0u; k <= TILTED; k++) {
-        var d = deep.normal;
-        if k > 0u {
-            d = tilted(deep.normal, k - 1u);
-        }
-        if (k == 0u || dot(d, wanted) > best.w) && outside_of_colliders(parent + d * segment, now) {
-            if k == 0u {
-                return parent + d * segment;
-            }
-            best = vec4<f32>(d, dot(d, wanted));
-        }
-    }
-    if best.w > -2.0 {
-        return parent + best.xyz * segment;
+    if kept.w == 1.0 {
+        return parent + kept.xyz * segment;
     }
     tally.contact_stretches += 1.0;
     return deep.position - deep.normal * (step.limits.y - 1e-6);
+}
+
+// The direction (w 1; w 0: none) from world `parent` in which a segment of `segment` ends
+// outside every collider and, if `reached`, passes through no part of the head: `normal`
+// itself, else the nearest to `wanted` of those tilted around it (hair_sim's `around`).
+fn direction_out(normal: vec3<f32>, wanted: vec3<f32>, parent: vec3<f32>, segment: f32, now: Pose, reached: bool) -> vec4<f32> {
+    var best = vec4<f32>(0.0, 0.0, 0.0, -2.0);
+    for (var k = 0u; k <= TILTED; k++) {
+        var d = normal;
+        if k > 0u {
+            d = tilted(normal, k - 1u);
+        }
+        if k > 0u && !(dot(d, wanted) > best.w) {
+            continue;
+        }
+        let x = parent + d * segment;
+        var fits = false;
+        if reached {
+            fits = outside_and_reached(parent, x, now);
+        } else {
+            fits = outside_of_colliders(x, now);
+        }
+        if fits {
+            if k == 0u {
+                return vec4<f32>(d, 1.0);
+            }
+            best = vec4<f32>(d, dot(d, wanted));
+        }
+    }
+    if best.w > -2.0 {
+        return vec4<f32>(best.xyz, 1.0);
+    }
+    return vec4<f32>(0.0);
 }
 
 // Whether world `x` is outside every collider (within a shell counts).
