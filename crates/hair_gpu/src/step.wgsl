@@ -962,8 +962,8 @@ fn set_final(i: u32, placed: vec3<f32>) {
 // contact's normal until it lies on the tangent plane of the shell there (1 µm above), a few
 // turns at most, or straight out along the normal where the parent lies behind that plane.
 // Where that ends inside a collider itself, the nearest direction around the normal that is
-// outside and reached without passing through the head; failing that, onto the surface,
-// stretching the segment. hair_sim's `outside_at_length`.
+// outside and reached without passing through the head, else the nearest outside at all;
+// failing that, onto the surface, stretching the segment. hair_sim's `outside_at_length`.
 fn outside_at_length(placed_in: vec3<f32>, parent: vec3<f32>, segment: f32, now: Pose) -> vec3<f32> {
     var placed = placed_in;
     // MAX_TURNS turns, each place tested, the last turned one too.
@@ -992,65 +992,42 @@ fn outside_at_length(placed_in: vec3<f32>, parent: vec3<f32>, segment: f32, now:
         return placed; // inside the shell, outside the collider: the length stands
     }
     let wanted = (placed - parent) / segment;
-    var kept = direction_out(deep.normal, wanted, parent, segment, now, true);
-    if kept.w == 0.0 {
-        // Out of the collider, reached only through a thin part (hair_sim's
-        // `outside_at_length`): the segment pass turns it out of that.
-        kept = direction_out(deep.normal, wanted, parent, segment, now, false);
-    }
-    if kept.w == 1.0 {
-        return parent + kept.xyz * segment;
-    }
-    tally.contact_stretches += 1.0;
-    return deep.position - deep.normal * (step.limits.y - 1e-6);
-}
-
-// The direction (w 1; w 0: none) from world `parent` in which a segment of `segment` ends
-// outside every collider and, if `reached`, passes through no part of the head: `normal`
-// itself, else the nearest to `wanted` of those tilted around it (hair_sim's `around`).
-fn direction_out(normal: vec3<f32>, wanted: vec3<f32>, parent: vec3<f32>, segment: f32, now: Pose, reached: bool) -> vec4<f32> {
-    var best = vec4<f32>(0.0, 0.0, 0.0, -2.0);
+    // In one pass over the normal and the directions tilted around it (the normal first,
+    // then the nearest to `wanted`; hair_sim's `around`): the first out of every collider
+    // that the segment reaches without passing through the head, and the first out of every
+    // collider at all, reached only through a thin part that the segment pass then turns it
+    // out of (w: the direction's rank; -2: none).
+    var reached = vec4<f32>(0.0, 0.0, 0.0, -2.0);
+    var out_of_it = reached;
     for (var k = 0u; k <= TILTED; k++) {
-        var d = normal;
+        var d = deep.normal;
         if k > 0u {
-            d = tilted(normal, k - 1u);
+            d = tilted(deep.normal, k - 1u);
         }
-        if k > 0u && !(dot(d, wanted) > best.w) {
+        let rank = select(dot(d, wanted), 2.0, k == 0u);
+        if !(rank > reached.w) {
             continue;
         }
         let x = parent + d * segment;
-        var fits = false;
-        if reached {
-            fits = outside_and_reached(parent, x, now);
-        } else {
-            fits = outside_of_colliders(x, now);
+        let there = contact_at(x, now);
+        if there.hit && there.depth > step.limits.y {
+            continue;
         }
-        if fits {
-            if k == 0u {
-                return vec4<f32>(d, 1.0);
-            }
-            best = vec4<f32>(d, dot(d, wanted));
+        if rank > out_of_it.w {
+            out_of_it = vec4<f32>(d, rank);
+        }
+        if step.grid_dims.w == 0u || !crosses(local_point(now, parent), local_point(now, x)) {
+            reached = vec4<f32>(d, rank);
         }
     }
-    if best.w > -2.0 {
-        return vec4<f32>(best.xyz, 1.0);
+    if reached.w > -2.0 {
+        return parent + reached.xyz * segment;
     }
-    return vec4<f32>(0.0);
-}
-
-// Whether world `x` is outside every collider (within a shell counts).
-fn outside_of_colliders(x: vec3<f32>, now: Pose) -> bool {
-    let contact = contact_at(x, now);
-    return !(contact.hit && contact.depth > step.limits.y);
-}
-
-// Whether world `x` is outside every collider (within a shell counts) and the segment to it
-// from world `parent` passes through no part of the head.
-fn outside_and_reached(parent: vec3<f32>, x: vec3<f32>, now: Pose) -> bool {
-    if !outside_of_colliders(x, now) {
-        return false;
+    if out_of_it.w > -2.0 {
+        return parent + out_of_it.xyz * segment;
     }
-    return step.grid_dims.w == 0u || !crosses(local_point(now, parent), local_point(now, x));
+    tally.contact_stretches += 1.0;
+    return deep.position - deep.normal * (step.limits.y - 1e-6);
 }
 
 // On the step's last substep, segments (below the root's, which starts on the scalp) that run

@@ -1341,11 +1341,16 @@ fn outside_at_length(
     // surface instead, a strand below an ear's rim was left half as long again); failing
     // that, onto its surface (1 µm out), stretching the segment.
     let wanted = (placed - parent) / length;
-    let kept = around(deep.normal, wanted)
-        .map(|d| parent + d * length)
-        .find(|&x| outside(&contact_at(x)) && reaches(x))
-        .or_else(|| around(deep.normal, wanted).map(|d| parent + d * length).find(|&x| outside(&contact_at(x))));
-    match kept {
+    let mut out_of_it = None;
+    for x in around(deep.normal, wanted).map(|d| parent + d * length) {
+        if outside(&contact_at(x)) {
+            if reaches(x) {
+                return (x, true);
+            }
+            out_of_it.get_or_insert(x);
+        }
+    }
+    match out_of_it {
         Some(x) => (x, true),
         None => (deep.position - deep.normal * (thickness - 1e-6), false),
     }
