@@ -160,7 +160,8 @@ impl GpuDrawing {
 
     /// Queues the frame's drawing of `strands` (those it was made for), `overstep` of the
     /// way (0..1) from the step before the last to the last, on the head as posed by
-    /// `pose` (world from head).
+    /// `pose` (world from head): submitted with what the strands recorded before it, or
+    /// left with it for the caller ([`crate::Submission::Caller`]).
     pub fn draw(&self, strands: &GpuStrands, overstep: f32, pose: Pose) -> Result<(), GpuError> {
         if !self.draws(strands) {
             return Err(GpuError::OtherStrands);
@@ -172,7 +173,7 @@ impl GpuDrawing {
         recorder.upload(&self.uniform, bytemuck::bytes_of(&placement));
         let group = &self.groups[strands.published.latest];
         recorder.dispatch("hair_gpu draw", &self.pipeline, (group, &[]), strands.counts()[0]);
-        recorder.submit(&strands.queue);
+        recorder.flush(&strands.queue);
         Ok(())
     }
 }

@@ -51,6 +51,7 @@ use hair_sim::math::{Pose, Vec3};
 use hair_sim::solver::{LengthMode, RestShape, StepConstants, StepInput, StepReport, Stillness};
 use layout::Slots;
 use recorder::Recorder;
+pub use recorder::Submission;
 use wgpu::util::DeviceExt;
 
 mod draw;
@@ -620,6 +621,19 @@ impl GpuStrands {
         self.lock().submit(&self.queue);
     }
 
+    /// Who submits what the calls record: the strands themselves ([`Submission::Own`], as
+    /// made) or the caller, who takes it with [`Self::take_commands`].
+    pub fn set_submission(&mut self, submission: Submission) {
+        recording(&mut self.recorder).submission = submission;
+    }
+
+    /// What the calls recorded since the last submission, as one command buffer, for a
+    /// caller that submits ([`Submission::Caller`]; an engine adds it to its frame). The
+    /// copies back started since arrive once it has run.
+    pub fn take_commands(&self) -> Option<wgpu::CommandBuffer> {
+        self.lock().take()
+    }
+
     /// The recorder, for a call that takes `&self` (see [`recording`] for `&mut self`).
     fn lock(&self) -> std::sync::MutexGuard<'_, Recorder> {
         self.recorder.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
@@ -733,7 +747,7 @@ impl GpuStrands {
         // step's commands and uploads, not all of them.
         let recorder = recording(&mut self.recorder);
         if recorder.steps > 0 {
-            recorder.submit(&self.queue);
+            recorder.flush(&self.queue);
         }
         let timestamps = self.timestamps.take();
         let result = self.encode_step(input, timestamps.as_ref());
@@ -982,7 +996,7 @@ impl GpuStrands {
     fn copy_back(&self, buffer: &wgpu::Buffer) -> BufferCopy {
         let mut recorder = self.lock();
         let staging = self.staging.record(&self.device, recorder.encoder(), buffer, 0);
-        recorder.submit(&self.queue);
+        recorder.flush(&self.queue);
         BufferCopy::map(&self.device, staging, &self.staging)
     }
 
@@ -996,7 +1010,7 @@ impl GpuStrands {
         let report = self.staging.record(&self.device, encoder, &self.motion, offset);
         encoder.clear_buffer(&self.motion, offset, None);
         let time = self.timestamps.as_ref().map(|t| self.staging.record(&self.device, encoder, &t.resolved, 0));
-        recorder.submit(&self.queue);
+        recorder.flush(&self.queue);
         let period = self.queue.get_timestamp_period();
         ReportCopy {
             report: BufferCopy::map(&self.device, report, &self.staging),

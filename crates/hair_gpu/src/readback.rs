@@ -11,7 +11,9 @@ use hair_sim::solver::StepReport;
 pub struct PositionsCopy(pub(crate) BufferCopy, pub(crate) Slots);
 
 impl PositionsCopy {
-    /// Whether the copy has arrived (or failed), waiting for it when `wait`.
+    /// Whether the copy has arrived (or failed), waiting for it when `wait`. Where the
+    /// caller submits ([`crate::Submission::Caller`]), ask only once it has submitted the
+    /// commands the copy was recorded with.
     pub fn arrived(&self, wait: bool) -> bool {
         self.0.arrived(wait)
     }
@@ -34,8 +36,9 @@ pub struct ReportCopy {
 impl ReportCopy {
     /// Whether the copy has arrived (or failed), waiting for it when `wait`.
     pub fn arrived(&self, wait: bool) -> bool {
-        // Both were queued together: the second arrives with the first.
-        self.report.arrived(wait) && self.time.as_ref().is_none_or(|(time, _)| time.arrived(wait))
+        // Both were queued together: both are asked for now, and arrive in the same poll.
+        let report = self.report.arrived(wait);
+        self.time.as_ref().is_none_or(|(time, _)| time.arrived(wait)) && report
     }
 
     /// The report and the GPU time of the last step before it, milliseconds (`None` where
@@ -81,18 +84,27 @@ pub(crate) struct BufferCopy {
     pool: StagingPool,
     /// Set when the GPU has mapped the copy (or failed to).
     mapped: std::sync::Arc<std::sync::OnceLock<Result<(), wgpu::BufferAsyncError>>>,
+    /// Whether the mapping was asked for: on the first question whether the copy arrived,
+    /// which comes after the copy's submission (a buffer being mapped may not be submitted,
+    /// and where the caller submits, the copy is recorded before it is).
+    asked: std::sync::Once,
 }
 
 impl BufferCopy {
-    /// Asks for `staging`, its copy submitted, mapped; it goes back to `pool` once read.
+    /// `staging`, the target of a recorded copy, to be mapped once the copy is submitted;
+    /// it goes back to `pool` once read.
     pub fn map(device: &wgpu::Device, staging: wgpu::Buffer, pool: &StagingPool) -> Self {
         let mapped = std::sync::Arc::new(std::sync::OnceLock::new());
-        let arrived = mapped.clone();
-        staging.slice(..).map_async(wgpu::MapMode::Read, move |result| _ = arrived.set(result));
-        BufferCopy { device: device.clone(), staging, pool: pool.clone(), mapped }
+        BufferCopy { device: device.clone(), staging, pool: pool.clone(), mapped, asked: std::sync::Once::new() }
     }
 
+    /// Whether the copy has arrived (or failed), waiting for it when `wait`; call it only
+    /// once the copy was submitted.
     pub fn arrived(&self, wait: bool) -> bool {
+        self.asked.call_once(|| {
+            let arrived = self.mapped.clone();
+            self.staging.slice(..).map_async(wgpu::MapMode::Read, move |result| _ = arrived.set(result));
+        });
         // Once mapped, no poll: a wait is for everything queued on the device (the steps and
         // the frames queued since), not for this copy alone.
         if self.mapped.get().is_some() {
@@ -224,6 +236,7 @@ mod tests {
         assert_eq!(first.into_bytes().expect("bytes"), vec![0; 256]);
         // Mapping callbacks run in a poll: taking the first polled the device for nothing.
         assert!(second.mapped.get().is_none(), "taking an arrived copy waited for the device");
+        assert!(!second.asked.is_completed(), "a copy is mapped only once asked for");
         assert!(second.arrived(true));
     }
 

@@ -1,7 +1,9 @@
 //! One submission where the calls of a step would make many: [`GpuStrands`](crate::GpuStrands)
 //! records each call's uploads and passes into one command encoder, in the order of the
 //! calls, and submits them together when something needs them on the GPU (a copy back, a
-//! wait, a frame's drawing, or [`GpuStrands::submit`](crate::GpuStrands::submit)).
+//! wait, a frame's drawing, or [`GpuStrands::submit`](crate::GpuStrands::submit)), or,
+//! where an engine submits ([`Submission::Caller`]), hands them over as one command buffer
+//! ([`GpuStrands::take_commands`](crate::GpuStrands::take_commands)).
 //!
 //! A submission is not free: a driver may make it wait for the queue, which a renderer on
 //! another thread shares (lavapipe runs each submission's work in the thread that submits
@@ -14,6 +16,20 @@ use crate::WORKGROUP_SIZE;
 /// Bytes of each staging buffer: a step's uploads (a skinned neck's patch is 232 KB) in one.
 const UPLOAD_CHUNK: u64 = 256 * 1024;
 
+/// Who submits what [`GpuStrands`](crate::GpuStrands) records.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Submission {
+    /// The strands submit their work themselves when something needs it on the GPU (a
+    /// copy back, a wait, a drawing): the standalone API.
+    #[default]
+    Own,
+    /// The caller takes the recorded work ([`GpuStrands::take_commands`](crate::GpuStrands::take_commands))
+    /// and submits it with its own (an engine's render graph); the strands never touch the
+    /// queue, and a copy back starts mapping only once it is asked whether it arrived,
+    /// after that submission.
+    Caller,
+}
+
 /// Commands recorded since the last submission, and the staging belt of their uploads.
 pub(crate) struct Recorder {
     device: wgpu::Device,
@@ -21,6 +37,10 @@ pub(crate) struct Recorder {
     belt: wgpu::util::StagingBelt,
     /// Solver steps recorded since the last submission.
     pub steps: u32,
+    pub submission: Submission,
+    /// The belt's buffers went out with commands the caller submits: they come back
+    /// (`StagingBelt::recall`) before the next upload, by when the caller has submitted.
+    recall_due: bool,
 }
 
 impl Recorder {
@@ -30,11 +50,14 @@ impl Recorder {
             encoder: None,
             belt: wgpu::util::StagingBelt::new(device.clone(), UPLOAD_CHUNK),
             steps: 0,
+            submission: Submission::Own,
+            recall_due: false,
         }
     }
 
     /// The encoder the next commands go into.
     pub fn encoder(&mut self) -> &mut wgpu::CommandEncoder {
+        self.recall();
         open(&mut self.encoder, &self.device)
     }
 
@@ -42,6 +65,7 @@ impl Recorder {
     /// after the commands recorded so far.
     pub fn upload(&mut self, target: &wgpu::Buffer, bytes: &[u8]) {
         let Some(size) = wgpu::BufferSize::new(bytes.len() as u64) else { return };
+        self.recall();
         let encoder = open(&mut self.encoder, &self.device);
         self.belt.write_buffer(encoder, target, 0, size).copy_from_slice(bytes);
     }
@@ -70,6 +94,30 @@ impl Recorder {
         self.belt.finish();
         queue.submit([encoder.finish()]);
         self.belt.recall();
+    }
+
+    /// Submits what was recorded if the strands submit their own work; else leaves it for
+    /// the caller ([`Self::take`]).
+    pub fn flush(&mut self, queue: &wgpu::Queue) {
+        if self.submission == Submission::Own {
+            self.submit(queue);
+        }
+    }
+
+    /// What was recorded, if anything, as one command buffer for the caller to submit.
+    pub fn take(&mut self) -> Option<wgpu::CommandBuffer> {
+        let encoder = self.encoder.take()?;
+        self.steps = 0;
+        self.belt.finish();
+        self.recall_due = true;
+        Some(encoder.finish())
+    }
+
+    /// Takes the belt's buffers back once the commands that used them went out.
+    fn recall(&mut self) {
+        if std::mem::take(&mut self.recall_due) {
+            self.belt.recall();
+        }
     }
 }
 

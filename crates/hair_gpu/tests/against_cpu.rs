@@ -924,3 +924,47 @@ fn an_empty_groom_steps_reads_back_and_draws_nothing() {
     drawing.draw(&strands, 0.5, head_pose(0.0)).expect("drawn");
     assert_eq!(read_vec4s(&gpu, &target), vec![[0.0; 4]]);
 }
+
+/// Where the caller submits (an engine's render graph), the strands never touch the queue:
+/// several steps, a translation and a copy back recorded, taken as one command buffer and
+/// submitted by the caller, give the bits the strands give when they submit themselves,
+/// and the copies back arrive once asked after that submission.
+#[test]
+fn steps_the_caller_submits_give_the_same_bits() {
+    let Some(gpu) = gpu() else { return };
+    let (_, collider, rest) = groom(100);
+    let params = SimParams::default();
+    let mut own = GpuStrands::new(&gpu, &rest, head_pose(0.0), Some(&collider)).expect("GPU strands");
+    let mut taken = GpuStrands::new(&gpu, &rest, head_pose(0.0), Some(&collider)).expect("GPU strands");
+    taken.set_submission(hair_gpu::Submission::Caller);
+    let offset = Vec3::new(0.01, 0.0, -0.02);
+    let shifted = |t: f32| {
+        let pose = head_pose(t);
+        Pose::new(pose.rotation, pose.translation + offset)
+    };
+    let mut copies = Vec::new();
+    for frame in 0..6 {
+        // Three steps a frame, the origin moved half-way, a copy back after each frame.
+        for k in 3 * frame..3 * frame + 3 {
+            let pose_at: &dyn Fn(f32) -> Pose = if k >= 9 { &shifted } else { &head_pose };
+            if k == 9 {
+                own.translate(offset);
+                taken.translate(offset);
+            }
+            let input = input_at(k, pose_at, &collider, &params);
+            own.step(&input).expect("GPU step");
+            taken.step(&input).expect("GPU step");
+        }
+        let copy = taken.copy_positions();
+        let commands = taken.take_commands().expect("the frame's commands");
+        assert!(taken.take_commands().is_none(), "taken once");
+        gpu.queue.submit([commands]);
+        copies.push(copy);
+    }
+    let last = copies.pop().expect("copies");
+    let positions = last.into_positions().expect("read back");
+    let expected = own.positions().expect("read back");
+    let differing = positions.iter().zip(&expected).filter(|(a, b)| a != b).count();
+    assert_eq!(differing, 0, "{differing} particles differ from the self-submitted steps");
+    assert!(copies.iter().all(|c| c.arrived(true)), "the earlier copies arrived too");
+}
