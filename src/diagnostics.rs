@@ -12,14 +12,13 @@ impl HairDiagnostics {
     /// GPU time of the GPU solver's step, milliseconds, summed over the grooms the GPU
     /// steps ([`HairBackend::Gpu`](crate::HairBackend::Gpu)): for each, one of its latest
     /// steps, from its pass's start to its end by timestamp queries (the GPU may run other
-    /// work beside it meanwhile), read back with its report a frame or two late. Published
+    /// work beside it meanwhile), copied back with its report a frame or two late. Published
     /// only where the render device has timestamp queries.
     pub const GPU_STEP_TIME: DiagnosticPath = DiagnosticPath::const_new("hair/gpu_step_ms");
-    /// Wall time of the last fixed step's hand-over of the GPU solver's work to the
-    /// device's queue (the copies back recorded and the commands submitted), milliseconds,
-    /// summed over the grooms the GPU steps: the part of [`Self::STEP_TIME`] a driver or
-    /// another thread's submission can make wait.
-    pub const GPU_SUBMIT_TIME: DiagnosticPath = DiagnosticPath::const_new("hair/gpu_submit_ms");
+    /// Wall time of the last fixed step's hand-over of the GPU solver's work to the render
+    /// world (the step's input written down for extraction), milliseconds, summed over the
+    /// grooms the GPU steps: all the main thread spends on their steps.
+    pub const GPU_HANDOVER_TIME: DiagnosticPath = DiagnosticPath::const_new("hair/gpu_handover_ms");
     /// Guide strands the solver stepped in the last fixed step, all grooms (a level of
     /// detail, [`HairLod`](crate::HairLod), leaves out the guides that follow).
     pub const GUIDES: DiagnosticPath = DiagnosticPath::const_new("hair/guides");
@@ -40,7 +39,7 @@ impl HairDiagnostics {
     pub const ALL: [DiagnosticPath; 9] = [
         Self::STEP_TIME,
         Self::GPU_STEP_TIME,
-        Self::GPU_SUBMIT_TIME,
+        Self::GPU_HANDOVER_TIME,
         Self::GUIDES,
         Self::PARTICLES,
         Self::RENDERED_STRANDS,

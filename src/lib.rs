@@ -46,7 +46,7 @@ mod convert;
 mod description;
 mod detail;
 mod diagnostics;
-mod gpu_solver;
+mod gpu;
 mod groom;
 mod hair_asset;
 mod head_mesh;
@@ -66,6 +66,8 @@ pub use detail::HairLod;
 pub use diagnostics::HairDiagnostics;
 pub use groom::GroomPlugin;
 pub use hair_asset::{HairAsset, HairAssetError, HairAssetLoader};
+#[cfg(feature = "render")]
+pub use hair_gpu;
 pub use hair_sim;
 pub use hair_sim::groom::{ChildParams, Spiral};
 pub use hair_sim::solver::{CollisionResponse, LengthMode, SimParams, SimdPath, StepReport, Wind};

@@ -25,23 +25,24 @@ pub enum HairBackend {
     /// reference, with every feature.
     #[default]
     Cpu,
-    /// `hair_gpu`'s compute pass on the app's render device (feature `render`): the same
-    /// model, colliding as the CPU does (the collider's exact query near the head, on the
-    /// same candidate lists; the distance grid far from it and deep inside, where the CPU
-    /// walks its BVH). The particles stay on the
-    /// GPU and are drawn from there: each frame a second pass writes them, interpolated and
-    /// placed on the drawn head, with their frames, into the drawing's buffer, and nothing
-    /// waits for the GPU. The groom's [`HairState`] positions are copies that come back
-    /// without waiting, a frame or two late; what the CPU computes from them (the drawing's
-    /// bounds, the blended draw order, self-shadow maps, `.hair` files) is as late.
-    /// [`HairState::read_back_gpu`] waits for the last step's. [`HairState::last_report`]
-    /// comes back the same way: each step's holds the reports that came back during it.
+    /// `hair_gpu`'s compute passes on the app's render device (feature `render`), recorded
+    /// in Bevy's render world: the same model, colliding as the CPU does (the collider's
+    /// exact query near the head, on the same candidate lists; the distance grid far from
+    /// it and deep inside, where the CPU walks its BVH). The main thread only writes down
+    /// each step's input; the render world records the frame's steps, then a pass that
+    /// writes the particles, interpolated and placed on the drawn head, with their frames,
+    /// into the drawing's buffer, and nothing waits for the GPU. Until the GPU's pipelines
+    /// have compiled (on a background task) the CPU steps the groom, then hands it over.
+    /// The groom's [`HairState`] positions are copies that come back without waiting, a
+    /// frame or two late ([`HairState::gpu_lag`]); what the CPU computes from them (the
+    /// blending choice, the blended draw order, self-shadow maps, `.hair` files) is as
+    /// late. [`HairState::last_report`] comes back the same way.
     /// Every guide is simulated (levels of detail do not apply).
     /// Where the GPU cannot step the groom (no render device, an adapter without compute),
     /// it steps on the CPU and a [`HairError`](crate::HairError) says why, once.
     ///
     /// [`HairState`]: crate::HairState
-    /// [`HairState::read_back_gpu`]: crate::HairState::read_back_gpu
+    /// [`HairState::gpu_lag`]: crate::HairState::gpu_lag
     /// [`HairState::last_report`]: crate::HairState::last_report
     Gpu,
 }

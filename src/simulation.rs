@@ -11,7 +11,7 @@ use crate::colliders::HairCollider;
 use crate::convert::{from_sim, pose_and_scale, to_sim};
 use crate::description::{GroomStatus, HairError, HairErrorKind, HairGroom};
 use crate::diagnostics::HairDiagnostics;
-use crate::gpu_solver::{GpuDevice, GpuSolver};
+use crate::gpu::{GpuSolver, GpuSupport};
 use crate::settings::{HairBackend, HairSettings, HairSettingsOverride, effective};
 use crate::skinning::{RootSkin, ScalpJoint, SkinPatch, head_frame};
 use crate::{HairSchedule, HairSystems};
@@ -47,7 +47,7 @@ const MIN_PARTICLES_PER_TASK: usize = 4096;
 /// inserts it on the head entity once growth finishes.
 #[derive(Component)]
 pub struct HairState {
-    strands: Strands,
+    pub(crate) strands: Strands,
     collider: Arc<HeadCollider>,
     head: Arc<HeadMesh>,
     roots: Vec<RootBinding>,
@@ -78,7 +78,7 @@ pub struct HairState {
     /// The head's pose (relative to the origin) and the origin, as `current_local` was
     /// copied out.
     published: (Pose, SimVec3),
-    last_report: StepReport,
+    pub(crate) last_report: StepReport,
     last_step_time: Duration,
     /// A skinned head's scalp joint: the head's frame is the joint's.
     joint: Option<ScalpJoint>,
@@ -94,8 +94,8 @@ pub struct HairState {
     pub(crate) detail_issue: Option<String>,
     /// The head's size, metres: the height of its mesh's bounding box (scale baked in).
     head_size: f32,
-    /// The GPU's copy of the strands, while the groom steps there ([`HairBackend::Gpu`]).
-    gpu: GpuSolver,
+    /// The groom's GPU side, while it asks for the GPU ([`HairBackend::Gpu`]).
+    pub(crate) gpu: GpuSolver,
 }
 
 impl HairState {
@@ -194,7 +194,7 @@ impl HairState {
     /// Particle positions after the last fixed step, world space, strand-major: worked out
     /// from [`Self::current_local_positions`] on the first call after a step. For a
     /// groom the GPU steps ([`HairBackend::Gpu`]) these are a frame or two late, as copied
-    /// back without waiting; [`Self::read_back_gpu`] waits for the last step's.
+    /// back without waiting; [`Self::gpu_lag`] says by how many steps.
     pub fn current_positions(&self) -> &[Vec3] {
         self.current.get_or_init(|| {
             let (pose, origin) = self.published;
@@ -286,10 +286,10 @@ impl HairState {
     }
 
     /// What the last step did: contacts, resets. For a groom the GPU steps
-    /// ([`HairBackend::Gpu`]), what the GPU's steps did that came back during the last step
-    /// (reports come back a frame or two late, without waiting, summed over the steps they
-    /// cover; zero when none came back): summed over every step, they count every step.
-    /// [`Self::read_back_gpu`] waits for the rest.
+    /// ([`HairBackend::Gpu`]), what the GPU's steps did that came back during the last
+    /// frame (reports come back a frame or two late, without waiting, summed over the steps
+    /// they cover; zero when none came back): summed over every frame, they count every
+    /// step once [`Self::gpu_lag`] is 0.
     pub fn last_report(&self) -> StepReport {
         self.last_report
     }
@@ -313,26 +313,20 @@ impl HairState {
         self.gpu.issue.as_deref()
     }
 
-    /// For a groom the GPU steps ([`HairBackend::Gpu`]): waits for the GPU and makes this
-    /// state's positions ([`Self::current_positions`] and the rest) the last step's, which
-    /// otherwise arrive a frame or two late, and [`Self::last_report`] what the steps did
-    /// that had not come back yet. Returns `false`, changing nothing, when the
-    /// groom is not on the GPU. It stalls until the GPU has run everything queued before
-    /// (the last frame's drawing included): for tests, tools and the odd gameplay query,
-    /// not every frame.
-    pub fn read_back_gpu(&mut self) -> bool {
-        let read = self.gpu.read_back(&mut self.strands);
-        if read {
-            self.last_report = self.gpu.take_report().unwrap_or_default();
-            self.refresh(ComputeTaskPool::get_or_init(TaskPool::default));
-        }
-        read
+    /// For a groom the GPU steps ([`HairBackend::Gpu`]): how many hair steps this state's
+    /// positions ([`Self::current_positions`] and the rest) trail the GPU's last step. They
+    /// come back without waiting, a frame or two late, and 0 means they are the last
+    /// step's: to read exact positions, pause the hair clock ([`HairTime::pause`]) and
+    /// update until it is 0. `None` while the CPU steps the groom (the GPU's pipelines
+    /// still compiling, or [`HairBackend::Cpu`]).
+    pub fn gpu_lag(&self) -> Option<u64> {
+        self.gpu.lag()
     }
 
-    /// The GPU strands, while the GPU steps the groom.
-    #[cfg(feature = "render")]
-    pub(crate) fn gpu_strands(&self) -> Option<&hair_gpu::GpuStrands> {
-        self.gpu.strands()
+    /// The pose of the head at the end of the last step, relative to [`Self::origin`] (the
+    /// solver's frame).
+    pub(crate) fn solver_pose(&self) -> Pose {
+        relative_to(self.pose_to, self.origin)
     }
 
     /// Puts every strand back at rest on the head, motionless.
@@ -353,7 +347,7 @@ impl HairState {
     /// Copies the solver's positions out as the last step's, in head space, and places a
     /// level of detail's followers, which [`step_on_pool`] leaves, from their leaders'
     /// head-space positions on the way: one pass over a far head's particles instead of two.
-    fn refresh(&mut self, pool: &TaskPool) {
+    pub(crate) fn refresh(&mut self, pool: &TaskPool) {
         let pose = relative_to(self.pose_to, self.origin);
         self.published = (pose, self.origin);
         self.current = OnceLock::new();
@@ -486,10 +480,15 @@ impl Plugin for SimulationPlugin {
                 PostUpdate,
                 track_heads.in_set(HairSystems::Step).after(advance_clock).before(run_hair_schedule),
             );
+        app.init_resource::<GpuSupport>();
         #[cfg(feature = "render")]
         app.add_systems(
             PostUpdate,
-            crate::gpu_solver::prepare_gpu_device.in_set(HairSystems::Step).before(run_hair_schedule),
+            (
+                crate::gpu::receive_from_gpu.after(track_heads).before(run_hair_schedule),
+                crate::gpu::request_copies.after(run_hair_schedule),
+            )
+                .in_set(HairSystems::Step),
         );
     }
 }
@@ -565,16 +564,14 @@ pub(crate) fn simulate(
     colliders: Query<(Entity, &HairCollider, &GlobalTransform)>,
     parents: Query<&ChildOf>,
     mut grooms: Query<(Entity, &mut HairState, Option<&HairSettingsOverride>, Option<&HairBackend>)>,
-    gpu_device: Option<Res<GpuDevice>>,
+    gpu_support: Res<GpuSupport>,
     mut errors: MessageWriter<HairError>,
     mut diagnostics: Diagnostics,
 ) {
     let started = Instant::now();
     let (mut guides, mut particles) = (0, 0);
-    // The GPU time of the grooms the GPU steps, where it came back.
-    let mut gpu_step_ms: Option<f64> = None;
-    // Their steps' hand-over to the queue, where the GPU stepped any.
-    let mut gpu_submit_ms: Option<f64> = None;
+    // The grooms the GPU steps: their steps handed over, where the GPU stepped any.
+    let mut gpu_handover_ms: Option<f64> = None;
     let dt = time.delta_secs();
     // A collider in a hierarchy belongs to the character at its root; a top-level one to all.
     let scoped: Vec<(Option<Entity>, ExtraCollider)> = colliders
@@ -607,8 +604,9 @@ pub(crate) fn simulate(
         // On the GPU if the groom asks for it and the GPU can step it, else on the CPU.
         let on_gpu = match backend.copied().unwrap_or_default() {
             HairBackend::Gpu => {
+                let collider = Arc::clone(&state.collider);
                 let (strands, gpu, input) = state.next_step(dt, &params, &extra);
-                Some(gpu.step(strands, &input, gpu_device.as_deref()))
+                Some(gpu.step(strands, &input, &collider, &gpu_support))
             }
             HairBackend::Cpu => {
                 state.gpu.release();
@@ -624,14 +622,10 @@ pub(crate) fn simulate(
             }
             state.gpu.issue = gpu_issue;
         }
-        if on_gpu == Some(Ok(())) {
-            // What came back from the GPU's earlier steps during this one.
-            state.last_report = state.gpu.take_report().unwrap_or_default();
+        if on_gpu == Some(Ok(true)) {
+            // What came back from the GPU's earlier steps: `receive_from_gpu`.
             warn_of_resets(entity, &state.last_report);
-            if let Some(ms) = state.gpu.take_step_ms() {
-                *gpu_step_ms.get_or_insert(0.0) += ms;
-            }
-            *gpu_submit_ms.get_or_insert(0.0) += state.gpu.submit_ms;
+            *gpu_handover_ms.get_or_insert(0.0) += state.gpu.handover_ms;
             state.last_step_time = groom_started.elapsed();
             state.time += dt;
             guides += state.strands.strand_count();
@@ -663,11 +657,8 @@ pub(crate) fn simulate(
     }
     let elapsed_ms = started.elapsed().as_secs_f64() * 1e3;
     diagnostics.add_measurement(&HairDiagnostics::STEP_TIME, || elapsed_ms);
-    if let Some(ms) = gpu_step_ms {
-        diagnostics.add_measurement(&HairDiagnostics::GPU_STEP_TIME, || ms);
-    }
-    if let Some(ms) = gpu_submit_ms {
-        diagnostics.add_measurement(&HairDiagnostics::GPU_SUBMIT_TIME, || ms);
+    if let Some(ms) = gpu_handover_ms {
+        diagnostics.add_measurement(&HairDiagnostics::GPU_HANDOVER_TIME, || ms);
     }
     diagnostics.add_measurement(&HairDiagnostics::GUIDES, || guides as f64);
     diagnostics.add_measurement(&HairDiagnostics::PARTICLES, || particles as f64);

@@ -284,6 +284,9 @@ fn ride_in(mut app: App, blend_top: f32, backend: HairBackend) -> (ScalpJoint, f
     app.world_mut().entity_mut(rig.head).insert(backend);
     wait_until_ready(&mut app, rig.head);
     let on_gpu = backend == HairBackend::Gpu;
+    if on_gpu {
+        wait_until_on_gpu(&mut app, rig.head);
+    }
     let joint = state(&app, rig.head).scalp_joint().expect("a skinned head follows a joint").clone();
     app.insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(1.0 / 30.0)));
     let (mut worst_root, mut deepest) = (0.0f32, 0.0f32);
@@ -292,7 +295,8 @@ fn ride_in(mut app: App, blend_top: f32, backend: HairBackend) -> (ScalpJoint, f
         app.update();
         let fraction = app.world().resource::<Time<Hair>>().overstep_fraction();
         if on_gpu {
-            assert!(app.world_mut().get_mut::<HairState>(rig.head).unwrap().read_back_gpu());
+            wait_for_gpu(&mut app, rig.head);
+            assert_eq!(state(&app, rig.head).gpu_lag(), Some(0));
             assert_eq!(state(&app, rig.head).gpu_fallback(), None);
         }
         let state = state(&app, rig.head);

@@ -424,10 +424,20 @@ fn a_groom_the_gpu_steps_is_drawn_from_the_gpu_where_the_cpu_would_draw_it() {
     let cpu_box = aabb(&scene);
     // The head is still and the hair settled: on the GPU it stays where it hangs.
     scene.app.world_mut().entity_mut(head).insert(HairBackend::Gpu);
+    // The CPU steps it while the GPU's pipelines compile in the background.
+    let on_gpu = |scene: &Scene| scene.app.world().get::<HairState>(head).unwrap().gpu_lag().is_some();
+    let mut waited = 0;
+    while !on_gpu(&scene) && waited < 600 {
+        scene.frames(1);
+        waited += 1;
+    }
+    println!("the GPU took the groom over after {waited} frames");
     scene.frames(3);
     let on_gpu = scene.capture("backend-gpu");
     let state = scene.app.world().get::<HairState>(head).unwrap();
     assert_eq!(state.gpu_fallback(), None, "the GPU steps the groom");
+    assert!(state.gpu_lag().is_some(), "the GPU steps the groom");
+    assert_eq!(bevy_hair::hair_gpu::submissions(), 0, "the hair code submitted work itself");
     // The particles and their frames (600 guides × 11 particles, two vec4 each) are
     // written on the GPU; only the rest travels.
     let gpu_bytes = scene.app.world().resource::<HairRenderStats>().uploaded_bytes;

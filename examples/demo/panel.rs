@@ -147,14 +147,14 @@ fn stats_section(
         row("fps", format!("{:.0}", smoothed(&FrameTimeDiagnosticsPlugin::FPS)));
         row("simulation", format!("{:.2} ms / step", smoothed(&HairDiagnostics::STEP_TIME)));
         // Only while the GPU steps the hair (its time on the GPU where it times its passes).
-        let on_gpu = gpu_asked && state.is_some_and(|s| s.gpu_fallback().is_none());
+        let on_gpu = gpu_asked && state.is_some_and(|s| s.gpu_lag().is_some());
         let gpu_ms = |path: &bevy::diagnostic::DiagnosticPath| {
             diagnostics.get(path).and_then(|d| d.smoothed()).filter(|_| on_gpu)
         };
         if let Some(ms) = gpu_ms(&HairDiagnostics::GPU_STEP_TIME) {
             row("on the GPU", format!("{ms:.2} ms / step"));
         }
-        if let Some(ms) = gpu_ms(&HairDiagnostics::GPU_SUBMIT_TIME) {
+        if let Some(ms) = gpu_ms(&HairDiagnostics::GPU_HANDOVER_TIME) {
             row("handed to the GPU", format!("{ms:.2} ms / step"));
         }
         row("particles", format!("{:.0}", smoothed(&HairDiagnostics::PARTICLES)));

@@ -52,7 +52,7 @@ impl Plugin for HairRenderPlugin {
         let curve =
             app.world_mut().resource_mut::<Assets<Shader>>().add(Shader::from_wgsl(curve, "bevy_hair/curve.wgsl"));
         app.insert_resource(CurveShader(curve));
-        app.add_plugins(MaterialPlugin::<HairMaterial>::default())
+        app.add_plugins((MaterialPlugin::<HairMaterial>::default(), crate::gpu::GpuRenderWorldPlugin))
             .register_type::<HairLook>()
             .register_type::<HairAntialias>()
             .register_type::<HairRenderStats>()
@@ -253,8 +253,9 @@ pub struct HairDrawing {
     /// Where the guides are sorted from (back to front) when the strands are blended
     /// ([`HairAntialias`]); `None` when they are not.
     blended_from: Option<Vec3>,
-    /// Writes [`Self::particles`] on the GPU, for a groom the GPU steps.
-    gpu: Option<hair_gpu::GpuDrawing>,
+    /// Each guide's root frame vector `u` (head space), for the GPU's drawing of a groom
+    /// the GPU steps.
+    root_u: std::sync::Arc<[hair_sim::math::Vec3]>,
 }
 
 impl HairDrawing {
@@ -370,6 +371,7 @@ fn sync_drawing(
             uniform: uniform(&layout, groom, look, false),
             particles: particles.clone(),
         });
+        let root_u = roots.iter().map(|root| to_sim(root.u)).collect();
         let drawing = HairDrawing {
             head,
             guides,
@@ -379,7 +381,7 @@ fn sync_drawing(
             roots,
             opacity_maps,
             blended_from: None,
-            gpu: None,
+            root_u,
         };
         let bundle = (Mesh3d(meshes.add(layout.mesh())), MeshMaterial3d(material), drawing, Transform::IDENTITY);
         match existing {
@@ -568,48 +570,28 @@ struct WrittenGuides {
     layout: StrandLayout,
 }
 
-/// For a groom the GPU steps, writes the frame's particles and their frames straight into
-/// the drawing's buffer on the GPU (`hair_gpu::GpuDrawing`); [`upload_guides`] writes the
-/// rest. Nothing comes back to the CPU for it.
+/// For a groom the GPU steps, asks the GPU to write the frame's particles and their frames
+/// straight into the drawing's buffer (`hair_gpu::GpuDrawing`, recorded in the render
+/// world after the frame's steps); [`upload_guides`] writes the rest.
 fn draw_on_gpu(
     clock: Res<Time<Hair>>,
-    heads: Query<&HairState>,
-    mut drawings: Query<(&mut HairDrawing, &InheritedVisibility), With<Mesh3d>>,
+    mut heads: Query<&mut HairState>,
+    drawings: Query<(&HairDrawing, &InheritedVisibility), With<Mesh3d>>,
 ) {
     let overstep = clock.overstep_fraction();
-    for (mut drawing, visible) in &mut drawings {
-        let Ok(state) = heads.get(drawing.head) else { continue };
-        let Some(strands) = state.gpu_strands().filter(|_| state.roots().len() == drawing.roots.len()) else {
-            if drawing.gpu.is_some() {
-                drawing.gpu = None; // back on the CPU: upload_guides writes the particles
-            }
-            continue;
-        };
-        if !visible.get() {
+    for (drawing, visible) in &drawings {
+        let Ok(mut state) = heads.get_mut(drawing.head) else { continue };
+        if !visible.get() || !drawn_on_gpu(drawing, &state) {
             continue;
         }
-        if !drawing.gpu.as_ref().is_some_and(|gpu| gpu.draws(strands)) {
-            let root_u: Vec<_> = drawing.roots.iter().map(|root| to_sim(root.u)).collect();
-            match hair_gpu::GpuDrawing::new(strands, &root_u, &drawing.particles) {
-                Ok(gpu) => drawing.gpu = Some(gpu),
-                Err(e) => {
-                    warn!("hair on {}: drawn from the CPU, the GPU cannot draw it: {e}", drawing.head);
-                    drawing.gpu = None;
-                    continue;
-                }
-            }
-        }
-        if let Some(gpu) = &drawing.gpu
-            && let Err(e) = gpu.draw(strands, overstep, state.drawn_head_pose())
-        {
-            warn!("hair on {}: {e}", drawing.head);
-        }
+        let pose = state.drawn_head_pose();
+        state.bypass_change_detection().gpu.draw(&drawing.particles, &drawing.root_u, overstep, pose);
     }
 }
 
 /// Whether the GPU writes `drawing`'s particles this frame ([`draw_on_gpu`]).
 fn drawn_on_gpu(drawing: &HairDrawing, state: &HairState) -> bool {
-    drawing.gpu.as_ref().zip(state.gpu_strands()).is_some_and(|(gpu, strands)| gpu.draws(strands))
+    state.gpu.running() && state.roots().len() == drawing.roots.len()
 }
 
 /// Writes this frame's guide particles (interpolated between the last two hair steps, on

@@ -100,26 +100,72 @@ pub fn settings(app: &mut App, change: impl FnOnce(&mut SimParams)) {
     change(&mut app.world_mut().resource_mut::<HairSettings>().0);
 }
 
-/// A headless app whose main world holds a render device, as Bevy's `RenderPlugin` leaves
-/// one there for main-world systems: what the GPU backend steps on, without a renderer.
-/// `Err` says why there is none.
+/// A headless app with Bevy's renderer (no window, nothing drawn unless a test adds a
+/// camera) and the hair plugin, time advancing by [`FRAME`] per update: what the GPU
+/// backend steps in (the render world). `Err` says why there is none.
 pub fn app_with_render_device() -> Result<App, String> {
-    use bevy::render::renderer::{RenderAdapterInfo, RenderDevice, RenderQueue, WgpuWrapper};
+    use bevy::app::PluginsState;
+    use bevy::log::LogPlugin;
+    use bevy::render::RenderPlugin;
+    use bevy::window::ExitCondition;
+    use bevy::winit::WinitPlugin;
     let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
-    let adapter = bevy::tasks::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions::default()))
+    bevy::tasks::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions::default()))
         .map_err(|e| format!("no GPU adapter ({e}); install mesa-vulkan-drivers and libvulkan1 for lavapipe"))?;
-    // Timestamp queries where the adapter has them, as Bevy's renderer asks for them.
-    let descriptor = wgpu::DeviceDescriptor {
-        required_features: adapter.features() & wgpu::Features::TIMESTAMP_QUERY,
-        ..Default::default()
-    };
-    let (device, queue) = bevy::tasks::block_on(adapter.request_device(&descriptor))
-        .map_err(|e| format!("the adapter opened no device ({e})"))?;
-    let mut app = app();
-    app.insert_resource(RenderDevice::from(device))
-        .insert_resource(RenderQueue(std::sync::Arc::new(WgpuWrapper::new(queue))))
-        .insert_resource(RenderAdapterInfo(WgpuWrapper::new(adapter.get_info())));
+    let mut app = App::new();
+    app.add_plugins(
+        DefaultPlugins
+            .build()
+            .disable::<WinitPlugin>()
+            // Each test builds an app; only the first could install the global logger.
+            .disable::<LogPlugin>()
+            .set(WindowPlugin { primary_window: None, exit_condition: ExitCondition::DontExit, ..default() })
+            .set(RenderPlugin { synchronous_pipeline_compilation: true, ..default() }),
+    )
+    .add_plugins(HairPlugin::default())
+    .insert_resource(TimeUpdateStrategy::ManualDuration(FRAME));
+    // What `App::run` does before the first update: the renderer starts asynchronously.
+    while app.plugins_state() == PluginsState::Adding {
+        bevy::tasks::tick_global_task_pools_on_main_thread();
+    }
+    app.finish();
+    app.cleanup();
     Ok(app)
+}
+
+/// Updates with the hair clock paused until the groom on `head` steps on the GPU (its
+/// pipelines compiled and its strands handed over), or it reports why it cannot.
+pub fn wait_until_on_gpu(app: &mut App, head: Entity) {
+    paused(app, |app| {
+        let start = Instant::now();
+        while state(app, head).gpu_lag().is_none() && state(app, head).gpu_fallback().is_none() {
+            assert!(start.elapsed() < GROWTH_TIMEOUT, "the GPU did not take the groom over");
+            app.update();
+        }
+    });
+}
+
+/// Updates with the hair clock paused until the positions of the groom on `head` are the
+/// GPU's last step's (they come back a frame or two late); the reports that came back on
+/// the way, summed.
+pub fn wait_for_gpu(app: &mut App, head: Entity) -> StepReport {
+    let mut reported = StepReport::default();
+    paused(app, |app| {
+        let start = Instant::now();
+        while state(app, head).gpu_lag().is_some_and(|lag| lag > 0) {
+            assert!(start.elapsed() < GROWTH_TIMEOUT, "the GPU's positions did not come back");
+            app.update();
+            reported.merge(state(app, head).last_report());
+        }
+    });
+    reported
+}
+
+/// Runs `f` with the hair clock paused.
+fn paused(app: &mut App, f: impl FnOnce(&mut App)) {
+    app.world_mut().resource_mut::<Time<Hair>>().pause();
+    f(app);
+    app.world_mut().resource_mut::<Time<Hair>>().unpause();
 }
 
 /// [`app_with_render_device`], or `None` after saying why the test skips; without a device

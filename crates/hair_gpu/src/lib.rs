@@ -51,7 +51,7 @@ use hair_sim::math::{Pose, Vec3};
 use hair_sim::solver::{LengthMode, RestShape, StepConstants, StepInput, StepReport, Stillness};
 use layout::Slots;
 use recorder::Recorder;
-pub use recorder::Submission;
+pub use recorder::{Submission, submissions};
 use wgpu::util::DeviceExt;
 
 mod draw;
@@ -677,6 +677,21 @@ impl GpuStrands {
             return false;
         }
         self.place(positions);
+        true
+    }
+
+    /// Gives every particle the velocity in `velocities` (strand-major, as
+    /// [`hair_sim::solver::Strands::velocities`] holds them): with [`Self::set_positions`]
+    /// first, to carry on from a CPU solver's state as it moves. A wrong count or a
+    /// non-finite velocity changes nothing and returns `false`.
+    pub fn set_velocities(&mut self, velocities: &[Vec3]) -> bool {
+        if velocities.len() != self.rest_positions.len() || !velocities.iter().all(|v| v.is_finite()) {
+            return false;
+        }
+        let plane: Vec<[f32; 4]> = velocities.iter().map(|v| [v.x, v.y, v.z, 0.0]).collect();
+        // The first of `motion`'s planes (`step.wgsl`'s `velocity`).
+        let plane = self.slots.spread(&plane, [0.0; 4]);
+        recording(&mut self.recorder).upload(&self.motion, bytemuck::cast_slice(&plane));
         true
     }
 

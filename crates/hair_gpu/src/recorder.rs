@@ -16,6 +16,15 @@ use crate::WORKGROUP_SIZE;
 /// Bytes of each staging buffer: a step's uploads (a skinned neck's patch is 232 KB) in one.
 const UPLOAD_CHUNK: u64 = 256 * 1024;
 
+/// Submissions any strands made themselves ([`Submission::Own`]), for [`submissions`].
+static SUBMISSIONS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+
+/// How many times strands in this process submitted their own work to a queue: zero where
+/// every caller submits ([`Submission::Caller`], as an engine's render graph does).
+pub fn submissions() -> u64 {
+    SUBMISSIONS.load(std::sync::atomic::Ordering::Relaxed)
+}
+
 /// Who submits what [`GpuStrands`](crate::GpuStrands) records.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Submission {
@@ -92,6 +101,7 @@ impl Recorder {
         let Some(encoder) = self.encoder.take() else { return };
         self.steps = 0;
         self.belt.finish();
+        SUBMISSIONS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         queue.submit([encoder.finish()]);
         self.belt.recall();
     }

@@ -1,0 +1,226 @@
+//! The render world's side of GPU grooms: their strands, made on a background task,
+//! the main world's letters recorded into Bevy's frame, and the copies back mapped once
+//! the frame is submitted.
+
+use super::GpuSupport;
+use super::letters::{Copied, GpuCommand, Inbox};
+use crate::HairState;
+use bevy::core_pipeline::schedule::camera_driver;
+use bevy::platform::collections::{HashMap, HashSet};
+use bevy::prelude::*;
+use bevy::render::render_resource::BufferId;
+use bevy::render::renderer::{RenderAdapterInfo, RenderContext, RenderDevice, RenderGraph, RenderQueue};
+use bevy::render::{ExtractSchedule, MainWorld, Render, RenderApp, RenderSystems};
+use bevy::tasks::{AsyncComputeTaskPool, Task, block_on, futures_lite::future};
+use hair_gpu::{GpuContext, GpuDrawing, GpuError, GpuStrands, PositionsCopy, ReportCopy, Submission};
+use hair_sim::collide::HeadCollider;
+use std::sync::{Arc, Mutex, PoisonError};
+
+/// Steps and draws GPU grooms in the render world: added by the drawing plugin.
+pub(crate) struct GpuRenderWorldPlugin;
+
+impl Plugin for GpuRenderWorldPlugin {
+    fn build(&self, _: &mut App) {}
+
+    fn finish(&self, app: &mut App) {
+        let Some(render_app) = app.get_sub_app_mut(RenderApp) else { return };
+        render_app
+            .init_resource::<RenderGrooms>()
+            .add_systems(ExtractSchedule, extract_letters)
+            .add_systems(RenderGraph, record_grooms.before(camera_driver))
+            .add_systems(Render, collect_copies.in_set(RenderSystems::Cleanup));
+        app.insert_resource(GpuSupport(None));
+    }
+}
+
+/// Every GPU groom's strands, by [`GpuSolver`](super::GpuSolver) key, and the letters
+/// extracted this frame.
+#[derive(Resource, Default)]
+struct RenderGrooms {
+    /// The render device as the GPU solver sees it, made at the first groom.
+    context: Option<Result<Arc<GpuContext>, String>>,
+    grooms: HashMap<u64, RenderGroom>,
+    letters: Vec<(u64, GpuCommand)>,
+    /// The keys the main world still holds.
+    live: HashSet<u64>,
+}
+
+/// A groom's strands in the render world.
+struct RenderGroom {
+    inbox: Arc<Mutex<Inbox>>,
+    collider: Arc<HeadCollider>,
+    strands: Strands,
+    /// What draws them, and the buffer it draws into.
+    drawing: Option<(BufferId, GpuDrawing)>,
+    /// Copies recorded this frame or on their way: number, positions, report.
+    copies: Vec<(u64, PositionsCopy, ReportCopy)>,
+}
+
+enum Strands {
+    /// Pipelines compiling and buffers filling, off the render thread.
+    Making(Task<Result<GpuStrands, GpuError>>),
+    Made(Box<GpuStrands>),
+}
+
+impl RenderGroom {
+    fn inbox(&self) -> std::sync::MutexGuard<'_, Inbox> {
+        self.inbox.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    fn made(&mut self) -> Option<&mut GpuStrands> {
+        match &mut self.strands {
+            Strands::Made(strands) => Some(strands),
+            Strands::Making(_) => None,
+        }
+    }
+
+    /// Records `letter` (the strands are made: the main world writes nothing else before
+    /// they are); `Err` says why the GPU cannot step the groom.
+    fn record(&mut self, letter: GpuCommand) -> Result<(), GpuError> {
+        let collider = Arc::clone(&self.collider);
+        let Some(strands) = self.made() else { return Ok(()) };
+        match letter {
+            GpuCommand::Start { .. } => {}
+            GpuCommand::TakeOver { positions, velocities, roots, pose } => {
+                strands.set_positions(&positions);
+                strands.set_velocities(&velocities);
+                strands.set_rest_roots(&roots);
+                strands.publish(pose);
+                strands.publish(pose);
+            }
+            GpuCommand::Step(step) => {
+                let input = step.input(&collider);
+                strands.step(&input)?;
+                strands.publish(input.head_to);
+            }
+            GpuCommand::Translate(offset) => strands.translate(offset),
+            GpuCommand::SetRestRoots(roots) => _ = strands.set_rest_roots(&roots),
+            GpuCommand::Reset(pose) => strands.reset(pose),
+            GpuCommand::CopyBack { copy } => {
+                let copied = (copy, strands.copy_positions(), strands.copy_report());
+                self.copies.push(copied);
+            }
+            GpuCommand::Draw { target, root_u, overstep, pose } => {
+                let strands = match &self.strands {
+                    Strands::Made(strands) => strands,
+                    Strands::Making(_) => return Ok(()),
+                };
+                if self.drawing.as_ref().is_none_or(|(id, _)| *id != target.id()) {
+                    let drawing = GpuDrawing::new(strands, &root_u, &target)?;
+                    self.drawing = Some((target.id(), drawing));
+                }
+                if let Some((_, drawing)) = &self.drawing {
+                    drawing.draw(strands, overstep, pose)?;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// [`ExtractSchedule`]: moves every groom's letters into the render world (in the order
+/// written), and the keys of the grooms there still are.
+fn extract_letters(
+    mut main_world: ResMut<MainWorld>,
+    mut grooms: ResMut<RenderGrooms>,
+    mut states: Local<Option<QueryState<&mut HairState>>>,
+) {
+    let grooms = &mut *grooms;
+    grooms.live.clear();
+    let states = states.get_or_insert_with(|| main_world.query::<&mut HairState>());
+    for mut state in states.iter_mut(&mut main_world) {
+        let Some((key, letters)) = state.bypass_change_detection().gpu.take_letters() else { continue };
+        grooms.live.insert(key);
+        grooms.letters.extend(letters.into_iter().map(|letter| (key, letter)));
+    }
+}
+
+/// The render graph, before the cameras: makes the strands asked for, records the
+/// frame's letters groom by groom in order (steps, drawing, copies back), and adds them to
+/// Bevy's frame. Grooms the main world let go of go, and their buffers with them.
+fn record_grooms(
+    mut context: RenderContext,
+    mut grooms: ResMut<RenderGrooms>,
+    device: Res<RenderDevice>,
+    queue: Res<RenderQueue>,
+    adapter: Res<RenderAdapterInfo>,
+) {
+    let RenderGrooms { context: gpu, grooms, letters, live } = &mut *grooms;
+    grooms.retain(|key, _| live.contains(key));
+    for (key, letter) in letters.drain(..) {
+        if let GpuCommand::Start { rest, pose, collider, inbox } = letter {
+            let gpu = gpu.get_or_insert_with(|| {
+                let context = GpuContext::new(device.wgpu_device().clone(), (**queue.0).clone(), (*adapter.0).clone());
+                context.map(Arc::new).map_err(|e| e.to_string())
+            });
+            let made = match gpu {
+                Ok(gpu) => {
+                    let gpu = Arc::clone(gpu);
+                    let collider = Arc::clone(&collider);
+                    AsyncComputeTaskPool::get().spawn(async move {
+                        let mut strands = GpuStrands::new(&gpu, &rest, pose, Some(&collider))?;
+                        strands.set_submission(Submission::Caller);
+                        Ok(strands)
+                    })
+                }
+                Err(why) => {
+                    inbox.lock().unwrap_or_else(PoisonError::into_inner).failed = Some(why.clone());
+                    continue;
+                }
+            };
+            let groom =
+                RenderGroom { inbox, collider, strands: Strands::Making(made), drawing: None, copies: Vec::new() };
+            grooms.insert(key, groom);
+            continue;
+        }
+        let Some(groom) = grooms.get_mut(&key) else { continue };
+        if let Err(e) = groom.record(letter) {
+            groom.inbox().failed = Some(e.to_string());
+            grooms.remove(&key);
+        }
+    }
+    let mut failed = Vec::new();
+    for (&key, groom) in grooms.iter_mut() {
+        if let Strands::Making(task) = &mut groom.strands
+            && let Some(made) = block_on(future::poll_once(task))
+        {
+            match made {
+                Ok(strands) => {
+                    groom.strands = Strands::Made(Box::new(strands));
+                    groom.inbox().ready = true;
+                }
+                Err(e) => {
+                    groom.inbox().failed = Some(e.to_string());
+                    failed.push(key);
+                }
+            }
+        }
+        if let Some(commands) = groom.made().and_then(|strands| strands.take_commands()) {
+            context.add_command_buffer(commands);
+        }
+    }
+    for key in failed {
+        grooms.remove(&key);
+    }
+}
+
+/// [`RenderSystems::Cleanup`], after Bevy submitted the frame: asks for the copies back
+/// recorded in it, and posts those that arrived to their grooms' inboxes. Nothing waits.
+fn collect_copies(mut grooms: ResMut<RenderGrooms>) {
+    for groom in grooms.grooms.values_mut() {
+        for (copy, positions, report) in std::mem::take(&mut groom.copies) {
+            // Both asked for at once: they went out together and arrive in the same poll.
+            let arrived = report.arrived(false) & positions.arrived(false);
+            if !arrived {
+                groom.copies.push((copy, positions, report));
+                continue;
+            }
+            match (positions.into_positions(), report.into_timed_report()) {
+                (Ok(positions), Ok((report, step_ms))) => {
+                    groom.inbox().copies.push(Copied { copy, positions, report, step_ms });
+                }
+                (Err(e), _) | (_, Err(e)) => groom.inbox().failed = Some(e.to_string()),
+            }
+        }
+    }
+}
