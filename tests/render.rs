@@ -1104,6 +1104,56 @@ fn hair_follows_its_head_through_visibility_layers_and_despawn() {
     assert_eq!((drawings, buffers, materials), (0, 0, 0), "the hair outlived its head");
 }
 
+/// A groom the GPU steps keeps one set of GPU strands and one drawing pass through all a
+/// game does to it (hidden, regrown, moved to the CPU and back), and leaves none when its
+/// head goes: `hair_gpu`'s live objects (which own all its buffers) counted at each turn.
+#[test]
+fn a_gpu_groom_leaks_no_gpu_buffers() {
+    use bevy_hair::hair_gpu::live_objects;
+    require_adapter!();
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let mut scene = Scene::new();
+    let before = live_objects();
+    let head = scene.spawn_head(short_groom());
+    scene.app.world_mut().entity_mut(head).insert(HairBackend::Gpu);
+    scene.wait_until_ready(head);
+    // Until `guides` grow on the GPU, then a few frames drawn.
+    let on_gpu_with = |scene: &mut Scene, guides: usize| {
+        for _ in 0..600 {
+            let state = scene.app.world().get::<HairState>(head);
+            if state.is_some_and(|s| s.roots().len() == guides && s.gpu_lag().is_some()) {
+                scene.frames(3);
+                return live_objects();
+            }
+            scene.frames(1);
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        panic!("the GPU did not take the groom of {guides} guides over");
+    };
+    let one = [before[0] + 1, before[1] + 1];
+    let mut counts = vec![("on the GPU", on_gpu_with(&mut scene, 600))];
+    let drawing = scene.app.world().get::<HairDrawnBy>(head).expect("a drawing").0;
+    *scene.app.world_mut().get_mut::<Visibility>(drawing).unwrap() = Visibility::Hidden;
+    scene.frames(3);
+    counts.push(("hidden", live_objects()));
+    *scene.app.world_mut().get_mut::<Visibility>(drawing).unwrap() = Visibility::Inherited;
+    scene.app.world_mut().get_mut::<HairGroom>(head).unwrap().guides = 400;
+    counts.push(("regrown", on_gpu_with(&mut scene, 400)));
+    scene.app.world_mut().entity_mut(head).insert(HairBackend::Cpu);
+    scene.frames(3);
+    counts.push(("on the CPU", live_objects()));
+    scene.app.world_mut().entity_mut(head).insert(HairBackend::Gpu);
+    counts.push(("back on the GPU", on_gpu_with(&mut scene, 400)));
+    scene.app.world_mut().entity_mut(head).despawn();
+    scene.frames(3);
+    counts.push(("despawned", live_objects()));
+    println!("GPU strands and drawings alive (before: {before:?}): {counts:?}");
+    let expected = [one, one, one, before, one, before];
+    for ((turn, count), expected) in counts.iter().zip(expected) {
+        assert_eq!(*count, expected, "{turn}");
+    }
+}
+
 /// Every variant of the hair shader Bevy can ask for (main pass with and without MSAA, an
 /// environment map and tonemapping in the shader; the shadow pass with and without its
 /// fragment stage and unclipped-depth emulation) composes with Bevy's own shader modules

@@ -11,6 +11,7 @@
 
 mod layout;
 mod material;
+mod particles;
 
 pub use layout::{ATTRIBUTE_HAIR_VERTEX, SEGMENTS_PER_PIECE, StrandLayout};
 pub use material::{HairMaterial, HairUniform, shader_path};
@@ -27,7 +28,7 @@ use bevy::diagnostic::Diagnostics;
 use bevy::light::NotShadowCaster;
 use bevy::prelude::*;
 use bevy::render::render_resource::{Buffer, BufferDescriptor, BufferUsages};
-use bevy::render::renderer::{RenderDevice, RenderQueue};
+use bevy::render::renderer::RenderDevice;
 use bevy::render::storage::ShaderBuffer;
 use bevy::shader::load_shader_library;
 use bevy::tasks::{ComputeTaskPool, TaskPool};
@@ -52,29 +53,26 @@ impl Plugin for HairRenderPlugin {
         let curve =
             app.world_mut().resource_mut::<Assets<Shader>>().add(Shader::from_wgsl(curve, "bevy_hair/curve.wgsl"));
         app.insert_resource(CurveShader(curve));
-        app.add_plugins((MaterialPlugin::<HairMaterial>::default(), crate::gpu::GpuRenderWorldPlugin))
-            .register_type::<HairLook>()
-            .register_type::<HairAntialias>()
-            .register_type::<HairRenderStats>()
-            .register_required_components::<HairGroom, HairLook>()
-            .init_resource::<HairRenderStats>()
-            .init_resource::<ShadowCastingLights>()
-            .add_systems(
-                PostUpdate,
-                (
-                    find_shadow_casting_lights,
-                    sync_drawing,
-                    choose_blending,
-                    draw_on_gpu,
-                    upload_guides,
-                    update_materials,
-                )
-                    .chain()
-                    .in_set(HairSystems::Draw)
-                    .after(VisibilitySystems::VisibilityPropagate)
-                    .before(VisibilitySystems::CheckVisibility),
-            )
-            .add_observer(forget_drawing);
+        app.add_plugins((
+            MaterialPlugin::<HairMaterial>::default(),
+            crate::gpu::GpuRenderWorldPlugin,
+            particles::ParticleWritesPlugin,
+        ))
+        .register_type::<HairLook>()
+        .register_type::<HairAntialias>()
+        .register_type::<HairRenderStats>()
+        .register_required_components::<HairGroom, HairLook>()
+        .init_resource::<HairRenderStats>()
+        .init_resource::<ShadowCastingLights>()
+        .add_systems(
+            PostUpdate,
+            (find_shadow_casting_lights, sync_drawing, choose_blending, draw_on_gpu, upload_guides, update_materials)
+                .chain()
+                .in_set(HairSystems::Draw)
+                .after(VisibilitySystems::VisibilityPropagate)
+                .before(VisibilitySystems::CheckVisibility),
+        )
+        .add_observer(forget_drawing);
     }
 }
 
@@ -613,13 +611,14 @@ fn upload_guides(
         With<Mesh3d>,
     >,
     mut buffers: ResMut<Assets<ShaderBuffer>>,
-    queue: Option<Res<RenderQueue>>,
+    mut particle_writes: ResMut<particles::ParticleWrites>,
     mut stats: ResMut<HairRenderStats>,
     mut diagnostics: Diagnostics,
     mut written: Local<Parallel<Vec<WrittenGuides>>>,
 ) {
-    let Some(queue) = queue else { return };
     let started = bevy::platform::time::Instant::now();
+    // Extraction took the last frame's (without a render world, nothing would).
+    particle_writes.0.clear();
     let overstep = clock.overstep_fraction();
     /// The particles and frames (unless the GPU writes them), the guide buffer, and the
     /// boxes around the strands as copied here and as far as they can be.
@@ -741,7 +740,7 @@ fn upload_guides(
         }
         if let Some((buffer, particles)) = particles {
             frame.uploaded_bytes += (particles.len() * size_of::<Vec4>()) as u64;
-            queue.write_buffer(&buffer, 0, bytemuck::cast_slice(&particles));
+            particle_writes.0.push((buffer, particles));
         }
     }
     *stats = frame;

@@ -5,7 +5,7 @@
 
 use crate::pass::{bind_group, pipeline};
 use crate::recorder::Recorder;
-use crate::{GpuError, GpuStrands, storage_buffer};
+use crate::{Alive, GpuError, GpuStrands, LIVE_DRAWINGS, storage_buffer};
 use bytemuck::{Pod, Zeroable};
 use hair_sim::math::{Pose, Vec3};
 
@@ -109,6 +109,7 @@ pub struct GpuDrawing {
     groups: [wgpu::BindGroup; 2],
     /// The strands it was made for ([`GpuStrands::id`]).
     strands: u64,
+    _alive: Alive,
 }
 
 impl std::fmt::Debug for GpuDrawing {
@@ -150,7 +151,7 @@ impl GpuDrawing {
                 ],
             )
         });
-        Ok(GpuDrawing { pipeline, uniform, groups, strands: strands.id })
+        Ok(GpuDrawing { pipeline, uniform, groups, strands: strands.id, _alive: Alive::new(&LIVE_DRAWINGS) })
     }
 
     /// Whether this drawing was made for `strands`.

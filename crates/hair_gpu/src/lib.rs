@@ -346,6 +346,7 @@ pub struct GpuStrands {
     recorder: std::sync::Mutex<Recorder>,
     /// The copies back's staging buffers, kept for the next copies.
     staging: StagingPool,
+    _alive: Alive,
 }
 
 /// `roots.wgsl`: a root per strand uploaded, then written into the rest shape.
@@ -591,6 +592,7 @@ impl GpuStrands {
             roots: None,
             recorder: std::sync::Mutex::new(Recorder::new(device)),
             staging: StagingPool::default(),
+            _alive: Alive::new(&LIVE_STRANDS),
         };
         strands.publish(pose);
         strands.publish(pose);
@@ -1078,6 +1080,34 @@ fn storage_buffer(device: &wgpu::Device, label: &str, contents: &[u8], usage: wg
         contents: if contents.len() < zeros.len() { &zeros } else { contents },
         usage: wgpu::BufferUsages::STORAGE | usage,
     })
+}
+
+/// [`GpuStrands`] alive, for [`live_objects`].
+static LIVE_STRANDS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+/// [`GpuDrawing`]s alive, for [`live_objects`].
+pub(crate) static LIVE_DRAWINGS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
+/// How many [`GpuStrands`] and [`GpuDrawing`]s are alive in this process: every GPU buffer
+/// of this crate belongs to one of them, so an engine that lets go of its grooms brings
+/// both back to what they were (a test's count of leaks).
+pub fn live_objects() -> [usize; 2] {
+    [LIVE_STRANDS.load(std::sync::atomic::Ordering::Relaxed), LIVE_DRAWINGS.load(std::sync::atomic::Ordering::Relaxed)]
+}
+
+/// Counts its owner in a count of live objects while it lives.
+pub(crate) struct Alive(&'static std::sync::atomic::AtomicUsize);
+
+impl Alive {
+    pub fn new(count: &'static std::sync::atomic::AtomicUsize) -> Self {
+        count.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        Alive(count)
+    }
+}
+
+impl Drop for Alive {
+    fn drop(&mut self) {
+        self.0.fetch_sub(1, std::sync::atomic::Ordering::Relaxed);
+    }
 }
 
 /// The recorder of a [`GpuStrands`] borrowed mutably (no lock taken; a poisoned one is

@@ -1,0 +1,43 @@
+//! The particles the CPU places for drawing, written into each drawing's buffer from the
+//! render world: a write queued from the main world would reach the queue before the render
+//! thread submits the frame before, which would then draw this frame's hair.
+
+use bevy::prelude::*;
+use bevy::render::render_resource::Buffer;
+use bevy::render::renderer::RenderQueue;
+use bevy::render::{ExtractSchedule, MainWorld, Render, RenderApp, RenderSystems};
+
+/// Writes the particles of the grooms the CPU steps, queued in [`ParticleWrites`], in the
+/// render world of the frame they were placed for.
+pub(crate) struct ParticleWritesPlugin;
+
+impl Plugin for ParticleWritesPlugin {
+    fn build(&self, app: &mut App) {
+        app.init_resource::<ParticleWrites>();
+    }
+
+    fn finish(&self, app: &mut App) {
+        let Some(render_app) = app.get_sub_app_mut(RenderApp) else { return };
+        render_app
+            .init_resource::<ParticleWrites>()
+            .add_systems(ExtractSchedule, extract_writes)
+            .add_systems(Render, write_particles.in_set(RenderSystems::PrepareResources));
+    }
+}
+
+/// Each drawing's particles and frames placed this frame, for its buffer.
+#[derive(Resource, Default)]
+pub(crate) struct ParticleWrites(pub Vec<(Buffer, Vec<Vec4>)>);
+
+/// [`ExtractSchedule`]: moves the frame's writes into the render world.
+fn extract_writes(mut main_world: ResMut<MainWorld>, mut writes: ResMut<ParticleWrites>) {
+    writes.0 = std::mem::take(&mut main_world.resource_mut::<ParticleWrites>().0);
+}
+
+/// [`RenderSystems::PrepareResources`]: queues the writes, which land before the frame's
+/// passes.
+fn write_particles(mut writes: ResMut<ParticleWrites>, queue: Res<RenderQueue>) {
+    for (buffer, particles) in writes.0.drain(..) {
+        queue.write_buffer(&buffer, 0, bytemuck::cast_slice(&particles));
+    }
+}
