@@ -34,9 +34,16 @@ impl HairDiagnostics {
     /// the guide particles interpolated and placed, their frames, the draw order and the
     /// opacity maps, written to the GPU.
     pub const UPLOAD_TIME: DiagnosticPath = DiagnosticPath::const_new("hair/upload_ms");
+    /// Wall time the hair's extraction into the render world took since the last frame,
+    /// milliseconds ([`HairRenderSystems::Extract`](crate::HairRenderSystems)).
+    pub const EXTRACT_TIME: DiagnosticPath = DiagnosticPath::const_new("hair/extract_ms");
+    /// Wall time the hair's other render-world systems took since the last frame,
+    /// milliseconds (on the render thread where rendering is pipelined): the GPU grooms'
+    /// passes recorded, the CPU grooms' particles written, copies back collected.
+    pub const RENDER_TIME: DiagnosticPath = DiagnosticPath::const_new("hair/render_ms");
 
     /// Every path above, for registration.
-    pub const ALL: [DiagnosticPath; 9] = [
+    pub const ALL: [DiagnosticPath; 11] = [
         Self::STEP_TIME,
         Self::GPU_STEP_TIME,
         Self::GPU_HANDOVER_TIME,
@@ -46,5 +53,7 @@ impl HairDiagnostics {
         Self::RENDERED_VERTICES,
         Self::UPLOADED_BYTES,
         Self::UPLOAD_TIME,
+        Self::EXTRACT_TIME,
+        Self::RENDER_TIME,
     ];
 }

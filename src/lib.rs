@@ -74,7 +74,7 @@ pub use hair_sim::solver::{CollisionResponse, LengthMode, SimParams, SimdPath, S
 pub use head_mesh::{ATTRIBUTE_SCALP, is_procedural_scalp, procedural_head_mesh};
 pub use preset::{HairPreset, PresetError};
 #[cfg(feature = "render")]
-pub use render::{HairAntialias, HairLook, HairRenderStats, HairShading, SpecularLobe};
+pub use render::{HairAntialias, HairLook, HairRenderStats, HairRenderSystems, HairShading, SpecularLobe};
 pub use settings::{HairBackend, HairSettings, HairSettingsOverride};
 pub use simulation::SimulationPlugin;
 pub use simulation::{HairState, step_on_pool};
@@ -95,7 +95,7 @@ pub mod prelude {
         SimdPath, Spiral, StepReport, Wind,
     };
     #[cfg(feature = "render")]
-    pub use crate::{HairAntialias, HairLook, HairRenderStats, HairShading, SpecularLobe};
+    pub use crate::{HairAntialias, HairLook, HairRenderStats, HairRenderSystems, HairShading, SpecularLobe};
 }
 
 /// Adds hair growth and simulation, and drawing (feature `render`) when the app renders.

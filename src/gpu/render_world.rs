@@ -5,8 +5,11 @@
 use super::GpuSupport;
 use super::letters::{Copied, GpuCommand, Inbox};
 use crate::HairState;
+use crate::render::HairRenderSystems;
+use crate::render::timing::{RenderTime, RenderTimes};
 use bevy::core_pipeline::schedule::camera_driver;
 use bevy::platform::collections::{HashMap, HashSet};
+use bevy::platform::time::Instant;
 use bevy::prelude::*;
 use bevy::render::render_resource::BufferId;
 use bevy::render::renderer::{RenderAdapterInfo, RenderContext, RenderDevice, RenderGraph, RenderQueue};
@@ -26,9 +29,9 @@ impl Plugin for GpuRenderWorldPlugin {
         let Some(render_app) = app.get_sub_app_mut(RenderApp) else { return };
         render_app
             .init_resource::<RenderGrooms>()
-            .add_systems(ExtractSchedule, extract_letters)
-            .add_systems(RenderGraph, record_grooms.before(camera_driver))
-            .add_systems(Render, collect_copies.in_set(RenderSystems::Cleanup));
+            .add_systems(ExtractSchedule, extract_letters.in_set(HairRenderSystems::Extract))
+            .add_systems(RenderGraph, record_grooms.in_set(HairRenderSystems::Record).before(camera_driver))
+            .add_systems(Render, collect_copies.in_set(HairRenderSystems::Collect).in_set(RenderSystems::Cleanup));
         app.insert_resource(GpuSupport(None));
     }
 }
@@ -124,7 +127,9 @@ fn extract_letters(
     mut main_world: ResMut<MainWorld>,
     mut grooms: ResMut<RenderGrooms>,
     mut states: Local<Option<QueryState<&mut HairState>>>,
+    times: Res<RenderTimes>,
 ) {
+    let started = Instant::now();
     let grooms = &mut *grooms;
     grooms.live.clear();
     let states = states.get_or_insert_with(|| main_world.query::<&mut HairState>());
@@ -133,6 +138,7 @@ fn extract_letters(
         grooms.live.insert(key);
         grooms.letters.extend(letters.into_iter().map(|letter| (key, letter)));
     }
+    times.add(RenderTime::Extract, started);
 }
 
 /// The render graph, before the cameras: makes the strands asked for, records the
@@ -144,7 +150,9 @@ fn record_grooms(
     device: Res<RenderDevice>,
     queue: Res<RenderQueue>,
     adapter: Res<RenderAdapterInfo>,
+    times: Res<RenderTimes>,
 ) {
+    let started = Instant::now();
     let RenderGrooms { context: gpu, grooms, letters, live } = &mut *grooms;
     grooms.retain(|key, _| live.contains(key));
     for (key, letter) in letters.drain(..) {
@@ -202,11 +210,13 @@ fn record_grooms(
     for key in failed {
         grooms.remove(&key);
     }
+    times.add(RenderTime::Render, started);
 }
 
 /// [`RenderSystems::Cleanup`], after Bevy submitted the frame: asks for the copies back
 /// recorded in it, and posts those that arrived to their grooms' inboxes. Nothing waits.
-fn collect_copies(mut grooms: ResMut<RenderGrooms>) {
+fn collect_copies(mut grooms: ResMut<RenderGrooms>, times: Res<RenderTimes>) {
+    let started = Instant::now();
     for groom in grooms.grooms.values_mut() {
         for (copy, positions, report) in std::mem::take(&mut groom.copies) {
             // Both asked for at once: they went out together and arrive in the same poll.
@@ -223,4 +233,5 @@ fn collect_copies(mut grooms: ResMut<RenderGrooms>) {
             }
         }
     }
+    times.add(RenderTime::Render, started);
 }

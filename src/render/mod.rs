@@ -12,6 +12,7 @@
 mod layout;
 mod material;
 mod particles;
+pub(crate) mod timing;
 
 pub use layout::{ATTRIBUTE_HAIR_VERTEX, SEGMENTS_PER_PIECE, StrandLayout};
 pub use material::{HairMaterial, HairUniform, shader_path};
@@ -57,6 +58,7 @@ impl Plugin for HairRenderPlugin {
             MaterialPlugin::<HairMaterial>::default(),
             crate::gpu::GpuRenderWorldPlugin,
             particles::ParticleWritesPlugin,
+            timing::RenderTimingPlugin,
         ))
         .register_type::<HairLook>()
         .register_type::<HairAntialias>()
@@ -74,6 +76,24 @@ impl Plugin for HairRenderPlugin {
         )
         .add_observer(forget_drawing);
     }
+}
+
+/// The hair's systems in Bevy's render world, for ordering against them or measuring them.
+/// Each runs in its own schedule of the render app.
+#[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum HairRenderSystems {
+    /// `ExtractSchedule`: the frame's letters to the GPU grooms and the CPU grooms'
+    /// particles move into the render world.
+    Extract,
+    /// `Render`, in `RenderSystems::PrepareResources`: the CPU grooms' particles are
+    /// written into their drawings' buffers.
+    Write,
+    /// The render graph schedule, before `camera_driver`: the GPU grooms' steps, drawing
+    /// passes and copies back are recorded into the frame.
+    Record,
+    /// `Render`, in `RenderSystems::Cleanup`, after the frame's submission: the copies back
+    /// that arrived are posted to the main world.
+    Collect,
 }
 
 /// Keeps the shared curve shader (`bevy_hair::curve`) loaded.

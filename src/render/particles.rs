@@ -2,6 +2,9 @@
 //! render world: a write queued from the main world would reach the queue before the render
 //! thread submits the frame before, which would then draw this frame's hair.
 
+use super::HairRenderSystems;
+use super::timing::{RenderTime, RenderTimes};
+use bevy::platform::time::Instant;
 use bevy::prelude::*;
 use bevy::render::render_resource::Buffer;
 use bevy::render::renderer::RenderQueue;
@@ -20,8 +23,11 @@ impl Plugin for ParticleWritesPlugin {
         let Some(render_app) = app.get_sub_app_mut(RenderApp) else { return };
         render_app
             .init_resource::<ParticleWrites>()
-            .add_systems(ExtractSchedule, extract_writes)
-            .add_systems(Render, write_particles.in_set(RenderSystems::PrepareResources));
+            .add_systems(ExtractSchedule, extract_writes.in_set(HairRenderSystems::Extract))
+            .add_systems(
+                Render,
+                write_particles.in_set(HairRenderSystems::Write).in_set(RenderSystems::PrepareResources),
+            );
     }
 }
 
@@ -30,14 +36,18 @@ impl Plugin for ParticleWritesPlugin {
 pub(crate) struct ParticleWrites(pub Vec<(Buffer, Vec<Vec4>)>);
 
 /// [`ExtractSchedule`]: moves the frame's writes into the render world.
-fn extract_writes(mut main_world: ResMut<MainWorld>, mut writes: ResMut<ParticleWrites>) {
+fn extract_writes(mut main_world: ResMut<MainWorld>, mut writes: ResMut<ParticleWrites>, times: Res<RenderTimes>) {
+    let started = Instant::now();
     writes.0 = std::mem::take(&mut main_world.resource_mut::<ParticleWrites>().0);
+    times.add(RenderTime::Extract, started);
 }
 
 /// [`RenderSystems::PrepareResources`]: queues the writes, which land before the frame's
 /// passes.
-fn write_particles(mut writes: ResMut<ParticleWrites>, queue: Res<RenderQueue>) {
+fn write_particles(mut writes: ResMut<ParticleWrites>, queue: Res<RenderQueue>, times: Res<RenderTimes>) {
+    let started = Instant::now();
     for (buffer, particles) in writes.0.drain(..) {
         queue.write_buffer(&buffer, 0, bytemuck::cast_slice(&particles));
     }
+    times.add(RenderTime::Render, started);
 }
