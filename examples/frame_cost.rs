@@ -4,7 +4,7 @@
 //! frame for frame, the same app without hair.
 //!
 //! ```text
-//! cargo run --release --example frame_cost -- [--solver gpu|cpu] [--guides 1200]
+//! cargo run --example frame_cost -- [--solver gpu|cpu] [--guides 1200]
 //!     [--particles 11] [--warmup 20] [--frames 100] [--size 320x180]
 //! ```
 //!
@@ -31,6 +31,7 @@ use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::ecs::schedule::SingleThreadedExecutor;
 use bevy::log::LogPlugin;
 use bevy::prelude::*;
+use bevy::render::RenderPlugin;
 use bevy::render::render_resource::{TextureFormat, TextureUsages};
 use bevy::render::renderer::RenderAdapterInfo;
 use bevy::time::TimeUpdateStrategy;
@@ -192,11 +193,15 @@ fn step(app: &mut App, head: Entity, k: &mut usize) {
 /// groom on `backend` (or none), and the hair's spans measured.
 fn app_with_head(groom: Option<(HairGroom, HairBackend)>, width: u32, height: u32) -> (App, Entity) {
     let mut app = App::new();
-    app.add_plugins(DefaultPlugins.build().disable::<WinitPlugin>().disable::<LogPlugin>().set(WindowPlugin {
-        primary_window: None,
-        exit_condition: ExitCondition::DontExit,
-        ..default()
-    }))
+    app.add_plugins(
+        DefaultPlugins
+            .build()
+            .disable::<WinitPlugin>()
+            .disable::<LogPlugin>()
+            .set(WindowPlugin { primary_window: None, exit_condition: ExitCondition::DontExit, ..default() })
+            // Every frame measured draws everything: none skips a pipeline still compiling.
+            .set(RenderPlugin { synchronous_pipeline_compilation: true, ..default() }),
+    )
     .add_plugins(HairPlugin::default())
     .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(1.0 / 60.0)))
     .init_resource::<MainSpan>();
