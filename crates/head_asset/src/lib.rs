@@ -371,9 +371,19 @@ pub fn default_obj_path() -> PathBuf {
     cache.join("base.obj")
 }
 
-/// The committed asset: `assets/head.glb` at the workspace root.
+/// The committed asset: `assets/head.glb` at the workspace root, found from the package
+/// cargo runs (its `CARGO_MANIFEST_DIR` at run time, else the working directory) upward.
+/// Not from the path this crate was compiled at: a target directory shared between
+/// checkouts keeps a build made in another one.
 pub fn default_output_path() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/head.glb")
+    const ASSET: &str = "assets/head.glb";
+    let start = std::env::var_os("CARGO_MANIFEST_DIR").map(PathBuf::from).or_else(|| std::env::current_dir().ok());
+    start
+        .iter()
+        .flat_map(|dir| dir.ancestors())
+        .map(|dir| dir.join(ASSET))
+        .find(|path| path.is_file())
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../..").join(ASSET))
 }
 
 /// The committed asset ([`default_output_path`]), read and parsed.
