@@ -37,6 +37,47 @@
 //! Errors a user can cause — a head without a mesh, an empty mesh, no painted scalp,
 //! NaN settings — never panic: they arrive as [`HairError`] messages, a `warn!`, and a
 //! [`GroomStatus::Failed`] on the head, and the groom stays inert.
+//!
+//! # Contents
+//!
+//! | to | see |
+//! |---|---|
+//! | describe a groom | [`HairGroom`], [`ScalpSource`], [`ChildParams`], [`HairPreset`] |
+//! | tune how it moves | [`HairSettings`], [`HairSettingsOverride`], [`SimParams`], [`HairTime`] |
+//! | choose where it steps | [`HairBackend`], [`HairLod`] |
+//! | tune how it looks (feature `render`) | [`HairLook`], [`HairShading`], [`HairAntialias`] |
+//! | read what it did | [`HairState`], [`StepReport`], [`HairDiagnostics`], [`HairError`] |
+//! | collide with more | [`HairCollider`] |
+//! | order systems against it | [`HairSystems`], [`HairSchedule`], `HairRenderSystems` (feature `render`) |
+//! | save and load grooms | [`HairAsset`], [`HairState::to_hair_file`] |
+//!
+//! The repository's `docs/` holds the longer chapters (simulation, collision, rendering,
+//! the GPU solver, benchmarks, testing).
+//!
+//! # Cargo features
+//!
+//! | feature | default | what |
+//! |---|---|---|
+//! | `render` | yes | drawing (the strand material, Bevy's lights and shadows) and the GPU solver ([`HairBackend::Gpu`]); without it the plugin grows and simulates only |
+//!
+//! # FAQ
+//!
+//! **Why optimise dependencies in dev builds?** The solver steps thousands of strands every
+//! 1/60 s; unoptimised, a frame's hair takes several times as long. Add
+//! `[profile.dev.package."*"] opt-level = 3` to your `Cargo.toml`.
+//!
+//! **CPU or GPU?** [`HairBackend::Cpu`] is the default and steps on Bevy's compute task
+//! pool, with levels of detail. [`HairBackend::Gpu`] steps in Bevy's render world: the main
+//! thread only writes each step down, and the groom's positions come back a few steps late
+//! ([`HairState::gpu_lag`]). Without a renderer it falls back to the CPU and says so once.
+//!
+//! **What does it need on a small machine?** Two cores step a groom of a couple of thousand
+//! guides × 16 in a few milliseconds; [`HairLod`] keeps a crowd's far heads cheap.
+//!
+//! **How do I read [`HairDiagnostics`]?** Add Bevy's diagnostics plugins and read the paths
+//! from `DiagnosticsStore`: `hair/step_ms` is the solver's time per step, `hair/upload_ms`
+//! the frame's drawing work on the main thread, `hair/gpu_step_ms` a GPU step on the GPU,
+//! `hair/extract_ms` and `hair/render_ms` the hair's share of the render world.
 
 #![warn(missing_docs)]
 

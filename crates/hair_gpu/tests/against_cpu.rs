@@ -968,3 +968,89 @@ fn steps_the_caller_submits_give_the_same_bits() {
     assert_eq!(differing, 0, "{differing} particles differ from the self-submitted steps");
     assert!(copies.iter().all(|c| c.arrived(true)), "the earlier copies arrived too");
 }
+
+/// The opacity map built on the GPU from particles in GPU memory shades every particle as
+/// the CPU's `OpacityMap::build` does: the light that reaches each particle,
+/// `exp(−k·coverage)` with the default self-shadow k, within 0.02 on average and 0.1 at
+/// most, toward a directional and a point light; and a map of nothing says so.
+#[test]
+fn the_gpu_builds_the_opacity_map_the_cpu_builds() {
+    use hair_gpu::{GpuOpacityMap, MAP_FLOATS, wgpu};
+    use hair_sim::shadow::{Fibres, LightSource, MAP_SIZE, OpacityMap, fibre_areas};
+    use wgpu::util::DeviceExt;
+    let Some(gpu) = gpu() else { return };
+    let (_, _, rest) = groom(512);
+    let n = rest.particles_per_strand;
+    let pose = head_pose(0.3);
+    let points: Vec<Vec3> = rest.positions.iter().map(|&p| pose.transform_point(p)).collect();
+    let vec4s: Vec<[f32; 4]> = points.iter().map(|p| [p.x, p.y, p.z, 1.0]).collect();
+    let source = gpu.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: None,
+        contents: bytemuck::cast_slice(&vec4s),
+        usage: wgpu::BufferUsages::STORAGE,
+    });
+    // Two maps side by side, the second at an offset, as a groom lit by two lights has them.
+    let target = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: None,
+        size: (2 * MAP_FLOATS * 4) as u64,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let fibres = Fibres { root_width: 8e-5, tip_width: 2e-5, strands_per_guide: 5.0 };
+    let counts = [rest.strand_count() as u32, n as u32];
+    let lights =
+        [LightSource::Direction(Vec3::new(0.3, 1.0, 1.0).normalize()), LightSource::Position(Vec3::new(0.5, 2.2, 1.0))];
+    let maps = GpuOpacityMap::new(&gpu.device, &source, counts[0] * counts[1], &target).expect("passes");
+    let other = GpuOpacityMap::new(&gpu.device, &source, counts[0] * counts[1], &target).expect("passes");
+    let mut encoder = gpu.device.create_command_encoder(&Default::default());
+    maps.record(&gpu.queue, &mut encoder, lights[0], counts, fibres, 0).expect("recorded");
+    other.record(&gpu.queue, &mut encoder, lights[1], counts, fibres, MAP_FLOATS as u32).expect("recorded");
+    gpu.queue.submit([encoder.finish()]);
+    let floats: Vec<f32> = read_vec4s(&gpu, &target).into_iter().flatten().collect();
+    let areas = fibre_areas(&points, n, fibres);
+    let k = 0.5;
+    for (light, map) in lights.into_iter().zip(floats.chunks_exact(MAP_FLOATS)) {
+        let cpu = OpacityMap::build(light, &points, &areas).expect("a map");
+        let v = |at: usize| Vec3::new(map[at], map[at + 1], map[at + 2]);
+        let cells = MAP_SIZE * MAP_SIZE;
+        assert_eq!(map[3], cpu_w(light), "{light:?}: the map exists");
+        let on_gpu = OpacityMap {
+            source: light,
+            right: v(4),
+            up: v(8),
+            forward: v(12),
+            corner: [map[7], map[11]],
+            cells_per_unit: map[15],
+            first_layer: map[16],
+            nearest: map[20..20 + cells].iter().map(|&d| if d == f32::MAX { f32::INFINITY } else { d }).collect(),
+            coverage: map[20 + cells..].to_vec(),
+        };
+        let apart: Vec<f32> = points
+            .iter()
+            .map(|&p| ((-k * cpu.coverage_at(p)).exp() - (-k * on_gpu.coverage_at(p)).exp()).abs())
+            .collect();
+        let mean = apart.iter().sum::<f32>() / apart.len() as f32;
+        let max = apart.iter().copied().fold(0.0, f32::max);
+        let shaded = points.iter().filter(|&&p| (-k * cpu.coverage_at(p)).exp() < 0.8).count();
+        eprintln!(
+            "{light:?}: light reaching each particle, GPU against CPU: mean {mean:.4}, max {max:.4} apart; \
+             {shaded} of {} shaded below 0.8 on the CPU",
+            points.len()
+        );
+        assert!(shaded > points.len() / 10, "a groom shades itself: {shaded} shaded");
+        assert!(mean <= 0.02 && max <= 0.1, "{light:?}: mean {mean}, max {max} apart");
+    }
+    // Nothing to map: the light's slot says so.
+    let mut encoder = gpu.device.create_command_encoder(&Default::default());
+    maps.record(&gpu.queue, &mut encoder, lights[0], [0, counts[1]], fibres, 0).expect("recorded");
+    gpu.queue.submit([encoder.finish()]);
+    assert_eq!(read_vec4s(&gpu, &target)[0][3], -1.0, "an empty map is marked");
+}
+
+/// The `w` of a map's light as `GpuOpacityMap` writes it where the map exists.
+fn cpu_w(light: hair_sim::shadow::LightSource) -> f32 {
+    match light {
+        hair_sim::shadow::LightSource::Direction(_) => 0.0,
+        hair_sim::shadow::LightSource::Position(_) => 1.0,
+    }
+}
