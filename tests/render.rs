@@ -458,6 +458,23 @@ fn a_groom_the_gpu_steps_is_drawn_from_the_gpu_where_the_cpu_would_draw_it() {
     println!("hair pixels: {cpu_hair} drawn from the CPU, {gpu_hair} from the GPU, {differing} differ");
     assert!(cpu_hair > 1000, "{cpu_hair} hair pixels");
     assert!(differing * 50 < cpu_hair, "{differing} of {cpu_hair} hair pixels differ");
+    // The GPU builds the self-shadow maps from what it draws, as the CPU builds them: the
+    // hair is as bright pixel for pixel, where without them it is brighter.
+    let mean_apart = |a: &Picture, b: &Picture| {
+        let both: Vec<usize> =
+            (0..a.pixels.len()).filter(|&i| Picture::is_hair(a.pixels[i]) && Picture::is_hair(b.pixels[i])).collect();
+        both.iter().map(|&i| (linear_luminance(a.pixels[i]) - linear_luminance(b.pixels[i])).abs()).sum::<f32>()
+            / both.len().max(1) as f32
+    };
+    scene.app.world_mut().get_mut::<HairLook>(head).unwrap().self_shadow = 0.0;
+    scene.frames(3);
+    let unshadowed = scene.capture("backend-gpu-unshadowed");
+    let (backends, shadow) = (mean_apart(&on_cpu, &on_gpu), mean_apart(&on_gpu, &unshadowed));
+    println!(
+        "hair luminance, mean difference: CPU against GPU {backends:.4}, GPU with and without self-shadow {shadow:.4}"
+    );
+    assert!(shadow > 0.01, "self-shadowing darkens the hair: {shadow}");
+    assert!(backends < 0.2 * shadow, "the GPU's self-shadow differs from the CPU's by {backends}");
 }
 
 /// Where the hair is, then how bright each of its pixels is (linear luminance) with `light`

@@ -2,7 +2,7 @@
 //! device, no queue: everything here is plain data.
 
 use super::GpuSupport;
-use super::letters::{Copied, GpuCommand, Inbox, OwnedStep};
+use super::letters::{Copied, GpuCommand, Inbox, OwnedStep, ShadowMaps};
 use crate::HairState;
 use crate::diagnostics::HairDiagnostics;
 use bevy::diagnostic::Diagnostics;
@@ -221,10 +221,18 @@ impl GpuSolver {
     }
 
     /// The frame's drawing of the strands into `target`, `overstep` of the way from the
-    /// step before the last to the last, on the head at `pose`.
-    pub fn draw(&mut self, target: &Buffer, root_u: &Arc<[SimVec3]>, overstep: f32, pose: Pose) {
+    /// step before the last to the last, on the head at `pose`, and the opacity maps of
+    /// what it draws, if `shadows`.
+    pub fn draw(
+        &mut self,
+        target: &Buffer,
+        root_u: &Arc<[SimVec3]>,
+        (overstep, pose): (f32, Pose),
+        shadows: Option<ShadowMaps>,
+    ) {
         if let Some(link) = self.link.as_mut().filter(|l| l.running) {
-            link.outbox.push(GpuCommand::Draw { target: target.clone(), root_u: Arc::clone(root_u), overstep, pose });
+            let (target, root_u) = (target.clone(), Arc::clone(root_u));
+            link.outbox.push(GpuCommand::Draw { target, root_u, overstep, pose, shadows });
         }
     }
 

@@ -1,9 +1,12 @@
 //! The letters between the worlds: what the main world asks of a groom's GPU strands
 //! ([`GpuCommand`]) and what the render world posts back ([`Inbox`]).
 
+use bevy::asset::AssetId;
 use bevy::render::render_resource::Buffer;
+use bevy::render::storage::ShaderBuffer;
 use hair_sim::collide::{ExtraCollider, HeadCollider, SurfacePatch};
 use hair_sim::math::{Pose, Vec3 as SimVec3};
+use hair_sim::shadow::{Fibres, LightSource};
 use hair_sim::solver::{RestShape, SimParams, StepInput, StepReport};
 use std::sync::{Arc, Mutex};
 
@@ -26,8 +29,21 @@ pub(crate) enum GpuCommand {
     Reset(Pose),
     /// Copy the positions and the report back, as copy number `copy`.
     CopyBack { copy: u64 },
-    /// The frame's drawing into `target` ([`hair_gpu::GpuDrawing`]).
-    Draw { target: Buffer, root_u: Arc<[SimVec3]>, overstep: f32, pose: Pose },
+    /// The frame's drawing into `target` ([`hair_gpu::GpuDrawing`]), then the opacity maps
+    /// of what it drew, if asked for.
+    Draw { target: Buffer, root_u: Arc<[SimVec3]>, overstep: f32, pose: Pose, shadows: Option<ShadowMaps> },
+}
+
+/// The deep opacity maps of a frame's drawing ([`hair_gpu::GpuOpacityMap`]), one per
+/// light, written into the drawing's guide buffer where the hair shader reads them.
+pub(crate) struct ShadowMaps {
+    /// The guide buffer.
+    pub guides: AssetId<ShaderBuffer>,
+    /// Where the first map starts in it, and from one map to the next, in floats.
+    pub first: u32,
+    pub stride: u32,
+    pub lights: Vec<LightSource>,
+    pub fibres: Fibres,
 }
 
 /// A step's input, owned, to travel to the render world (the collider went with

@@ -23,6 +23,8 @@ mod without_render;
 #[cfg(feature = "render")]
 pub(crate) use handover::{GpuSolver, receive_from_gpu, request_copies};
 #[cfg(feature = "render")]
+pub(crate) use letters::ShadowMaps;
+#[cfg(feature = "render")]
 pub(crate) use render_world::GpuRenderWorldPlugin;
 #[cfg(not(feature = "render"))]
 pub(crate) use without_render::GpuSolver;

@@ -3,7 +3,7 @@
 //! the frame is submitted.
 
 use super::GpuSupport;
-use super::letters::{Copied, GpuCommand, Inbox};
+use super::letters::{Copied, GpuCommand, Inbox, ShadowMaps};
 use crate::HairState;
 use crate::render::HairRenderSystems;
 use crate::render::timing::{RenderTime, RenderTimes};
@@ -11,11 +11,13 @@ use bevy::core_pipeline::schedule::camera_driver;
 use bevy::platform::collections::{HashMap, HashSet};
 use bevy::platform::time::Instant;
 use bevy::prelude::*;
-use bevy::render::render_resource::BufferId;
+use bevy::render::render_asset::RenderAssets;
+use bevy::render::render_resource::{Buffer, BufferId};
 use bevy::render::renderer::{RenderAdapterInfo, RenderContext, RenderDevice, RenderGraph, RenderQueue};
+use bevy::render::storage::GpuShaderBuffer;
 use bevy::render::{ExtractSchedule, MainWorld, Render, RenderApp, RenderSystems};
 use bevy::tasks::{AsyncComputeTaskPool, Task, block_on, futures_lite::future};
-use hair_gpu::{GpuContext, GpuDrawing, GpuError, GpuStrands, PositionsCopy, ReportCopy, Submission};
+use hair_gpu::{GpuContext, GpuDrawing, GpuError, GpuOpacityMap, GpuStrands, PositionsCopy, ReportCopy, Submission};
 use hair_sim::collide::HeadCollider;
 use std::sync::{Arc, Mutex, PoisonError};
 
@@ -55,6 +57,11 @@ struct RenderGroom {
     strands: Strands,
     /// What draws them, and the buffer it draws into.
     drawing: Option<(BufferId, GpuDrawing)>,
+    /// The opacity maps asked for with this frame's drawing, and the buffer it drew into.
+    shadows: Option<(ShadowMaps, Buffer)>,
+    /// One map builder per light, and the buffers it reads (the drawing) and writes (the
+    /// guides).
+    maps: Vec<(BufferId, BufferId, GpuOpacityMap)>,
     /// Copies recorded this frame or on their way: number, positions, report.
     copies: Vec<(u64, PositionsCopy, ReportCopy)>,
 }
@@ -103,7 +110,7 @@ impl RenderGroom {
                 let copied = (copy, strands.copy_positions(), strands.copy_report());
                 self.copies.push(copied);
             }
-            GpuCommand::Draw { target, root_u, overstep, pose } => {
+            GpuCommand::Draw { target, root_u, overstep, pose, shadows } => {
                 let strands = match &self.strands {
                     Strands::Made(strands) => strands,
                     Strands::Making(_) => return Ok(()),
@@ -115,6 +122,7 @@ impl RenderGroom {
                 if let Some((_, drawing)) = &self.drawing {
                     drawing.draw(strands, overstep, pose)?;
                 }
+                self.shadows = shadows.map(|maps| (maps, target));
             }
         }
         Ok(())
@@ -150,6 +158,7 @@ fn record_grooms(
     device: Res<RenderDevice>,
     queue: Res<RenderQueue>,
     adapter: Res<RenderAdapterInfo>,
+    shader_buffers: Res<RenderAssets<GpuShaderBuffer>>,
     times: Res<RenderTimes>,
 ) {
     let started = Instant::now();
@@ -176,8 +185,15 @@ fn record_grooms(
                     continue;
                 }
             };
-            let groom =
-                RenderGroom { inbox, collider, strands: Strands::Making(made), drawing: None, copies: Vec::new() };
+            let groom = RenderGroom {
+                inbox,
+                collider,
+                strands: Strands::Making(made),
+                drawing: None,
+                shadows: None,
+                maps: Vec::new(),
+                copies: Vec::new(),
+            };
             grooms.insert(key, groom);
             continue;
         }
@@ -205,6 +221,33 @@ fn record_grooms(
         }
         if let Some(commands) = groom.made().and_then(|strands| strands.take_commands()) {
             context.add_command_buffer(commands);
+        }
+        // After the drawing: the opacity maps of what it drew.
+        if let Some((maps, drawn)) = groom.shadows.take()
+            && let Some(guides) = shader_buffers.get(maps.guides)
+            && let Some(strands) = groom.made()
+        {
+            let counts = [strands.strand_count() as u32, strands.particles_per_strand() as u32];
+            let wanted = (drawn.id(), guides.buffer.id());
+            // Builders made for other buffers go; one per light is made as needed.
+            groom.maps.retain(|(d, g, _)| (*d, *g) == wanted);
+            groom.maps.truncate(maps.lights.len());
+            for (k, &light) in maps.lights.iter().enumerate() {
+                if groom.maps.len() == k {
+                    match GpuOpacityMap::new(device.wgpu_device(), &drawn, counts[0] * counts[1], &guides.buffer) {
+                        Ok(map) => groom.maps.push((wanted.0, wanted.1, map)),
+                        Err(e) => {
+                            warn!("hair: no opacity map on the GPU: {e}");
+                            break;
+                        }
+                    }
+                }
+                let offset = maps.first + k as u32 * maps.stride;
+                let encoder = context.command_encoder();
+                if let Err(e) = groom.maps[k].2.record(&queue, encoder, light, counts, maps.fibres, offset) {
+                    warn!("hair: no opacity map on the GPU: {e}");
+                }
+            }
         }
     }
     for key in failed {

@@ -20,6 +20,7 @@ pub use material::{HairMaterial, HairUniform, shader_path};
 use crate::convert::{from_sim, quat_from_sim, to_sim};
 use crate::detail::{UNKNOWN_VIEWPORT_HEIGHT, pixels_per_metre};
 use crate::diagnostics::HairDiagnostics;
+use crate::gpu::ShadowMaps;
 use crate::settings::effective;
 use crate::{Hair, HairGroom, HairSettings, HairSettingsOverride, HairState, HairSystems, HairTime};
 use bevy::asset::embedded_asset;
@@ -534,6 +535,16 @@ fn find_shadow_casting_lights(
     found.0.extend(directional.chain(positioned).take(MAX_OPACITY_MAPS));
 }
 
+/// Room for `slots` opacity maps the GPU writes, and their count: one per light, as many
+/// as there is room for.
+fn reserve_opacity_maps(data: &mut Vec<Vec4>, slots: usize, lights: usize) {
+    if slots == 0 {
+        return;
+    }
+    data.push(Vec4::new(lights.min(slots) as f32, 0.0, 0.0, 0.0));
+    data.resize(data.len() + slots * (opacity_maps_len(1) - 1), Vec4::ZERO);
+}
+
 /// Appends the opacity maps of `samples` (the guide particles, world space, and their
 /// [`fibre_areas`]) toward `lights` to `data` in `slots` slots.
 fn write_opacity_maps(
@@ -593,17 +604,39 @@ struct WrittenGuides {
 /// world after the frame's steps); [`upload_guides`] writes the rest.
 fn draw_on_gpu(
     clock: Res<Time<Hair>>,
-    mut heads: Query<&mut HairState>,
+    mut heads: Query<(&mut HairState, &HairLook)>,
     drawings: Query<(&HairDrawing, &InheritedVisibility), With<Mesh3d>>,
+    lights: Res<ShadowCastingLights>,
 ) {
     let overstep = clock.overstep_fraction();
     for (drawing, visible) in &drawings {
-        let Ok(mut state) = heads.get_mut(drawing.head) else { continue };
+        let Ok((mut state, look)) = heads.get_mut(drawing.head) else { continue };
         if !visible.get() || !drawn_on_gpu(drawing, &state) {
             continue;
         }
+        // The opacity maps of what the GPU draws, built there after the drawing.
+        let shadows = (look.self_shadow > 0.0 && drawing.opacity_maps > 0).then(|| {
+            let map = opacity_maps_len(1) - 1;
+            ShadowMaps {
+                guides: drawing.guides.id(),
+                first: ((guide_buffer_len(&drawing.layout) + 1) * 4) as u32,
+                stride: (map * 4) as u32,
+                lights: lights.0.iter().take(drawing.opacity_maps).copied().collect(),
+                fibres: fibres(look, &drawing.layout),
+            }
+        });
         let pose = state.drawn_head_pose();
-        state.bypass_change_detection().gpu.draw(&drawing.particles, &drawing.root_u, overstep, pose);
+        state.bypass_change_detection().gpu.draw(&drawing.particles, &drawing.root_u, (overstep, pose), shadows);
+    }
+}
+
+/// The fibres a groom's opacity maps count: its strands' widths, and the strands drawn per
+/// guide.
+fn fibres(look: &HairLook, layout: &StrandLayout) -> Fibres {
+    Fibres {
+        root_width: look.root_width,
+        tip_width: look.tip_width,
+        strands_per_guide: layout.strands_per_guide as f32,
     }
 }
 
@@ -688,12 +721,11 @@ fn upload_guides(
             let pose = state.drawn_head_pose();
             data.push(from_sim(pose.transform_point(state.collider().centre())).extend(1.0));
             data.extend(StrandLayout::pack_order(&draw_order(&points, &drawing.layout, drawing.blended_from)));
-            if look.self_shadow > 0.0 {
-                let fibres = Fibres {
-                    root_width: look.root_width,
-                    tip_width: look.tip_width,
-                    strands_per_guide: drawing.layout.strands_per_guide as f32,
-                };
+            if look.self_shadow > 0.0 && on_gpu {
+                // The GPU builds them from what it draws ([`draw_on_gpu`]): room and their count.
+                reserve_opacity_maps(data, drawing.opacity_maps, lights.0.len());
+            } else if look.self_shadow > 0.0 {
+                let fibres = fibres(look, &drawing.layout);
                 let (points, areas) = shadow_samples(&points, n, state.strands(), fibres);
                 write_opacity_maps(data, drawing.opacity_maps, &lights.0, (&points, &areas));
             }
