@@ -105,6 +105,8 @@ pub use description::{
 };
 pub use detail::HairLod;
 pub use diagnostics::HairDiagnostics;
+#[cfg(feature = "render")]
+pub use gpu::HairReadback;
 pub use groom::GroomPlugin;
 pub use hair_asset::{HairAsset, HairAssetError, HairAssetLoader};
 #[cfg(feature = "render")]
@@ -136,7 +138,9 @@ pub mod prelude {
         SimdPath, Spiral, StepReport, Wind,
     };
     #[cfg(feature = "render")]
-    pub use crate::{HairAntialias, HairLook, HairRenderStats, HairRenderSystems, HairShading, SpecularLobe};
+    pub use crate::{
+        HairAntialias, HairLook, HairReadback, HairRenderStats, HairRenderSystems, HairShading, SpecularLobe,
+    };
 }
 
 /// Adds hair growth and simulation, and drawing (feature `render`) when the app renders.

@@ -314,10 +314,11 @@ impl HairState {
     }
 
     /// For a groom the GPU steps ([`HairBackend::Gpu`]): how many hair steps this state's
-    /// positions ([`Self::current_positions`] and the rest) trail the GPU's last step. They
-    /// come back without waiting, a frame or two late, and 0 means they are the last
-    /// step's: to read exact positions, pause the hair clock ([`HairTime::pause`]) and
-    /// update until it is 0. `None` while the CPU steps the groom (the GPU's pipelines
+    /// positions ([`Self::current_positions`] and the rest) trail the GPU's last step. With
+    /// `HairReadback` on the head (feature `render`) they come back without waiting, a
+    /// frame or two late, and 0 means they are the last step's: to read exact positions,
+    /// pause the hair clock ([`HairTime::pause`]) and update until it is 0. Without it they
+    /// stay where the GPU took the groom over. `None` while the CPU steps the groom (the GPU's pipelines
     /// still compiling, or [`HairBackend::Cpu`]).
     pub fn gpu_lag(&self) -> Option<u64> {
         self.gpu.lag()
@@ -339,7 +340,7 @@ impl HairState {
 
     /// Copies the solver's positions out: world space, and head space for drawing, keeping
     /// the last step's as the one before.
-    fn publish(&mut self, pool: &TaskPool) {
+    pub(crate) fn publish(&mut self, pool: &TaskPool) {
         std::mem::swap(&mut self.previous_local, &mut self.current_local);
         self.refresh(pool);
     }
@@ -347,7 +348,7 @@ impl HairState {
     /// Copies the solver's positions out as the last step's, in head space, and places a
     /// level of detail's followers, which [`step_on_pool`] leaves, from their leaders'
     /// head-space positions on the way: one pass over a far head's particles instead of two.
-    pub(crate) fn refresh(&mut self, pool: &TaskPool) {
+    fn refresh(&mut self, pool: &TaskPool) {
         let pose = relative_to(self.pose_to, self.origin);
         self.published = (pose, self.origin);
         self.current = OnceLock::new();
@@ -705,9 +706,11 @@ pub fn step_on_pool(strands: &mut Strands, input: &StepInput, pool: &TaskPool) -
 /// (in head space) for interpolated drawing.
 pub(crate) fn writeback(mut grooms: Query<&mut HairState>) {
     let pool = ComputeTaskPool::get_or_init(TaskPool::default);
-    // Side by side, each groom split further: a crowd keeps every core busy.
+    // Side by side, each groom split further: a crowd keeps every core busy. A groom the
+    // GPU steps has nothing new here: its positions change when a copy comes back
+    // (`receive_from_gpu`), and the GPU draws from its own.
     pool.scope(|scope| {
-        for mut state in &mut grooms {
+        for mut state in grooms.iter_mut().filter(|state| !state.gpu.running()) {
             scope.spawn(async move { state.publish(pool) });
         }
     });

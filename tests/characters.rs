@@ -281,7 +281,7 @@ fn ride(blend_top: f32) -> (ScalpJoint, f32, f32) {
 /// last step, the one the frame draws nearest: two 60 Hz steps per 30 fps frame).
 fn ride_in(mut app: App, blend_top: f32, backend: HairBackend) -> (ScalpJoint, f32, f32) {
     let rig = spawn_rig(&mut app, blend_top);
-    app.world_mut().entity_mut(rig.head).insert(backend);
+    app.world_mut().entity_mut(rig.head).insert((backend, HairReadback));
     wait_until_ready(&mut app, rig.head);
     let on_gpu = backend == HairBackend::Gpu;
     if on_gpu {

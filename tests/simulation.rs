@@ -534,7 +534,7 @@ struct Beside {
 fn beside_the_cpu(mut app: App, backend: HairBackend, frames: usize) -> Beside {
     app.init_resource::<GpuFallbacks>().add_systems(Last, collect_gpu_fallbacks);
     let head = spawn_head(&mut app, groom(), Transform::default());
-    app.world_mut().entity_mut(head).insert(backend);
+    app.world_mut().entity_mut(head).insert((backend, HairReadback));
     let (mut cpu, cpu_head) = grown(groom());
     wait_until_ready(&mut app, head);
     let renders = app.world().contains_resource::<RenderDevice>();
@@ -629,6 +629,42 @@ fn the_gpu_backend_steps_a_groom_as_the_cpu_does() {
     eprintln!("the copy without waiting: {:.2} mm from the last step", behind * 1e3);
     assert!(copied.iter().all(|p| p.is_finite()));
     assert!(copied_swing > 0.05, "the copied positions moved {copied_swing} m");
+}
+
+/// A GPU groom's positions come back only where asked for (`HairReadback`): without it the
+/// steps' reports still arrive, and the positions stay where the GPU took the groom over
+/// while the GPU turns it; with it they catch up with the last step.
+#[test]
+fn a_gpu_groom_copies_its_positions_back_only_when_asked() {
+    let Some(mut app) = app_on_a_gpu() else { return };
+    let head = spawn_head(&mut app, groom(), Transform::default());
+    app.world_mut().entity_mut(head).insert(HairBackend::Gpu);
+    wait_until_ready(&mut app, head);
+    wait_until_on_gpu(&mut app, head);
+    let taken_over = state(&app, head).current_positions().to_vec();
+    let mut reported = StepReport::default();
+    for k in 0..30 {
+        *app.world_mut().get_mut::<Transform>(head).unwrap() = turning(k);
+        app.update();
+        reported.merge(state(&app, head).last_report());
+    }
+    let unchanged = state(&app, head).current_positions().iter().zip(&taken_over).map(|(a, b)| a.distance(*b));
+    let unchanged = unchanged.fold(0.0, f32::max);
+    let lag = state(&app, head).gpu_lag();
+    println!(
+        "without HairReadback: {lag:?} steps behind, positions {unchanged:e} m from the hand-over, {} contacts reported",
+        reported.contacts
+    );
+    assert!(lag.is_some_and(|lag| lag >= 30), "the positions trail every step: {lag:?}");
+    assert!(unchanged < 1e-5, "positions came back unasked: {unchanged} m");
+    assert!(reported.contacts > 0, "the reports come back");
+    app.world_mut().entity_mut(head).insert(HairReadback);
+    wait_for_gpu(&mut app, head);
+    let moved = state(&app, head).current_positions().iter().zip(&taken_over).map(|(a, b)| a.distance(*b));
+    let moved = moved.fold(0.0, f32::max);
+    println!("with HairReadback: positions of the last step, {moved:.3} m from the hand-over");
+    assert_eq!(state(&app, head).gpu_lag(), Some(0));
+    assert!(moved > 0.01, "the turn moved the hair {moved} m");
 }
 
 #[test]

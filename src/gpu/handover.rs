@@ -5,6 +5,7 @@ use super::GpuSupport;
 use super::letters::{Copied, GpuCommand, Inbox, OwnedStep, ShadowMaps};
 use crate::HairState;
 use crate::diagnostics::HairDiagnostics;
+use crate::render::{HairDrawing, HairDrawnBy};
 use bevy::diagnostic::Diagnostics;
 use bevy::prelude::*;
 use bevy::render::render_resource::Buffer;
@@ -52,8 +53,10 @@ struct Link {
     /// far the solver's origin moved the particles since it was asked for.
     copy: Option<(u64, u64, SimVec3)>,
     next_copy: u64,
-    /// Steps sent to the GPU, and how many of them the CPU's positions hold.
+    /// Steps sent to the GPU, how many of them the reports that came back cover, and how
+    /// many the CPU's positions hold.
     steps_sent: u64,
+    steps_reported: u64,
     steps_copied: u64,
 }
 
@@ -77,6 +80,7 @@ impl Link {
             copy: None,
             next_copy: 0,
             steps_sent: 0,
+            steps_reported: 0,
             steps_copied: 0,
         }
     }
@@ -146,6 +150,8 @@ impl GpuSolver {
                 continue; // from before a reset
             }
             link.copy = None;
+            link.steps_reported = steps;
+            let Some(positions) = positions else { continue };
             let positions: Vec<SimVec3> = positions.into_iter().map(|p| p + moved).collect();
             // The GPU resets a strand that goes non-finite, so this holds.
             if strands.set_positions(&positions).is_ok() {
@@ -156,17 +162,18 @@ impl GpuSolver {
         changed
     }
 
-    /// Asks for a copy back of the positions and the report, unless one is on its way or
-    /// the CPU's positions are the GPU's last step's.
-    fn request_copy(&mut self) {
+    /// Asks for a copy back of the steps' report (and of the positions, if `positions`),
+    /// unless one is on its way or there is nothing new to copy.
+    fn request_copy(&mut self, positions: bool) {
         let Some(link) = self.link.as_mut().filter(|l| l.running) else { return };
-        if link.copy.is_some() || link.steps_copied == link.steps_sent {
+        let behind = if positions { link.steps_copied } else { link.steps_reported };
+        if link.copy.is_some() || behind == link.steps_sent {
             return;
         }
         let copy = link.next_copy;
         link.next_copy += 1;
         link.copy = Some((copy, link.steps_sent, SimVec3::ZERO));
-        link.outbox.push(GpuCommand::CopyBack { copy });
+        link.outbox.push(GpuCommand::CopyBack { copy, positions });
     }
 
     /// Whether the GPU steps the groom (and writes its drawing).
@@ -217,6 +224,7 @@ impl GpuSolver {
             // are the GPU's now.
             link.copy = None;
             link.steps_copied = link.steps_sent;
+            link.steps_reported = link.steps_sent;
         }
     }
 
@@ -262,7 +270,8 @@ pub(crate) fn receive_from_gpu(mut grooms: Query<&mut HairState>, mut diagnostic
         let state = &mut *state;
         let pose = state.solver_pose();
         if state.gpu.receive(&mut state.strands, pose) {
-            state.refresh(pool);
+            // The copy before becomes the step before, for drawing between the two.
+            state.publish(pool);
         }
         if state.gpu.running() {
             state.last_report = state.gpu.take_report().unwrap_or_default();
@@ -276,12 +285,27 @@ pub(crate) fn receive_from_gpu(mut grooms: Query<&mut HairState>, mut diagnostic
     }
 }
 
-/// [`HairSystems::Step`](crate::HairSystems), after the steps: asks for the positions of
-/// each GPU groom's last step, unless a copy is on its way.
-pub(crate) fn request_copies(mut grooms: Query<&mut HairState>) {
-    for mut state in &mut grooms {
+/// [`HairSystems::Step`](crate::HairSystems), after the steps: asks for the report of each
+/// GPU groom's last steps, and for their positions where the main world reads them (a
+/// [`HairReadback`] on the head, or strands drawn blended, whose order the CPU sorts),
+/// unless a copy is on its way.
+pub(crate) fn request_copies(
+    mut grooms: Query<(&mut HairState, Has<HairReadback>, Option<&HairDrawnBy>)>,
+    drawings: Query<&HairDrawing>,
+) {
+    for (mut state, read_back, drawn_by) in &mut grooms {
         if state.gpu.running() {
-            state.bypass_change_detection().gpu.request_copy();
+            let blended = drawn_by.and_then(|d| drawings.get(d.0).ok()).is_some_and(HairDrawing::blended);
+            state.bypass_change_detection().gpu.request_copy(read_back || blended);
         }
     }
 }
+
+/// On a head whose groom the GPU steps ([`HairBackend::Gpu`](crate::HairBackend)): copy
+/// its positions back to the main world, a frame or two late, without waiting
+/// ([`HairState::current_positions`], [`HairState::gpu_lag`]). Without it only the steps'
+/// reports come back (and the positions while the strands are drawn blended, whose order
+/// the CPU sorts): what the GPU draws and shadows never needs them.
+#[derive(Component, Reflect, Clone, Copy, Debug, Default)]
+#[reflect(Component, Default)]
+pub struct HairReadback;

@@ -27,8 +27,8 @@ pub(crate) enum GpuCommand {
     SetRestRoots(Vec<SimVec3>),
     /// Every strand back at rest under this pose.
     Reset(Pose),
-    /// Copy the positions and the report back, as copy number `copy`.
-    CopyBack { copy: u64 },
+    /// Copy the report back, and the positions if `positions`, as copy number `copy`.
+    CopyBack { copy: u64, positions: bool },
     /// The frame's drawing into `target` ([`hair_gpu::GpuDrawing`]), then the opacity maps
     /// of what it drew, if asked for.
     Draw { target: Buffer, root_u: Arc<[SimVec3]>, overstep: f32, pose: Pose, shadows: Option<ShadowMaps> },
@@ -101,7 +101,8 @@ pub(crate) struct Inbox {
 pub(crate) struct Copied {
     /// Its number ([`GpuCommand::CopyBack`]).
     pub copy: u64,
-    pub positions: Vec<SimVec3>,
+    /// The positions, if they were asked for.
+    pub positions: Option<Vec<SimVec3>>,
     /// What the steps since the last copy did.
     pub report: StepReport,
     /// The GPU time of the last of them, milliseconds, where the device times passes.

@@ -21,6 +21,7 @@ mod render_world;
 mod without_render;
 
 #[cfg(feature = "render")]
+pub use handover::HairReadback;
 pub(crate) use handover::{GpuSolver, receive_from_gpu, request_copies};
 #[cfg(feature = "render")]
 pub(crate) use letters::ShadowMaps;

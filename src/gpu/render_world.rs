@@ -25,7 +25,9 @@ use std::sync::{Arc, Mutex, PoisonError};
 pub(crate) struct GpuRenderWorldPlugin;
 
 impl Plugin for GpuRenderWorldPlugin {
-    fn build(&self, _: &mut App) {}
+    fn build(&self, app: &mut App) {
+        app.register_type::<super::HairReadback>();
+    }
 
     fn finish(&self, app: &mut App) {
         let Some(render_app) = app.get_sub_app_mut(RenderApp) else { return };
@@ -62,8 +64,8 @@ struct RenderGroom {
     /// One map builder per light, and the buffers it reads (the drawing) and writes (the
     /// guides).
     maps: Vec<(BufferId, BufferId, GpuOpacityMap)>,
-    /// Copies recorded this frame or on their way: number, positions, report.
-    copies: Vec<(u64, PositionsCopy, ReportCopy)>,
+    /// Copies recorded this frame or on their way: number, positions (if asked for), report.
+    copies: Vec<(u64, Option<PositionsCopy>, ReportCopy)>,
 }
 
 enum Strands {
@@ -106,8 +108,8 @@ impl RenderGroom {
             GpuCommand::Translate(offset) => strands.translate(offset),
             GpuCommand::SetRestRoots(roots) => _ = strands.set_rest_roots(&roots),
             GpuCommand::Reset(pose) => strands.reset(pose),
-            GpuCommand::CopyBack { copy } => {
-                let copied = (copy, strands.copy_positions(), strands.copy_report());
+            GpuCommand::CopyBack { copy, positions } => {
+                let copied = (copy, positions.then(|| strands.copy_positions()), strands.copy_report());
                 self.copies.push(copied);
             }
             GpuCommand::Draw { target, root_u, overstep, pose, shadows } => {
@@ -263,12 +265,12 @@ fn collect_copies(mut grooms: ResMut<RenderGrooms>, times: Res<RenderTimes>) {
     for groom in grooms.grooms.values_mut() {
         for (copy, positions, report) in std::mem::take(&mut groom.copies) {
             // Both asked for at once: they went out together and arrive in the same poll.
-            let arrived = report.arrived(false) & positions.arrived(false);
+            let arrived = report.arrived(false) & positions.as_ref().is_none_or(|p| p.arrived(false));
             if !arrived {
                 groom.copies.push((copy, positions, report));
                 continue;
             }
-            match (positions.into_positions(), report.into_timed_report()) {
+            match (positions.map(PositionsCopy::into_positions).transpose(), report.into_timed_report()) {
                 (Ok(positions), Ok((report, step_ms))) => {
                     groom.inbox().copies.push(Copied { copy, positions, report, step_ms });
                 }
