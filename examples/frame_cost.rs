@@ -23,7 +23,9 @@
 //!   [`HairDiagnostics::UPLOAD_TIME`] and [`HairDiagnostics::STEP_TIME`] publish.
 //! - `gpu_step_ms`: one hair step on the GPU, from timestamp queries (`null` on the CPU
 //!   solver or without timestamps).
-//! - `frame_ms` and `frame_ms_without_hair`: a whole update of each app.
+//! - `frame_ms` and `frame_ms_without_hair`: a whole update of each app, and
+//!   `main_thread_ms_without_hair` the same span in the app without hair (the plugin's
+//!   systems with nothing to do, and whatever else the executor runs between them).
 
 use bevy::app::PluginsState;
 use bevy::camera::RenderTarget;
@@ -124,6 +126,9 @@ fn main() {
     }
     let span = app.world().resource::<MainSpan>().clone();
     span.take();
+    let bare_span = bare.world().resource::<MainSpan>().clone();
+    bare_span.take();
+    let mut bare_main = Vec::new();
     let paths = [
         HairDiagnostics::EXTRACT_TIME,
         HairDiagnostics::RENDER_TIME,
@@ -138,6 +143,7 @@ fn main() {
         let at = Instant::now();
         step(&mut bare, bare_head, &mut k.clone());
         bare_ms.push(at.elapsed().as_secs_f64() * 1e3);
+        bare_main.push(bare_span.take()[0]);
         let at = Instant::now();
         step(&mut app, head, &mut k);
         frame_ms.push(at.elapsed().as_secs_f64() * 1e3);
@@ -168,6 +174,7 @@ fn main() {
         "gpu_step_ms": (!gpu_steps.is_empty()).then(|| median(gpu_steps)),
         "frame_ms": median(frame_ms),
         "frame_ms_without_hair": median(bare_ms),
+        "main_thread_ms_without_hair": median(bare_main),
     });
     println!("{line}");
 }
