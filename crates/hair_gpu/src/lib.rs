@@ -60,11 +60,13 @@ mod pass;
 mod readback;
 mod recorder;
 mod shadow;
+mod sort;
 
 pub use draw::{CURVE_SHADER, DRAW_SHADER, GpuDrawing};
 use readback::{BufferCopy, StagingPool, duration_ms};
 pub use readback::{PositionsCopy, ReportCopy};
 pub use shadow::{GpuOpacityMap, MAP_FLOATS, SHADOW_SHADER};
+pub use sort::{GpuDrawOrder, SORT_SHADER};
 pub use wgpu;
 
 /// The solver's WGSL source (`layout.wgsl`, then `step.wgsl`, beside this file).

@@ -1054,3 +1054,56 @@ fn cpu_w(light: hair_sim::shadow::LightSource) -> f32 {
         hair_sim::shadow::LightSource::Position(_) => 1.0,
     }
 }
+
+/// The draw order sorted on the GPU is the CPU's `back_to_front` of the same positions: every
+/// piece once, back to front (each piece no nearer the eye than the next, by the CPU's own
+/// depths), and the same order where no two depths tie.
+#[test]
+fn the_gpu_sorts_the_pieces_as_the_cpu_does() {
+    use hair_gpu::{GpuDrawOrder, wgpu};
+    use hair_sim::draw_order::{back_to_front, pieces_per_strand};
+    use wgpu::util::DeviceExt;
+    let Some(gpu) = gpu() else { return };
+    let (_, _, rest) = groom(700);
+    let n = rest.particles_per_strand;
+    let points: Vec<Vec3> = rest.positions.iter().map(|&p| head_pose(0.7).transform_point(p)).collect();
+    let vec4s: Vec<[f32; 4]> = points.iter().map(|p| [p.x, p.y, p.z, 1.0]).collect();
+    let source = gpu.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: None,
+        contents: bytemuck::cast_slice(&vec4s),
+        usage: wgpu::BufferUsages::STORAGE,
+    });
+    let segments = 5;
+    let pieces = rest.strand_count() * pieces_per_strand(n, segments);
+    // The order written after 8 floats of something else, as the guide buffer holds it.
+    let offset = 8;
+    let target = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: None,
+        size: ((offset + pieces).next_multiple_of(4) * 4) as u64,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let sort = GpuDrawOrder::new(&gpu.device, &source, pieces as u32, &target).expect("passes");
+    for eye in [Vec3::new(0.3, 1.7, 0.6), Vec3::new(-0.5, 1.2, -0.8)] {
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        let counts = [rest.strand_count() as u32, n as u32];
+        sort.record(&gpu.queue, &mut encoder, eye, counts, segments as u32, offset as u32).expect("recorded");
+        gpu.queue.submit([encoder.finish()]);
+        let floats: Vec<f32> = read_vec4s(&gpu, &target).into_iter().flatten().collect();
+        let on_gpu: Vec<u32> = floats[offset..offset + pieces].iter().map(|&f| f as u32).collect();
+        let on_cpu = back_to_front(&points, n, segments, eye);
+        let mut seen = on_gpu.clone();
+        seen.sort_unstable();
+        assert!(seen.iter().copied().eq(0..pieces as u32), "every piece once");
+        let depth = |piece: u32| {
+            let (strand, k) =
+                (piece as usize / pieces_per_strand(n, segments), piece as usize % pieces_per_strand(n, segments));
+            points[strand * n + (k * segments + segments / 2).min(n - 1)].distance_squared(eye)
+        };
+        let out_of_order = on_gpu.windows(2).filter(|w| depth(w[0]) < depth(w[1]) * (1.0 - 1e-6)).count();
+        let same = on_gpu.iter().zip(&on_cpu).filter(|(a, b)| a == b).count();
+        eprintln!("eye {eye}: {pieces} pieces, {same} in the CPU's place, {out_of_order} nearer than the next");
+        assert_eq!(out_of_order, 0, "back to front");
+        assert!(same * 100 >= pieces * 99, "{same} of {pieces} pieces in the CPU's place");
+    }
+}
