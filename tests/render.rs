@@ -419,6 +419,15 @@ fn a_groom_the_gpu_steps_is_drawn_from_the_gpu_where_the_cpu_would_draw_it() {
     scene.frames(3);
     let on_cpu = scene.capture("backend-cpu");
     let cpu_bytes = scene.app.world().resource::<HairRenderStats>().uploaded_bytes;
+    // And blended (sorted back to front), for the GPU's order below.
+    let blended = |scene: &mut Scene, on: bool| {
+        let mut look = scene.app.world_mut().get_mut::<HairLook>(head).unwrap();
+        look.antialias = if on { HairAntialias::Blended } else { HairLook::default().antialias };
+        scene.frames(3);
+    };
+    blended(&mut scene, true);
+    let cpu_blended = scene.capture("backend-cpu-blended");
+    blended(&mut scene, false);
     let drawing = scene.app.world().get::<HairDrawnBy>(head).unwrap().0;
     let aabb = |scene: &Scene| *scene.app.world().get::<bevy::camera::primitives::Aabb>(drawing).unwrap();
     let cpu_box = aabb(&scene);
@@ -475,6 +484,15 @@ fn a_groom_the_gpu_steps_is_drawn_from_the_gpu_where_the_cpu_would_draw_it() {
     );
     assert!(shadow > 0.01, "self-shadowing darkens the hair: {shadow}");
     assert!(backends < 0.2 * shadow, "the GPU's self-shadow differs from the CPU's by {backends}");
+    // Blended, the GPU sorts the pieces it draws: the same picture as the CPU's sort.
+    scene.app.world_mut().get_mut::<HairLook>(head).unwrap().self_shadow = HairLook::default().self_shadow;
+    blended(&mut scene, true);
+    let gpu_blended = scene.capture("backend-gpu-blended");
+    let apart = mean_apart(&cpu_blended, &gpu_blended);
+    let (cpu_hair, gpu_hair) = (cpu_blended.hair_pixels(), gpu_blended.hair_pixels());
+    println!("blended: {cpu_hair} hair pixels from the CPU, {gpu_hair} from the GPU, luminance {apart:.4} apart");
+    assert!(cpu_hair > 1000 && cpu_hair.abs_diff(gpu_hair) * 50 < cpu_hair, "{cpu_hair} and {gpu_hair}");
+    assert!(apart < 0.2 * shadow, "the GPU's blended hair differs from the CPU's by {apart}");
 }
 
 /// Where the hair is, then how bright each of its pixels is (linear luminance) with `light`

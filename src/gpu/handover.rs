@@ -2,10 +2,9 @@
 //! device, no queue: everything here is plain data.
 
 use super::GpuSupport;
-use super::letters::{Copied, GpuCommand, Inbox, OwnedStep, ShadowMaps};
+use super::letters::{Copied, GpuCommand, Inbox, OwnedStep, ShadowMaps, SortedOrder};
 use crate::HairState;
 use crate::diagnostics::HairDiagnostics;
-use crate::render::{HairDrawing, HairDrawnBy};
 use bevy::diagnostic::Diagnostics;
 use bevy::prelude::*;
 use bevy::render::render_resource::Buffer;
@@ -229,18 +228,18 @@ impl GpuSolver {
     }
 
     /// The frame's drawing of the strands into `target`, `overstep` of the way from the
-    /// step before the last to the last, on the head at `pose`, and the opacity maps of
-    /// what it draws, if `shadows`.
+    /// step before the last to the last, on the head at `pose`, then the opacity maps and
+    /// the blended order of what it draws, where asked for.
     pub fn draw(
         &mut self,
         target: &Buffer,
         root_u: &Arc<[SimVec3]>,
         (overstep, pose): (f32, Pose),
-        shadows: Option<ShadowMaps>,
+        (shadows, order): (Option<ShadowMaps>, Option<SortedOrder>),
     ) {
         if let Some(link) = self.link.as_mut().filter(|l| l.running) {
             let (target, root_u) = (target.clone(), Arc::clone(root_u));
-            link.outbox.push(GpuCommand::Draw { target, root_u, overstep, pose, shadows });
+            link.outbox.push(GpuCommand::Draw { target, root_u, overstep, pose, shadows, order });
         }
     }
 
@@ -287,16 +286,11 @@ pub(crate) fn receive_from_gpu(mut grooms: Query<&mut HairState>, mut diagnostic
 
 /// [`HairSystems::Step`](crate::HairSystems), after the steps: asks for the report of each
 /// GPU groom's last steps, and for their positions where the main world reads them (a
-/// [`HairReadback`] on the head, or strands drawn blended, whose order the CPU sorts),
-/// unless a copy is on its way.
-pub(crate) fn request_copies(
-    mut grooms: Query<(&mut HairState, Has<HairReadback>, Option<&HairDrawnBy>)>,
-    drawings: Query<&HairDrawing>,
-) {
-    for (mut state, read_back, drawn_by) in &mut grooms {
+/// [`HairReadback`] on the head), unless a copy is on its way.
+pub(crate) fn request_copies(mut grooms: Query<(&mut HairState, Has<HairReadback>)>) {
+    for (mut state, read_back) in &mut grooms {
         if state.gpu.running() {
-            let blended = drawn_by.and_then(|d| drawings.get(d.0).ok()).is_some_and(HairDrawing::blended);
-            state.bypass_change_detection().gpu.request_copy(read_back || blended);
+            state.bypass_change_detection().gpu.request_copy(read_back);
         }
     }
 }
@@ -304,8 +298,7 @@ pub(crate) fn request_copies(
 /// On a head whose groom the GPU steps ([`HairBackend::Gpu`](crate::HairBackend)): copy
 /// its positions back to the main world, a frame or two late, without waiting
 /// ([`HairState::current_positions`], [`HairState::gpu_lag`]). Without it only the steps'
-/// reports come back (and the positions while the strands are drawn blended, whose order
-/// the CPU sorts): what the GPU draws and shadows never needs them.
+/// reports come back: what the GPU draws, shadows and sorts never needs them.
 #[derive(Component, Reflect, Clone, Copy, Debug, Default)]
 #[reflect(Component, Default)]
 pub struct HairReadback;

@@ -31,7 +31,14 @@ pub(crate) enum GpuCommand {
     CopyBack { copy: u64, positions: bool },
     /// The frame's drawing into `target` ([`hair_gpu::GpuDrawing`]), then the opacity maps
     /// of what it drew, if asked for.
-    Draw { target: Buffer, root_u: Arc<[SimVec3]>, overstep: f32, pose: Pose, shadows: Option<ShadowMaps> },
+    Draw {
+        target: Buffer,
+        root_u: Arc<[SimVec3]>,
+        overstep: f32,
+        pose: Pose,
+        shadows: Option<ShadowMaps>,
+        order: Option<SortedOrder>,
+    },
 }
 
 /// The deep opacity maps of a frame's drawing ([`hair_gpu::GpuOpacityMap`]), one per
@@ -44,6 +51,18 @@ pub(crate) struct ShadowMaps {
     pub stride: u32,
     pub lights: Vec<LightSource>,
     pub fibres: Fibres,
+}
+
+/// The blended pieces' order of a frame's drawing ([`hair_gpu::GpuDrawOrder`]), back to
+/// front from the eye, written into the drawing's guide buffer where the hair shader
+/// reads it.
+pub(crate) struct SortedOrder {
+    /// The guide buffer.
+    pub guides: AssetId<ShaderBuffer>,
+    /// Where the order starts in it, in floats.
+    pub first: u32,
+    pub eye: SimVec3,
+    pub segments_per_piece: u32,
 }
 
 /// A step's input, owned, to travel to the render world (the collider went with

@@ -24,7 +24,7 @@ mod without_render;
 pub use handover::HairReadback;
 pub(crate) use handover::{GpuSolver, receive_from_gpu, request_copies};
 #[cfg(feature = "render")]
-pub(crate) use letters::ShadowMaps;
+pub(crate) use letters::{ShadowMaps, SortedOrder};
 #[cfg(feature = "render")]
 pub(crate) use render_world::GpuRenderWorldPlugin;
 #[cfg(not(feature = "render"))]

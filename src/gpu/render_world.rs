@@ -3,7 +3,7 @@
 //! the frame is submitted.
 
 use super::GpuSupport;
-use super::letters::{Copied, GpuCommand, Inbox, ShadowMaps};
+use super::letters::{Copied, GpuCommand, Inbox, ShadowMaps, SortedOrder};
 use crate::HairState;
 use crate::render::HairRenderSystems;
 use crate::render::timing::{RenderTime, RenderTimes};
@@ -17,7 +17,9 @@ use bevy::render::renderer::{RenderAdapterInfo, RenderContext, RenderDevice, Ren
 use bevy::render::storage::GpuShaderBuffer;
 use bevy::render::{ExtractSchedule, MainWorld, Render, RenderApp, RenderSystems};
 use bevy::tasks::{AsyncComputeTaskPool, Task, block_on, futures_lite::future};
-use hair_gpu::{GpuContext, GpuDrawing, GpuError, GpuOpacityMap, GpuStrands, PositionsCopy, ReportCopy, Submission};
+use hair_gpu::{
+    GpuContext, GpuDrawOrder, GpuDrawing, GpuError, GpuOpacityMap, GpuStrands, PositionsCopy, ReportCopy, Submission,
+};
 use hair_sim::collide::HeadCollider;
 use std::sync::{Arc, Mutex, PoisonError};
 
@@ -64,6 +66,10 @@ struct RenderGroom {
     /// One map builder per light, and the buffers it reads (the drawing) and writes (the
     /// guides).
     maps: Vec<(BufferId, BufferId, GpuOpacityMap)>,
+    /// The blended order asked for with this frame's drawing, and the buffer it drew into.
+    order: Option<(SortedOrder, Buffer)>,
+    /// The sort, and the buffers it reads and writes.
+    sort: Option<(BufferId, BufferId, GpuDrawOrder)>,
     /// Copies recorded this frame or on their way: number, positions (if asked for), report.
     copies: Vec<(u64, Option<PositionsCopy>, ReportCopy)>,
 }
@@ -112,7 +118,7 @@ impl RenderGroom {
                 let copied = (copy, positions.then(|| strands.copy_positions()), strands.copy_report());
                 self.copies.push(copied);
             }
-            GpuCommand::Draw { target, root_u, overstep, pose, shadows } => {
+            GpuCommand::Draw { target, root_u, overstep, pose, shadows, order } => {
                 let strands = match &self.strands {
                     Strands::Made(strands) => strands,
                     Strands::Making(_) => return Ok(()),
@@ -124,6 +130,7 @@ impl RenderGroom {
                 if let Some((_, drawing)) = &self.drawing {
                     drawing.draw(strands, overstep, pose)?;
                 }
+                self.order = order.map(|order| (order, target.clone()));
                 self.shadows = shadows.map(|maps| (maps, target));
             }
         }
@@ -194,6 +201,8 @@ fn record_grooms(
                 drawing: None,
                 shadows: None,
                 maps: Vec::new(),
+                order: None,
+                sort: None,
                 copies: Vec::new(),
             };
             grooms.insert(key, groom);
@@ -224,7 +233,27 @@ fn record_grooms(
         if let Some(commands) = groom.made().and_then(|strands| strands.take_commands()) {
             context.add_command_buffer(commands);
         }
-        // After the drawing: the opacity maps of what it drew.
+        // After the drawing: the order of what it drew, and its opacity maps.
+        if let Some((order, drawn)) = groom.order.take()
+            && let Some(guides) = shader_buffers.get(order.guides)
+            && let Some(strands) = groom.made()
+        {
+            let counts = [strands.strand_count() as u32, strands.particles_per_strand() as u32];
+            let pieces = strands.pieces(order.segments_per_piece);
+            let wanted = (drawn.id(), guides.buffer.id());
+            if groom.sort.as_ref().is_none_or(|(d, g, _)| (*d, *g) != wanted) {
+                groom.sort = GpuDrawOrder::new(device.wgpu_device(), &drawn, pieces, &guides.buffer)
+                    .inspect_err(|e| warn!("hair: no draw order on the GPU: {e}"))
+                    .ok()
+                    .map(|sort| (wanted.0, wanted.1, sort));
+            }
+            if let Some((_, _, sort)) = &groom.sort {
+                let encoder = context.command_encoder();
+                if let Err(e) = sort.record(&queue, encoder, order.eye, counts, order.segments_per_piece, order.first) {
+                    warn!("hair: no draw order on the GPU: {e}");
+                }
+            }
+        }
         if let Some((maps, drawn)) = groom.shadows.take()
             && let Some(guides) = shader_buffers.get(maps.guides)
             && let Some(strands) = groom.made()

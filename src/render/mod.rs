@@ -20,7 +20,7 @@ pub use material::{HairMaterial, HairUniform, shader_path};
 use crate::convert::{from_sim, quat_from_sim, to_sim};
 use crate::detail::{UNKNOWN_VIEWPORT_HEIGHT, pixels_per_metre};
 use crate::diagnostics::HairDiagnostics;
-use crate::gpu::ShadowMaps;
+use crate::gpu::{ShadowMaps, SortedOrder};
 use crate::settings::effective;
 use crate::{Hair, HairGroom, HairSettings, HairSettingsOverride, HairState, HairSystems, HairTime};
 use bevy::asset::embedded_asset;
@@ -296,7 +296,8 @@ struct DrawnRoot {
 /// On a drawing: the box around its strands as the CPU last had them, in the drawing's
 /// frame, which the blending choice reads ([`choose_blending`]). The drawing's [`Aabb`]
 /// (what culling reads) is the same box, except for a groom the GPU steps, whose
-/// positions here trail the drawn ones: there it holds every strand as far as it reaches.
+/// positions here do not follow the drawn ones: there it holds every strand as far as it
+/// reaches from its root.
 #[derive(Component, Clone, Copy, Debug, Default)]
 struct StrandsBox(Aabb);
 
@@ -625,8 +626,16 @@ fn draw_on_gpu(
                 fibres: fibres(look, &drawing.layout),
             }
         });
+        // The blended pieces' order, sorted there from what it draws.
+        let order = drawing.blended_from.map(|eye| SortedOrder {
+            guides: drawing.guides.id(),
+            first: ((drawing.layout.guides + 1) * 4),
+            eye: to_sim(eye),
+            segments_per_piece: SEGMENTS_PER_PIECE,
+        });
         let pose = state.drawn_head_pose();
-        state.bypass_change_detection().gpu.draw(&drawing.particles, &drawing.root_u, (overstep, pose), shadows);
+        let gpu = &mut state.bypass_change_detection().gpu;
+        gpu.draw(&drawing.particles, &drawing.root_u, (overstep, pose), (shadows, order));
     }
 }
 
@@ -674,7 +683,7 @@ fn upload_guides(
     particle_writes.0.clear();
     let overstep = clock.overstep_fraction();
     /// The particles and frames (unless the GPU writes them), the guide buffer, and the
-    /// boxes around the strands as copied here and as far as they can be.
+    /// boxes the blending choice and culling read ([`StrandsBox`]).
     type Written = (Option<Vec<Vec4>>, Vec<Vec4>, Option<(Aabb, Aabb)>);
     let write = |drawing: &HairDrawing, placed: &GlobalTransform| -> Option<Written> {
         let (state, groom, look, local_settings) = heads.get(drawing.head).ok()?;
@@ -720,7 +729,10 @@ fn upload_guides(
             data.extend(drawing.roots.iter().map(|root| (rotation * root.normal).extend(root.curvature)));
             let pose = state.drawn_head_pose();
             data.push(from_sim(pose.transform_point(state.collider().centre())).extend(1.0));
-            data.extend(StrandLayout::pack_order(&draw_order(&points, &drawing.layout, drawing.blended_from)));
+            // A groom the GPU draws is sorted there ([`draw_on_gpu`]): the order grown holds
+            // its room.
+            let eye = drawing.blended_from.filter(|_| !on_gpu);
+            data.extend(StrandLayout::pack_order(&draw_order(&points, &drawing.layout, eye)));
             if look.self_shadow > 0.0 && on_gpu {
                 // The GPU builds them from what it draws ([`draw_on_gpu`]): room and their count.
                 reserve_opacity_maps(data, drawing.opacity_maps, lights.0.len());
@@ -748,9 +760,10 @@ fn upload_guides(
                 .then(|| Aabb::from_min_max(min - Vec3::splat(by), max + Vec3::splat(by)))
         };
         let fitted = widened(min, max, reach);
-        // The GPU's strands are drawn where they are now, which the copies here trail by a
-        // frame or two: culling takes every strand as far as it reaches from its root
-        // (stretched as far as the length tolerance lets it), the blending choice the copies.
+        // The GPU's strands are drawn where they are now, which the positions here follow
+        // only with `HairReadback`: culling takes every strand as far as it reaches from its
+        // root (stretched as far as the length tolerance lets it), the blending choice the
+        // strands' shape on the head as last copied.
         let culled = if on_gpu {
             let rest = state.strands().rest();
             let longest = rest.lengths.chunks_exact(n).map(|strand| strand.iter().sum::<f32>()).fold(0.0, f32::max);
