@@ -820,8 +820,7 @@ fn upload_guides(
 /// ([`HairLod`](crate::HairLod)), the particles of the guides the solver steps alone, each
 /// standing for its share of all of them: the same fibre area, spread as the simulated
 /// guides are (coarser, which a head drawn a few dozen pixels tall does not show), for the
-/// share of the work the level simulates (a map of 2,048 × 16 particles took 2.4 ms a
-/// frame on one thread, 2026-12-03).
+/// share of the work the level simulates (a map's cost follows its particles).
 fn shadow_samples<'a>(
     points: &'a [hair_sim::math::Vec3],
     n: usize,

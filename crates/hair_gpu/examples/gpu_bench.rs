@@ -83,9 +83,9 @@ fn main() {
         let rest = RestShape::new(grown, particles).expect("guides");
         let mut strands = GpuStrands::new(&gpu, &rest, head_pose(0.0), Some(&collider)).expect("GPU strands");
         let dt = 1.0 / 60.0;
-        // A GPU idles at a low clock and raises it under load within a second or so (an
-        // NVIDIA H200 from 345 to 1,980 MHz, 2026-12-04; timed cold, small grooms took 5×
-        // longer): a second of steps under the first pose before any is timed.
+        // A GPU idles at a low clock and raises it under load within a second or so (timed
+        // cold, small grooms took several times longer): a second of steps under the first
+        // pose before any is timed.
         let still = StepInput {
             dt,
             time: 0.0,

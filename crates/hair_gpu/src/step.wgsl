@@ -724,8 +724,7 @@ fn ray_on_triangle(origin: vec3<f32>, direction: vec3<f32>, a: vec3<f32>, b: vec
 // in the demo, where the BVH takes a few boxes) counts as staying out.
 //
 // Every way shares one query in one loop: a GPU compiler inlines every call, and its time
-// grows faster than the code (lavapipe took 208 s to compile this shader with a query for
-// each, cold, 2026-12-04).
+// grows faster than the code (a query for each made the shader take minutes to compile).
 fn first_inside(start_at: vec3<f32>, to: vec3<f32>, span: f32) -> f32 {
     let direction = (to - start_at) / span;
     let by_hits = step.bvh.x > 0u;

@@ -41,11 +41,10 @@ pub const DEFAULT_GRID_RESOLUTION: u32 = 64;
 /// 256³ distances (64 MB), and finer buys nothing for a head.
 pub const GRID_RESOLUTIONS: std::ops::RangeInclusive<u32> = 8..=256;
 
-/// The most triangles a head should have for its collider to bake in a few seconds. On two
-/// cores (2026-12-02) the procedural head bakes in 0.35 s at 5,120 triangles, 0.99 s at
-/// 81,920 and 3.6 s at 327,680 (about 0.3 s plus 11 µs per triangle), holding 85 MB at
-/// the largest. A collider needs no finer detail than about a millimetre: decimate the
-/// collision mesh to this.
+/// The most triangles a head should have for its collider to bake in a few seconds: the
+/// bake's time and memory grow with the triangles (figures in `docs/collision.md`), and a
+/// collider needs no finer detail than about a millimetre: decimate the collision mesh to
+/// this.
 pub const BAKE_TRIANGLE_BUDGET: usize = 350_000;
 
 /// Why a collider cannot be built.
@@ -660,7 +659,7 @@ mod tests {
     /// procedural head, 1 mm under the surface along its normal, pushed out both ways with
     /// no shell. Both end on the surface; the normal push moves it 1 mm, the centre ray by
     /// `1 mm / cos(angle between ray and normal)`, sliding it along the surface: on the
-    /// skull up to 1.08× the depth, on the flanks of the ears up to 1.9× (2026-12-02). This
+    /// skull up to 1.08× the depth, on the flanks of the ears up to 1.9×. This
     /// head is star-shaped about its centre; a real one is not, and there the ray can leave
     /// through another part of the surface altogether.
     #[test]

@@ -81,8 +81,8 @@ impl Default for Wind {
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub enum SimdPath {
     /// The fastest path this CPU has, found at run time: AVX2 where there is AVX2, else
-    /// the baseline. AVX-512 is not chosen: on the bench it measured no faster than AVX2
-    /// (2 cores, 2026-12-03), because a group of 64 strands keeps four 512-bit registers
+    /// the baseline. AVX-512 is not chosen: it measured no faster than AVX2 on the bench
+    /// (`docs/benchmarks.md`), because a group of 64 strands keeps four 512-bit registers
     /// per component and spills.
     #[default]
     Auto,
