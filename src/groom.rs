@@ -1,5 +1,5 @@
 //! Growing a groom on a head entity: from its description ([`HairGroom`]) and mesh to a
-//! simulating [`HairState`], on a background task; [`GroomPlugin`] wires it.
+//! simulating [`HairState`], on a background task; `GroomPlugin` wires it.
 
 use crate::HairSystems;
 use crate::convert::{pose_and_scale, to_sim};
@@ -33,8 +33,8 @@ pub(crate) struct GrowthTask {
 
 /// Growth: a [`HairGroom`] on a head with a mesh becomes a simulating
 /// [`HairState`](crate::HairState), in [`HairSystems::Grow`]. Part of
-/// [`HairPlugin`](crate::HairPlugin).
-pub struct GroomPlugin;
+/// [`HairPlugin`](crate::HairPlugin), whose clock and sets it needs: crate-private.
+pub(crate) struct GroomPlugin;
 
 impl Plugin for GroomPlugin {
     fn build(&self, app: &mut App) {

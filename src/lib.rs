@@ -107,7 +107,6 @@ pub use detail::HairLod;
 pub use diagnostics::HairDiagnostics;
 #[cfg(feature = "render")]
 pub use gpu::HairReadback;
-pub use groom::GroomPlugin;
 pub use hair_asset::{HairAsset, HairAssetError, HairAssetLoader};
 #[cfg(feature = "render")]
 pub use hair_gpu;
@@ -119,7 +118,6 @@ pub use preset::{HairPreset, PresetError};
 #[cfg(feature = "render")]
 pub use render::{HairAntialias, HairLook, HairRenderStats, HairRenderSystems, HairShading, SpecularLobe};
 pub use settings::{HairBackend, HairSettings, HairSettingsOverride};
-pub use simulation::SimulationPlugin;
 pub use simulation::{HairState, step_on_pool};
 pub use skinning::ScalpJoint;
 
@@ -218,7 +216,7 @@ impl Plugin for HairPlugin {
                     .chain()
                     .in_set(HairSystems::Step),
             )
-            .add_plugins((GroomPlugin, SimulationPlugin));
+            .add_plugins((groom::GroomPlugin, simulation::SimulationPlugin));
         for path in HairDiagnostics::ALL {
             app.register_diagnostic(Diagnostic::new(path));
         }

@@ -454,8 +454,9 @@ fn to_head_space(positions: &[SimVec3], pose: Pose) -> impl Iterator<Item = Vec3
 
 /// Simulation: the settings, the extra colliders, and every hair step of every grown groom
 /// ([`HairSchedule`](crate::HairSchedule): roots, solver, positions), with each head's pose
-/// tracked once a frame. Part of [`HairPlugin`](crate::HairPlugin), which runs the clock.
-pub struct SimulationPlugin;
+/// tracked once a frame. Part of [`HairPlugin`](crate::HairPlugin), which runs the clock:
+/// crate-private.
+pub(crate) struct SimulationPlugin;
 
 impl Plugin for SimulationPlugin {
     fn build(&self, app: &mut App) {
