@@ -10,12 +10,20 @@
 //! them. The head's [`RenderLayers`] are copied to the drawing.
 
 mod layout;
+mod look;
 mod material;
 mod particles;
+mod shadows;
 pub(crate) mod timing;
 
 pub use layout::{ATTRIBUTE_HAIR_VERTEX, SEGMENTS_PER_PIECE, StrandLayout};
+pub use look::{HairAntialias, HairLook, HairShading, SpecularLobe};
 pub use material::{HairMaterial, HairUniform, shader_path};
+pub use shadows::MAX_OPACITY_MAPS;
+use shadows::{
+    ShadowCastingLights, fibres, find_shadow_casting_lights, opacity_maps_len, reserve_opacity_maps, shadow_samples,
+    write_opacity_maps,
+};
 
 use crate::convert::{from_sim, quat_from_sim, to_sim};
 use crate::detail::{UNKNOWN_VIEWPORT_HEIGHT, pixels_per_metre};
@@ -37,9 +45,6 @@ use bevy::tasks::{ComputeTaskPool, TaskPool};
 use bevy::utils::Parallel;
 use hair_sim::draw_order::back_to_front;
 use hair_sim::groom::{ChildParams, MAX_CURVATURE, transport_frames_of_strands};
-use hair_sim::shadow::{Fibres, LightSource, MAP_LAYERS, MAP_SIZE, OpacityMap, fibre_areas};
-use hair_sim::solver::Strands;
-use std::borrow::Cow;
 
 /// Draws every groom: added by [`HairPlugin`](crate::HairPlugin) when the `render`
 /// feature is on and the app renders.
@@ -100,142 +105,6 @@ pub enum HairRenderSystems {
 /// Keeps the shared curve shader (`bevy_hair::curve`) loaded.
 #[derive(Resource)]
 struct CurveShader(#[allow(dead_code)] Handle<Shader>);
-
-/// A specular highlight of Scheuermann's two-lobe hair model.
-#[derive(Reflect, Clone, Copy, Debug, PartialEq)]
-pub struct SpecularLobe {
-    /// Highlight colour (the secondary lobe is also tinted by the hair colour).
-    pub color: Color,
-    /// Sharpness: larger is a narrower highlight.
-    pub exponent: f32,
-    /// Shifts the highlight along the strand: positive toward the tip, negative toward
-    /// the root.
-    pub shift: f32,
-}
-
-/// Which scattering model shades the strands' highlights (the diffuse term is Kajiya-Kay's
-/// in both).
-#[derive(Reflect, Clone, Copy, Debug, PartialEq, Default)]
-pub enum HairShading {
-    /// Scheuermann's two shifted Kajiya-Kay highlights ([`HairLook::primary`] and
-    /// [`HairLook::secondary`]): the reference's model.
-    #[default]
-    KajiyaKay,
-    /// Marschner et al.'s three lobes in Karis' real-time form: R, the white reflection off
-    /// the cuticle (coloured by [`HairLook::primary`]); TT, light through the fibre, the
-    /// glow of back-lit hair; TRT, the hair-coloured second highlight.
-    Marschner {
-        /// Longitudinal roughness: 0.2 sleek to 0.6 frizzy; the lobes are Gaussians of
-        /// width `roughness²` (TT half, TRT twice that).
-        roughness: f32,
-        /// Tilt of the cuticle scales, radians (about 0.035): shifts R toward the root by
-        /// twice this, TT toward the tip by it and TRT by four times it.
-        cuticle_tilt: f32,
-    },
-}
-
-impl HairShading {
-    /// Marschner with typical values: roughness 0.35, cuticle tilt 0.035 rad.
-    pub const MARSCHNER: HairShading = HairShading::Marschner { roughness: 0.35, cuticle_tilt: 0.035 };
-}
-
-/// How a groom looks. On the head entity next to [`HairGroom`] (inserted with defaults
-/// when missing); edit it at any time.
-#[derive(Component, Reflect, Clone, Debug, PartialEq)]
-#[reflect(Component, Default)]
-pub struct HairLook {
-    /// Colour at the root.
-    pub root_color: Color,
-    /// Colour at the tip.
-    pub tip_color: Color,
-    /// Random per-strand brightness variation, 0..1.
-    pub tint_variation: f32,
-    /// Ribbon width at the root, metres.
-    pub root_width: f32,
-    /// Ribbon width at the tip, metres.
-    pub tip_width: f32,
-    /// Kajiya-Kay diffuse strength.
-    pub diffuse: f32,
-    /// The light-coloured highlight, shifted toward the tip.
-    pub primary: SpecularLobe,
-    /// The hair-tinted highlight, shifted toward the root.
-    pub secondary: SpecularLobe,
-    /// Curve samples per segment (Bézier tessellation), at least 1.
-    pub subdivisions: u32,
-    /// Sample the shadows of directional, point and spot lights (from the head, other
-    /// casters and the hair itself).
-    pub receive_shadows: bool,
-    /// Cast shadows (of directional, point and spot lights) on the head and on the hair
-    /// itself. Drawing the strands into each shadow map costs about as much as drawing
-    /// them once more.
-    pub cast_shadows: bool,
-    /// Draw the simulated guides only, without children.
-    pub guides_only: bool,
-    /// The highlights' scattering model.
-    pub shading: HairShading,
-    /// Self-shadowing: how much of the light one layer of fibres stops on its way to the
-    /// fibres behind it, 0..1 (0 turns it off). Toward each shadow-casting light (up to
-    /// [`MAX_OPACITY_MAPS`]) the guides are counted into a deep opacity map every frame
-    /// (`hair_sim::shadow`), and a strand behind `n` layers of fibres gets
-    /// `exp(−self_shadow · n)` of that light, whatever Bevy's shadow cascades.
-    pub self_shadow: f32,
-    /// How strands thinner than a pixel are drawn, so that distant hair keeps its density
-    /// and does not shimmer.
-    pub antialias: HairAntialias,
-}
-
-/// How strands thinner than a pixel are drawn ([`HairLook::antialias`]).
-///
-/// Measured on the procedural head at 2 m and 4 m in a 256-pixel view, strands a tenth and
-/// a twentieth of a pixel wide (`tests/render.rs`): a quarter-pixel camera move changes the
-/// hair's pixels by about 0.6 of what plain ribbons give with [`Coverage`](Self::Coverage),
-/// and by about a fifth with [`Blended`](Self::Blended), near what the move changes in a
-/// picture that only slides.
-#[derive(Reflect, Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum HairAntialias {
-    /// Solid ribbons however thin: far hair breaks up and shimmers as it moves.
-    Off,
-    /// With MSAA on the camera (Bevy's default): a strand thinner than a pixel is drawn a
-    /// pixel wide and covers its true share of the samples (stochastic alpha-to-coverage,
-    /// the same samples in every frame). Depth-exact, but which strand is in front at each
-    /// sample still changes as the camera moves. Without MSAA, plain ribbons.
-    Coverage,
-    /// In Bevy's transparent pass: a strand thinner than two pixels is drawn two pixels
-    /// wide with its true coverage as opacity, blended over what is behind it. The strands
-    /// are cut into pieces of [`SEGMENTS_PER_PIECE`] segments, drawn back to front from
-    /// the nearest active camera (sorted on the CPU every frame). Every pixel averages
-    /// many strands, with or without MSAA, but the order is by piece, not by pixel: about
-    /// 8 % darker than exact far away, and up close, where strands cross in depth, wrong
-    /// where [`Coverage`](Self::Coverage) is exact.
-    Blended,
-    /// [`Blended`](Self::Blended) while the groom's widest strand is under a pixel wide on
-    /// every active camera (back to [`Coverage`](Self::Coverage) above 1.25 pixels, so a
-    /// head at the threshold does not flip), [`Coverage`](Self::Coverage) otherwise.
-    #[default]
-    Auto,
-}
-
-impl Default for HairLook {
-    fn default() -> Self {
-        HairLook {
-            root_color: Color::srgb(0.09, 0.055, 0.03),
-            tip_color: Color::srgb(0.32, 0.2, 0.11),
-            tint_variation: 0.2,
-            root_width: 0.0009,
-            tip_width: 0.0003,
-            diffuse: 1.0,
-            primary: SpecularLobe { color: Color::srgb(0.3, 0.28, 0.25), exponent: 90.0, shift: 0.08 },
-            secondary: SpecularLobe { color: Color::srgb(0.6, 0.5, 0.4), exponent: 24.0, shift: -0.12 },
-            subdivisions: 4,
-            receive_shadows: true,
-            cast_shadows: true,
-            guides_only: false,
-            shading: HairShading::KajiyaKay,
-            self_shadow: 0.5,
-            antialias: HairAntialias::Auto,
-        }
-    }
-}
 
 /// What the hair drawing cost this frame, summed over grooms. Also published as Bevy
 /// diagnostics ([`HairDiagnostics`]).
@@ -500,97 +369,6 @@ fn strand_pixels(
     }
 }
 
-/// Deep opacity maps per groom at most: toward the first shadow-casting lights
-/// (directional, then point, then spot).
-pub const MAX_OPACITY_MAPS: usize = 4;
-
-/// `vec4`s of a map's header in the guide buffer (`strand.wgsl`'s `MAP_HEADER`).
-const MAP_HEADER: usize = 5;
-
-/// `vec4`s after the head's centre for `maps` opacity maps: their count, then per map its
-/// header, each cell's nearest strand and the coverage (four values per `vec4`).
-fn opacity_maps_len(maps: usize) -> usize {
-    if maps == 0 { 0 } else { 1 + maps * (MAP_HEADER + MAP_SIZE * MAP_SIZE * (1 + MAP_LAYERS) / 4) }
-}
-
-/// This frame's lights whose shadows self-shadowing follows: those casting shadows,
-/// directional first, at most [`MAX_OPACITY_MAPS`]. Found once a frame for every groom.
-#[derive(Resource, Default)]
-struct ShadowCastingLights(Vec<LightSource>);
-
-/// Finds this frame's [`ShadowCastingLights`].
-fn find_shadow_casting_lights(
-    directional: Query<(&DirectionalLight, &GlobalTransform)>,
-    points: Query<(&PointLight, &GlobalTransform)>,
-    spots: Query<(&SpotLight, &GlobalTransform)>,
-    mut found: ResMut<ShadowCastingLights>,
-) {
-    let directional = directional
-        .iter()
-        .filter(|(light, _)| light.shadow_maps_enabled)
-        .map(|(_, at)| LightSource::Direction(to_sim(at.back().as_vec3())));
-    let points = points.iter().filter(|(light, _)| light.shadow_maps_enabled).map(|(_, at)| at.translation());
-    let spots = spots.iter().filter(|(light, _)| light.shadow_maps_enabled).map(|(_, at)| at.translation());
-    let positioned = points.chain(spots).map(|at| LightSource::Position(to_sim(at)));
-    found.0.clear();
-    found.0.extend(directional.chain(positioned).take(MAX_OPACITY_MAPS));
-}
-
-/// Room for `slots` opacity maps the GPU writes, and their count: one per light, as many
-/// as there is room for.
-fn reserve_opacity_maps(data: &mut Vec<Vec4>, slots: usize, lights: usize) {
-    if slots == 0 {
-        return;
-    }
-    data.push(Vec4::new(lights.min(slots) as f32, 0.0, 0.0, 0.0));
-    data.resize(data.len() + slots * (opacity_maps_len(1) - 1), Vec4::ZERO);
-}
-
-/// Appends the opacity maps of `samples` (the guide particles, world space, and their
-/// [`fibre_areas`]) toward `lights` to `data` in `slots` slots.
-fn write_opacity_maps(
-    data: &mut Vec<Vec4>,
-    slots: usize,
-    lights: &[LightSource],
-    (points, areas): (&[hair_sim::math::Vec3], &[f32]),
-) {
-    if slots == 0 {
-        return;
-    }
-    // One task per light; the maps come back in the lights' order.
-    let maps: Vec<OpacityMap> = ComputeTaskPool::get_or_init(TaskPool::default)
-        .scope(|scope| {
-            for &light in lights.iter().take(slots) {
-                scope.spawn(async move { OpacityMap::build(light, points, areas) });
-            }
-        })
-        .into_iter()
-        .flatten()
-        .collect();
-    data.push(Vec4::new(maps.len() as f32, 0.0, 0.0, 0.0));
-    let v = |v: hair_sim::math::Vec3, w: f32| from_sim(v).extend(w);
-    for map in &maps {
-        let source = match map.source {
-            LightSource::Direction(d) => v(d, 0.0),
-            LightSource::Position(p) => v(p, 1.0),
-        };
-        data.extend([
-            source,
-            v(map.right, map.corner[0]),
-            v(map.up, map.corner[1]),
-            v(map.forward, map.cells_per_unit),
-            Vec4::new(map.first_layer, 0.0, 0.0, 0.0),
-        ]);
-        // Empty cells' nearest strand is infinitely far: WGSL has no infinity, so the
-        // largest float (nothing lies behind it).
-        let nearest = map.nearest.iter().map(|&d| d.min(f32::MAX));
-        let tables: Vec<f32> = nearest.chain(map.coverage.iter().copied()).collect();
-        data.extend(tables.chunks_exact(4).map(Vec4::from_slice));
-    }
-    // Unused slots keep the buffer its size.
-    data.resize(data.len() + (slots - maps.len()) * (opacity_maps_len(1) - 1), Vec4::ZERO);
-}
-
 /// A groom's buffer contents for this frame, written on a task of its own.
 struct WrittenGuides {
     buffer: Handle<ShaderBuffer>,
@@ -636,16 +414,6 @@ fn draw_on_gpu(
         let pose = state.drawn_head_pose();
         let gpu = &mut state.bypass_change_detection().gpu;
         gpu.draw(&drawing.particles, &drawing.root_u, (overstep, pose), (shadows, order));
-    }
-}
-
-/// The fibres a groom's opacity maps count: its strands' widths, and the strands drawn per
-/// guide.
-fn fibres(look: &HairLook, layout: &StrandLayout) -> Fibres {
-    Fibres {
-        root_width: look.root_width,
-        tip_width: look.tip_width,
-        strands_per_guide: layout.strands_per_guide as f32,
     }
 }
 
@@ -815,30 +583,6 @@ fn upload_guides(
     diagnostics.add_measurement(&HairDiagnostics::UPLOAD_TIME, || started.elapsed().as_secs_f64() * 1e3);
 }
 
-/// What a groom's opacity maps are built from (`points`, strand-major, `n` per guide):
-/// every guide particle with the fibre area it stands for, or, at a level of detail
-/// ([`HairLod`](crate::HairLod)), the particles of the guides the solver steps alone, each
-/// standing for its share of all of them: the same fibre area, spread as the simulated
-/// guides are (coarser, which a head drawn a few dozen pixels tall does not show), for the
-/// share of the work the level simulates (a map's cost follows its particles).
-fn shadow_samples<'a>(
-    points: &'a [hair_sim::math::Vec3],
-    n: usize,
-    strands: &Strands,
-    fibres: Fibres,
-) -> (Cow<'a, [hair_sim::math::Vec3]>, Vec<f32>) {
-    let all = strands.strand_count();
-    let kept: Vec<usize> = (0..all).filter(|&s| !strands.is_following(s)).collect();
-    if kept.len() == all || kept.is_empty() || points.len() != all * n {
-        return (Cow::Borrowed(points), fibre_areas(points, n, fibres));
-    }
-    let kept_points: Vec<_> = kept.iter().flat_map(|&s| points[s * n..(s + 1) * n].iter().copied()).collect();
-    let share = all as f32 / kept.len() as f32;
-    let fibres = Fibres { strands_per_guide: fibres.strands_per_guide * share, ..fibres };
-    let areas = fibre_areas(&kept_points, n, fibres);
-    (Cow::Owned(kept_points), areas)
-}
-
 /// The order the strands' pieces are drawn in (`guide · pieces + piece`,
 /// [`StrandLayout::pieces`]): back to front from `camera` when the strands are blended
 /// ([`hair_sim::draw_order`]), else as grown. `positions` is strand-major.
@@ -938,30 +682,6 @@ fn uniform(layout: &StrandLayout, groom: &HairGroom, look: &HairLook, blended: b
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn a_far_groom_shadows_from_its_simulated_guides_with_the_same_fibre_area() {
-        // 64 straight guides of 4 particles on a 8 × 8 grid of roots, 1 cm apart.
-        let n = 4;
-        let rest: Vec<_> = (0..64)
-            .flat_map(|s| {
-                (0..n).map(move |j| Vec3::new((s % 8) as f32 * 0.01, -0.02 * j as f32, (s / 8) as f32 * 0.01))
-            })
-            .map(to_sim)
-            .collect();
-        let rest = hair_sim::solver::RestShape::new(rest, n).unwrap();
-        let mut strands = Strands::new(rest, hair_sim::math::Pose::IDENTITY);
-        let fibres = Fibres { root_width: 1e-4, tip_width: 5e-5, strands_per_guide: 16.0 };
-        let points = strands.positions().to_vec();
-        let total = |areas: &[f32]| areas.iter().sum::<f32>();
-        let (every, every_area) = shadow_samples(&points, n, &strands, fibres);
-        assert_eq!(every.len(), 64 * n, "full detail: every guide");
-        strands.set_detail_level(3, 0);
-        let (few, few_area) = shadow_samples(&points, n, &strands, fibres);
-        assert_eq!(few.len(), 8 * n, "level 3: the 8 simulated guides");
-        let (a, b) = (total(&every_area), total(&few_area));
-        assert!((a - b).abs() <= 1e-5 * a, "fibre area {a} at full detail, {b} at level 3");
-    }
 
     #[test]
     fn blended_pieces_are_drawn_back_to_front() {
