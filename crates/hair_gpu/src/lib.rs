@@ -45,7 +45,7 @@
 
 #![warn(missing_docs)]
 
-use bytemuck::{Pod, Zeroable};
+use bytemuck::Zeroable;
 use hair_sim::collide::HeadCollider;
 use hair_sim::math::{Pose, Vec3};
 use hair_sim::solver::{LengthMode, RestShape, StepConstants, StepInput, StepReport, Stillness};
@@ -54,19 +54,26 @@ use recorder::Recorder;
 pub use recorder::{Submission, submissions};
 use wgpu::util::DeviceExt;
 
+mod context;
 mod draw;
 mod layout;
+mod live;
 mod pass;
 mod readback;
 mod recorder;
 mod shadow;
 mod sort;
+mod uniform;
 
+pub use context::{GpuContext, GpuError};
 pub use draw::{CURVE_SHADER, DRAW_SHADER, GpuDrawing};
+pub use live::live_objects;
+pub(crate) use live::{Alive, LIVE_DRAWINGS, LIVE_STRANDS};
 use readback::{BufferCopy, StagingPool, duration_ms};
 pub use readback::{PositionsCopy, ReportCopy};
 pub use shadow::{GpuOpacityMap, MAP_FLOATS, SHADOW_SHADER};
 pub use sort::{GpuDrawOrder, SORT_SHADER};
+use uniform::{GridInfo, StepUniform, bits, pack_patch};
 pub use wgpu;
 
 /// The solver's WGSL source (`layout.wgsl`, then `step.wgsl`, beside this file).
@@ -78,229 +85,6 @@ const WORKGROUP_SIZE: u32 = 64;
 /// Substeps the pose table holds room for at first ([`hair_sim::solver::SimParams`]'s own
 /// limit); a step with more grows it.
 const MAX_SUBSTEPS: u32 = 64;
-
-/// What went wrong on the GPU path.
-#[derive(Debug, thiserror::Error)]
-pub enum GpuError {
-    /// No adapter could be found (no GPU, no driver, no Vulkan loader).
-    #[error("no GPU adapter ({0}); install mesa-vulkan-drivers and libvulkan1 for lavapipe")]
-    NoAdapter(String),
-    /// The adapter would not open a device.
-    #[error("the GPU adapter would not open a device: {0}")]
-    Device(String),
-    /// The adapter lacks compute shaders or storage buffers.
-    #[error("the GPU adapter {0:?} cannot run compute shaders over storage buffers")]
-    NoCompute(String),
-    /// The step asks for head collision, but no collider was uploaded.
-    #[error("the step collides with a head, but the GPU strands were built without its collider")]
-    NoCollider,
-    /// The groom is too large for one buffer on this device.
-    #[error("{particles} particles need a {bytes}-byte buffer, above this device's limit of {limit}")]
-    TooLarge {
-        /// Particles in the groom.
-        particles: usize,
-        /// The buffer it needs, bytes.
-        bytes: u64,
-        /// The largest storage buffer the device binds, bytes.
-        limit: u64,
-    },
-    /// A renderer's buffer is too small for [`GpuDrawing`] (or cannot be bound for storage).
-    #[error("the drawing buffer has {bytes} bytes where {needed} are needed, with storage use")]
-    DrawTarget {
-        /// The buffer's size, bytes.
-        bytes: u64,
-        /// What the strands need, bytes.
-        needed: u64,
-    },
-    /// A [`GpuDrawing`] was given a root frame per strand for another strand count.
-    #[error("{given} root frames given for {expected} strands")]
-    RootCount {
-        /// Root frames given.
-        given: usize,
-        /// Strands drawn.
-        expected: usize,
-    },
-    /// A [`GpuDrawing`] was asked to draw strands other than those it was made for.
-    #[error("this drawing was made for other GPU strands")]
-    OtherStrands,
-    /// Reading the positions back failed.
-    #[error("reading the positions back from the GPU failed: {0}")]
-    ReadBack(String),
-}
-
-/// A wgpu device and queue to step on, and the adapter's description.
-pub struct GpuContext {
-    /// The device the buffers and pipeline live on.
-    pub device: wgpu::Device,
-    /// Its queue.
-    pub queue: wgpu::Queue,
-    /// The adapter (its name, driver and backend), for reports.
-    pub adapter: wgpu::AdapterInfo,
-    /// Whether the device can time passes with timestamp queries.
-    pub timestamps: bool,
-}
-
-impl GpuContext {
-    /// The default adapter without a window (lavapipe on a machine without a GPU), with
-    /// timestamp queries where it has them.
-    pub fn headless() -> Result<Self, GpuError> {
-        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
-        let adapter = futures_lite::future::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
-            power_preference: wgpu::PowerPreference::HighPerformance,
-            ..Default::default()
-        }))
-        .map_err(|e| GpuError::NoAdapter(e.to_string()))?;
-        let info = adapter.get_info();
-        let limits = adapter.limits();
-        let downlevel = adapter.get_downlevel_capabilities();
-        if !downlevel.flags.contains(wgpu::DownlevelFlags::COMPUTE_SHADERS) || !can_step(&limits) {
-            return Err(GpuError::NoCompute(info.name));
-        }
-        let timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
-        let (device, queue) = futures_lite::future::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-            label: Some("hair_gpu"),
-            required_features: if timestamps { wgpu::Features::TIMESTAMP_QUERY } else { wgpu::Features::empty() },
-            // All the adapter has: large grooms want large storage buffers.
-            required_limits: limits,
-            ..Default::default()
-        }))
-        .map_err(|e| GpuError::Device(e.to_string()))?;
-        Ok(GpuContext { device, queue, adapter: info, timestamps })
-    }
-
-    /// A device someone else opened (an engine's render device), if its limits let the
-    /// solver run: compute workgroups of 64 and eight storage buffers per stage. Steps are
-    /// timed where it was opened with timestamp queries.
-    pub fn new(device: wgpu::Device, queue: wgpu::Queue, adapter: wgpu::AdapterInfo) -> Result<Self, GpuError> {
-        if !can_step(&device.limits()) {
-            return Err(GpuError::NoCompute(adapter.name));
-        }
-        let timestamps = device.features().contains(wgpu::Features::TIMESTAMP_QUERY);
-        Ok(GpuContext { device, queue, adapter, timestamps })
-    }
-}
-
-/// Whether `limits` let `step.wgsl` run: 64 invocations per workgroup and its eight
-/// storage buffers (a device without compute reports zero invocations).
-fn can_step(limits: &wgpu::Limits) -> bool {
-    limits.max_compute_invocations_per_workgroup >= WORKGROUP_SIZE
-        && limits.max_compute_workgroup_size_x >= WORKGROUP_SIZE
-        && limits.max_storage_buffers_per_shader_stage >= 8
-}
-
-/// The per-step constants, laid out as `step.wgsl`'s `Step`.
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-struct StepUniform {
-    counts: [u32; 4],
-    flags: [u32; 4],
-    gravity_h: [f32; 4],
-    motion: [f32; 4],
-    limits: [f32; 4],
-    wind: [f32; 4],
-    gusts: [f32; 4],
-    grid_origin: [f32; 4],
-    grid_dims: [u32; 4],
-    centre: [f32; 4],
-    near: [u32; 4],
-    near_bounds: [f32; 4],
-    rise: [f32; 4],
-    rise_dims: [u32; 4],
-    rise_limits: [f32; 4],
-    springs: [f32; 4],
-    spring_flags: [u32; 4],
-    ray_from: [f32; 4],
-    offset: [f32; 4],
-    skin: [u32; 4],
-    bvh: [u32; 4],
-    sleep: [f32; 4],
-}
-
-/// The head as the shader reads it: its distance grid, and where the exact near query's
-/// tables start in the same buffer.
-#[derive(Clone, Copy)]
-struct GridInfo {
-    origin: Vec3,
-    inverse_cell: f32,
-    dims: [u32; 3],
-    centre: Vec3,
-    /// `step.wgsl`'s `near`: where the cell ranges, blocks and triangles start, and the
-    /// bits of a range that count its blocks (0: no tables, the grid alone).
-    near: [u32; 4],
-    /// `step.wgsl`'s `near_bounds`: the grid's largest error, the bounds' slack, the cell.
-    near_bounds: [f32; 4],
-    /// `step.wgsl`'s `rise`, `rise_dims` and `rise_limits`: the curvature table's corner and
-    /// cells per metre, its cells along each axis and where it starts, the longest segment
-    /// it bounds (0: no table) and the most its normal may turn.
-    rise: [f32; 4],
-    rise_dims: [u32; 4],
-    rise_limits: [f32; 4],
-    /// `step.wgsl`'s `bvh`: the BVH over the tables' triangles, for the closest point where
-    /// a cell has no list and for segment crossings: its node count (0: no tables), where
-    /// its nodes and its triangle order start.
-    bvh: [u32; 4],
-}
-
-impl GridInfo {
-    /// `collider` as `step.wgsl`'s `head` buffer holds it (words): the grid's samples,
-    /// then, if they fit in `limit` bytes, the exact near query's cell ranges, blocks and
-    /// triangles (ten vec4 each), the BVH over them (two vec4 a node, then its triangle
-    /// order), and the curvature table (two words a cell).
-    fn pack(collider: &HeadCollider, limit: u64) -> (Vec<u32>, GridInfo) {
-        let g = collider.grid();
-        let mut words: Vec<u32> = g.values().iter().map(|v| v.to_bits()).collect();
-        let mut info = GridInfo {
-            origin: g.origin(),
-            inverse_cell: 1.0 / g.cell_size(),
-            dims: g.dims().map(|d| d as u32),
-            centre: collider.centre(),
-            near: [0; 4],
-            near_bounds: [g.max_error(), 0.0, g.cell_size(), 0.0],
-            rise: [0.0; 4],
-            rise_dims: [0; 4],
-            rise_limits: [0.0; 4],
-            bvh: [0; 4],
-        };
-        let tables = collider.near_query_tables();
-        let rise = collider.rise_table();
-        let extra = tables.cell_ranges.len()
-            + 20 * tables.blocks.len()
-            + 40 * tables.triangles.len()
-            + 8 * tables.bvh.nodes.len()
-            + tables.bvh.order.len()
-            + 2 * rise.values.len();
-        if ((words.len() + extra) * 4) as u64 > limit {
-            return (words, info); // beyond the device: the grid alone still answers
-        }
-        let ranges = words.len() as u32;
-        words.extend(&tables.cell_ranges);
-        let blocks = words.len() as u32;
-        words.extend(tables.blocks.iter().flatten());
-        let triangles = words.len() as u32;
-        for triangle in &tables.triangles {
-            words.extend(triangle.iter().flat_map(|v| [v.x, v.y, v.z, 0.0]).map(f32::to_bits));
-        }
-        info.near = [ranges, blocks, triangles, tables.count_bits];
-        // A leaf's count takes the low three bits beside its first triangle.
-        const _: () = assert!(hair_sim::collide::FlatBvh::LEAF_SIZE < 8);
-        let nodes = words.len() as u32;
-        for node in &tables.bvh.nodes {
-            let corner = |v: Vec3, w: u32| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits(), w];
-            words.extend(corner(node.min, node.skip));
-            words.extend(corner(node.max, node.first * 8 + node.count));
-        }
-        info.bvh = [tables.bvh.nodes.len() as u32, nodes, words.len() as u32, 0];
-        words.extend(&tables.bvh.order);
-        info.near_bounds[1] = tables.slack;
-        let [x, y, z] = rise.dims.map(|d| d as u32);
-        let origin = rise.cells.origin;
-        info.rise = [origin.x, origin.y, origin.z, rise.cells.inverse_cell];
-        info.rise_dims = [x, y, z, words.len() as u32];
-        info.rise_limits = [rise.max_length, rise.max_turn, 0.0, 0.0];
-        words.extend(rise.values.iter().flatten().map(|v| v.to_bits()));
-        (words, info)
-    }
-}
 
 /// Strands stepped on the GPU; see the crate docs.
 pub struct GpuStrands {
@@ -1086,73 +870,10 @@ fn storage_buffer(device: &wgpu::Device, label: &str, contents: &[u8], usage: wg
     })
 }
 
-/// [`GpuStrands`] alive, for [`live_objects`].
-static LIVE_STRANDS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-/// [`GpuDrawing`]s alive, for [`live_objects`].
-pub(crate) static LIVE_DRAWINGS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-
-/// How many [`GpuStrands`] and [`GpuDrawing`]s are alive in this process: every GPU buffer
-/// of this crate belongs to one of them, so an engine that lets go of its grooms brings
-/// both back to what they were (a test's count of leaks).
-pub fn live_objects() -> [usize; 2] {
-    [LIVE_STRANDS.load(std::sync::atomic::Ordering::Relaxed), LIVE_DRAWINGS.load(std::sync::atomic::Ordering::Relaxed)]
-}
-
-/// Counts its owner in a count of live objects while it lives.
-pub(crate) struct Alive(&'static std::sync::atomic::AtomicUsize);
-
-impl Alive {
-    pub fn new(count: &'static std::sync::atomic::AtomicUsize) -> Self {
-        count.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        Alive(count)
-    }
-}
-
-impl Drop for Alive {
-    fn drop(&mut self) {
-        self.0.fetch_sub(1, std::sync::atomic::Ordering::Relaxed);
-    }
-}
-
 /// The recorder of a [`GpuStrands`] borrowed mutably (no lock taken; a poisoned one is
 /// still whole: nothing panics half-way through recording).
 fn recording(recorder: &mut std::sync::Mutex<Recorder>) -> &mut Recorder {
     recorder.get_mut().unwrap_or_else(std::sync::PoisonError::into_inner)
-}
-
-/// A vec4 of floats as `step.wgsl`'s `colliders` holds them: their bits.
-fn bits(v: [f32; 4]) -> [u32; 4] {
-    v.map(f32::to_bits)
-}
-
-/// Appends `patch` to `data` as `step.wgsl` reads it (after the extra colliders) and
-/// returns its place: header + 1, triangles, bin starts, bin lists (vec4 indices).
-fn pack_patch(data: &mut Vec<[u32; 4]>, patch: hair_sim::collide::PatchParts) -> [u32; 4] {
-    let vec4 = |v: Vec3| bits([v.x, v.y, v.z, 0.0]);
-    let header = data.len() as u32;
-    data.push(bits([patch.origin.x, patch.origin.y, patch.origin.z, patch.reach]));
-    let [nx, ny, nz] = patch.dims.map(|d| d as u32);
-    data.push([nx, ny, nz, patch.cell.to_bits()]);
-    let triangles = data.len() as u32;
-    for (t, corners) in patch.triangles.iter().enumerate() {
-        let face = patch.face_normals[t];
-        data.extend(corners.map(|v| vec4(patch.positions[v as usize])));
-        data.push(vec4(face));
-        // An edge's normal is its two faces' (as `SurfacePatch::resolve`'s).
-        data.extend(
-            patch.across[t]
-                .map(|other| vec4(other.map_or(face, |o| (face + patch.face_normals[o as usize]).normalize_or(face)))),
-        );
-        data.extend(corners.map(|v| vec4(patch.corner_normals[v as usize])));
-    }
-    let mut words = |list: &[u32]| {
-        let at = data.len() as u32;
-        data.extend(list.chunks(4).map(|w| std::array::from_fn(|i| w.get(i).copied().unwrap_or(0))));
-        at
-    };
-    let starts = words(patch.starts);
-    let bins = words(patch.bins);
-    [header + 1, triangles, starts, bins]
 }
 
 /// The bind group over the solver's nine buffers, in binding order, and the phases.
