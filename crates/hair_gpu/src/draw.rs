@@ -185,13 +185,7 @@ mod tests {
 
     #[test]
     fn the_drawing_shader_validates_and_matches_its_uniform() {
-        let module = naga::front::wgsl::parse_str(&format!("{CURVE_SHADER}\n{DRAW_SHADER}")).expect("draw.wgsl parses");
-        naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::empty())
-            .validate(&module)
-            .expect("draw.wgsl validates");
-        let placement =
-            module.types.iter().find(|(_, t)| t.name.as_deref() == Some("Placement")).expect("struct Placement");
-        let naga::TypeInner::Struct { span, .. } = placement.1.inner else { panic!("Placement is a struct") };
-        assert_eq!(span as usize, size_of::<Placement>());
+        let source = format!("{CURVE_SHADER}\n{DRAW_SHADER}");
+        assert_eq!(crate::pass::validated_struct_size(&source, "Placement"), size_of::<Placement>());
     }
 }

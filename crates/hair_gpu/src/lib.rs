@@ -927,27 +927,20 @@ impl Timestamps {
 mod tests {
     use super::*;
 
+    use crate::pass::{validated, validated_struct_size};
+
     #[test]
     fn the_shader_validates() {
-        let module = naga::front::wgsl::parse_str(SHADER).expect("step.wgsl parses");
-        naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::empty())
-            .validate(&module)
-            .expect("step.wgsl validates");
+        validated(SHADER);
     }
 
     #[test]
     fn the_roots_shader_validates() {
-        let module = naga::front::wgsl::parse_str(ROOTS_SHADER).expect("roots.wgsl parses");
-        naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::empty())
-            .validate(&module)
-            .expect("roots.wgsl validates");
+        validated(ROOTS_SHADER);
     }
 
     #[test]
     fn the_uniform_matches_the_shader_layout() {
-        let module = naga::front::wgsl::parse_str(SHADER).expect("step.wgsl parses");
-        let step = module.types.iter().find(|(_, t)| t.name.as_deref() == Some("Step")).expect("struct Step");
-        let naga::TypeInner::Struct { span, .. } = step.1.inner else { panic!("Step is a struct") };
-        assert_eq!(span as usize, std::mem::size_of::<StepUniform>());
+        assert_eq!(validated_struct_size(SHADER, "Step"), std::mem::size_of::<StepUniform>());
     }
 }

@@ -3,6 +3,7 @@
 //! compute passes (`shadow.wgsl`), written where the hair shader reads the map, so a groom
 //! the GPU steps needs no copy back to be shadowed.
 
+use crate::pass::{SharedLayout, storage};
 use crate::recorder::dispatch_over;
 use crate::{GpuError, WORKGROUP_SIZE};
 use bytemuck::{Pod, Zeroable};
@@ -77,60 +78,16 @@ impl GpuOpacityMap {
             label: Some("hair_gpu shadow.wgsl"),
             source: wgpu::ShaderSource::Wgsl(SHADOW_SHADER.into()),
         });
-        // One layout for every pass (each uses its share of the buffers), so that one bind
-        // group serves them all.
-        let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty,
-            count: None,
-        };
-        let storage_entry = |binding, read_only| {
-            entry(
-                binding,
-                wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Storage { read_only },
-                    has_dynamic_offset: false,
-                    min_binding_size: None,
-                },
-            )
-        };
-        let uniform_entry = entry(
-            0,
-            wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Uniform,
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-        );
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("hair_gpu opacity map"),
-            entries: &[
-                uniform_entry,
-                storage_entry(1, true),
-                storage_entry(2, false),
-                storage_entry(3, false),
-                storage_entry(4, false),
-            ],
-        });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("hair_gpu opacity map"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let pipelines = PASSES
-            .iter()
-            .map(|(entry_point, _)| {
-                device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: Some(entry_point),
-                    layout: Some(&pipeline_layout),
-                    module: &module,
-                    entry_point: Some(entry_point),
-                    compilation_options: Default::default(),
-                    cache: None,
-                })
-            })
-            .collect();
+        let uniform_type = wgpu::BufferBindingType::Uniform;
+        let bindings = [
+            (uniform_type, false),
+            (storage(true), false),
+            (storage(false), false),
+            (storage(false), false),
+            (storage(false), false),
+        ];
+        let layout = SharedLayout::new(device, "hair_gpu opacity map", &bindings);
+        let pipelines = PASSES.iter().map(|(entry_point, _)| layout.pipeline(device, &module, entry_point)).collect();
         let uniform = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("hair_gpu opacity map light"),
             size: size_of::<LightUniform>() as u64,
@@ -147,16 +104,9 @@ impl GpuOpacityMap {
         };
         let work = storage("hair_gpu opacity map work", (WORK_WORDS * 4) as u64);
         let partials = storage("hair_gpu opacity map sums", u64::from(capacity.div_ceil(WORKGROUP_SIZE)) * 16);
-        let buffers = [(0, &uniform), (1, points), (2, &work), (3, &partials), (4, target)];
-        let entries: Vec<_> = buffers
-            .iter()
-            .map(|&(binding, buffer)| wgpu::BindGroupEntry { binding, resource: buffer.as_entire_binding() })
-            .collect();
-        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("hair_gpu opacity map"),
-            layout: &layout,
-            entries: &entries,
-        });
+        let buffers = [&uniform, points, &work, &partials, target];
+        let group =
+            layout.bind(device, "hair_gpu opacity map", buffers.iter().map(|b| b.as_entire_binding()).collect());
         Ok(GpuOpacityMap { pipelines, group, uniform, work, capacity })
     }
 
@@ -211,12 +161,7 @@ mod tests {
 
     #[test]
     fn the_shadow_shader_validates_and_matches_its_uniform() {
-        let module = naga::front::wgsl::parse_str(SHADOW_SHADER).expect("shadow.wgsl parses");
-        naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::empty())
-            .validate(&module)
-            .expect("shadow.wgsl validates");
-        let light = module.types.iter().find(|(_, t)| t.name.as_deref() == Some("Light")).expect("struct Light");
-        let naga::TypeInner::Struct { span, .. } = light.1.inner else { panic!("Light is a struct") };
-        assert_eq!(span as usize, size_of::<LightUniform>());
+        let light = crate::pass::validated_struct_size(SHADOW_SHADER, "Light");
+        assert_eq!(light, size_of::<LightUniform>());
     }
 }

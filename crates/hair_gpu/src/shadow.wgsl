@@ -114,6 +114,29 @@ fn project(p: vec3<f32>) -> Projected {
     return Projected(vec3<f32>(0.0), false);
 }
 
+// Particle `i` as the passes after `frame` map it: its fibre area and where the light
+// sees it; `mapped` false for a particle past the last, one the map leaves out, one a
+// point light has behind it, and when there is no map.
+struct Sample {
+    area: f32,
+    at: Projected,
+    mapped: bool,
+}
+
+fn sample(i: u32) -> Sample {
+    var out = Sample(0.0, Projected(vec3<f32>(0.0), false), false);
+    if i >= particles() || atomicLoad(&work[VALID]) == 0u {
+        return out;
+    }
+    out.area = area(i);
+    if out.area == 0.0 {
+        return out;
+    }
+    out.at = project(points[i].xyz);
+    out.mapped = out.at.seen;
+    return out;
+}
+
 // The four cells around cell coordinates `xy` and their bilinear weights; a cell off the
 // grid is EMPTY.
 struct Footprint {
@@ -220,14 +243,11 @@ fn frame() {
 
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn bounds(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = invocation(id, groups);
-    if i >= particles() || atomicLoad(&work[VALID]) == 0u || area(i) == 0.0 {
+    let sampled = sample(invocation(id, groups));
+    if !sampled.mapped {
         return;
     }
-    let projected = project(points[i].xyz);
-    if !projected.seen {
-        return;
-    }
+    let projected = sampled.at;
     for (var k = 0u; k < 3u; k++) {
         atomicMin(&work[LOW + k], sortable(projected.uvd[k]));
         atomicMax(&work[HIGH + k], sortable(projected.uvd[k]));
@@ -259,14 +279,11 @@ fn fit() {
 
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn nearest(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = invocation(id, groups);
-    if i >= particles() || atomicLoad(&work[VALID]) == 0u || area(i) == 0.0 {
+    let sampled = sample(invocation(id, groups));
+    if !sampled.mapped {
         return;
     }
-    let projected = project(points[i].xyz);
-    if !projected.seen {
-        return;
-    }
+    let projected = sampled.at;
     let cells = footprint(cell_coordinates(projected.uvd)).cells;
     for (var k = 0u; k < 4u; k++) {
         if cells[k] != EMPTY {
@@ -277,20 +294,13 @@ fn nearest(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups
 
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn deposit(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = invocation(id, groups);
-    if i >= particles() || atomicLoad(&work[VALID]) == 0u {
+    let sampled = sample(invocation(id, groups));
+    if !sampled.mapped {
         return;
     }
-    let a = area(i);
-    if a == 0.0 {
-        return;
-    }
-    let projected = project(points[i].xyz);
-    if !projected.seen {
-        return;
-    }
+    let projected = sampled.at;
     let d = projected.uvd.z;
-    let layers = a / cell_area(d);
+    let layers = sampled.area / cell_area(d);
     let first_layer = load_f32(FIT + 3u);
     let around = footprint(cell_coordinates(projected.uvd));
     for (var k = 0u; k < 4u; k++) {

@@ -2,6 +2,7 @@
 //! already in GPU memory: `hair_sim::draw_order::back_to_front` as a bitonic sort
 //! (`sort.wgsl`), written where the hair shader reads the order.
 
+use crate::pass::{SharedLayout, storage};
 use crate::recorder::dispatch_over;
 use crate::{GpuError, GpuStrands};
 use bytemuck::{Pod, Zeroable};
@@ -51,38 +52,16 @@ impl GpuDrawOrder {
             label: Some("hair_gpu sort.wgsl"),
             source: wgpu::ShaderSource::Wgsl(SORT_SHADER.into()),
         });
-        let buffer_entry = |binding, ty, has_dynamic_offset| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer { ty, has_dynamic_offset, min_binding_size: None },
-            count: None,
-        };
-        let storage = |read_only| wgpu::BufferBindingType::Storage { read_only };
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("hair_gpu draw order"),
-            entries: &[
-                buffer_entry(0, wgpu::BufferBindingType::Uniform, false),
-                buffer_entry(1, storage(true), false),
-                buffer_entry(2, storage(false), false),
-                buffer_entry(3, storage(false), false),
-                buffer_entry(4, wgpu::BufferBindingType::Uniform, true),
-            ],
-        });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("hair_gpu draw order"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let pipeline = |entry_point: &str| {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(entry_point),
-                layout: Some(&pipeline_layout),
-                module: &module,
-                entry_point: Some(entry_point),
-                compilation_options: Default::default(),
-                cache: None,
-            })
-        };
+        let uniform_type = wgpu::BufferBindingType::Uniform;
+        let bindings = [
+            (uniform_type, false),
+            (storage(true), false),
+            (storage(false), false),
+            (storage(false), false),
+            (uniform_type, true),
+        ];
+        let layout = SharedLayout::new(device, "hair_gpu draw order", &bindings);
+        let pipeline = |entry_point: &str| layout.pipeline(device, &module, entry_point);
         let extent = pieces.max(2).next_power_of_two();
         // The network: for each block size k, each compare distance j from k/2 down to 1.
         let mut network = Vec::new();
@@ -120,17 +99,14 @@ impl GpuDrawOrder {
             mapped_at_creation: false,
         });
         let step_binding = wgpu::BufferBinding { buffer: &steps, offset: 0, size: wgpu::BufferSize::new(8) };
-        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("hair_gpu draw order"),
-            layout: &layout,
-            entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: uniform.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: points.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 2, resource: keys.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 3, resource: target.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::Buffer(step_binding) },
-            ],
-        });
+        let resources = vec![
+            uniform.as_entire_binding(),
+            points.as_entire_binding(),
+            keys.as_entire_binding(),
+            target.as_entire_binding(),
+            wgpu::BindingResource::Buffer(step_binding),
+        ];
+        let group = layout.bind(device, "hair_gpu draw order", resources);
         Ok(GpuDrawOrder {
             keys_pass: pipeline("keys_of_pieces"),
             step_pass: pipeline("sort_step"),
@@ -201,12 +177,6 @@ mod tests {
 
     #[test]
     fn the_sort_shader_validates_and_matches_its_uniform() {
-        let module = naga::front::wgsl::parse_str(SORT_SHADER).expect("sort.wgsl parses");
-        naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::empty())
-            .validate(&module)
-            .expect("sort.wgsl validates");
-        let order = module.types.iter().find(|(_, t)| t.name.as_deref() == Some("Order")).expect("struct Order");
-        let naga::TypeInner::Struct { span, .. } = order.1.inner else { panic!("Order is a struct") };
-        assert_eq!(span as usize, size_of::<OrderUniform>());
+        assert_eq!(crate::pass::validated_struct_size(SORT_SHADER, "Order"), size_of::<OrderUniform>());
     }
 }
