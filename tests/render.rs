@@ -3,7 +3,6 @@
 //! fails when `BEVY_HAIR_REQUIRE_ADAPTER` is set (as `.ci/run` sets it).
 //! The PNGs land in `target/tmp/hair-renders/` for people to look at.
 
-use bevy::app::PluginsState;
 use bevy::camera::RenderTarget;
 use bevy::camera::visibility::NoFrustumCulling;
 use bevy::core_pipeline::tonemapping::Tonemapping;
@@ -27,24 +26,17 @@ use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
+mod common;
+
 const SIZE: u32 = 256;
 const BACKGROUND: Color = Color::srgb(0.05, 0.05, 0.4);
-
-/// Why rendering cannot run here, if it cannot.
-fn no_adapter() -> Option<String> {
-    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
-    match bevy::tasks::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions::default())) {
-        Ok(_) => None,
-        Err(e) => Some(format!("no GPU adapter ({e}); install mesa-vulkan-drivers and libvulkan1 for lavapipe")),
-    }
-}
 
 /// Set by `.ci/run`: there, a missing adapter is a failure (lavapipe broke), not a skip.
 const REQUIRE_ADAPTER: &str = "BEVY_HAIR_REQUIRE_ADAPTER";
 
 macro_rules! require_adapter {
     () => {
-        if let Some(reason) = no_adapter() {
+        if let Some(reason) = common::no_adapter() {
             if std::env::var_os(REQUIRE_ADAPTER).is_some() {
                 panic!("{REQUIRE_ADAPTER} is set and there is {reason}");
             }
@@ -66,24 +58,8 @@ struct Scene {
 
 impl Scene {
     fn new() -> Scene {
-        let mut app = App::new();
-        app.add_plugins(
-            DefaultPlugins
-                .build()
-                .disable::<WinitPlugin>()
-                // Each test builds an app; only the first could install the global logger.
-                .disable::<LogPlugin>()
-                .set(WindowPlugin { primary_window: None, exit_condition: ExitCondition::DontExit, ..default() })
-                .set(RenderPlugin { synchronous_pipeline_compilation: true, ..default() }),
-        )
-        .add_plugins(HairPlugin::default())
-        .insert_resource(ClearColor(BACKGROUND));
-        // What `App::run` does before the first update: the renderer starts asynchronously.
-        while app.plugins_state() == PluginsState::Adding {
-            bevy::tasks::tick_global_task_pools_on_main_thread();
-        }
-        app.finish();
-        app.cleanup();
+        let mut app = common::rendering_app();
+        app.insert_resource(ClearColor(BACKGROUND));
         let mut image = Image::new_target_texture(SIZE, SIZE, TextureFormat::Rgba8UnormSrgb, None);
         image.texture_descriptor.usage |= TextureUsages::COPY_SRC;
         let target = app.world_mut().resource_mut::<Assets<Image>>().add(image);

@@ -100,18 +100,22 @@ pub fn settings(app: &mut App, change: impl FnOnce(&mut SimParams)) {
     change(&mut app.world_mut().resource_mut::<HairSettings>().0);
 }
 
-/// A headless app with Bevy's renderer (no window, nothing drawn unless a test adds a
-/// camera) and the hair plugin, time advancing by [`FRAME`] per update: what the GPU
-/// backend steps in (the render world). `Err` says why there is none.
-pub fn app_with_render_device() -> Result<App, String> {
+/// Why rendering cannot run here, if it cannot: no Vulkan adapter.
+pub fn no_adapter() -> Option<String> {
+    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+    bevy::tasks::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions::default()))
+        .err()
+        .map(|e| format!("no GPU adapter ({e}); install mesa-vulkan-drivers and libvulkan1 for lavapipe"))
+}
+
+/// An app with Bevy's renderer (no window; pipelines compiled when first used, so that no
+/// frame is drawn without them) and the hair plugin, started as `App::run` starts one.
+pub fn rendering_app() -> App {
     use bevy::app::PluginsState;
     use bevy::log::LogPlugin;
     use bevy::render::RenderPlugin;
     use bevy::window::ExitCondition;
     use bevy::winit::WinitPlugin;
-    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
-    bevy::tasks::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions::default()))
-        .map_err(|e| format!("no GPU adapter ({e}); install mesa-vulkan-drivers and libvulkan1 for lavapipe"))?;
     let mut app = App::new();
     app.add_plugins(
         DefaultPlugins
@@ -122,14 +126,25 @@ pub fn app_with_render_device() -> Result<App, String> {
             .set(WindowPlugin { primary_window: None, exit_condition: ExitCondition::DontExit, ..default() })
             .set(RenderPlugin { synchronous_pipeline_compilation: true, ..default() }),
     )
-    .add_plugins(HairPlugin::default())
-    .insert_resource(TimeUpdateStrategy::ManualDuration(FRAME));
+    .add_plugins(HairPlugin::default());
     // What `App::run` does before the first update: the renderer starts asynchronously.
     while app.plugins_state() == PluginsState::Adding {
         bevy::tasks::tick_global_task_pools_on_main_thread();
     }
     app.finish();
     app.cleanup();
+    app
+}
+
+/// [`rendering_app`] with time advancing by [`FRAME`] per update: what the GPU backend
+/// steps in (the render world), drawing nothing unless a test adds a camera. `Err` says why
+/// there is none.
+pub fn app_with_render_device() -> Result<App, String> {
+    if let Some(reason) = no_adapter() {
+        return Err(reason);
+    }
+    let mut app = rendering_app();
+    app.insert_resource(TimeUpdateStrategy::ManualDuration(FRAME));
     Ok(app)
 }
 
