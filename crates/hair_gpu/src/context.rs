@@ -103,7 +103,7 @@ impl GpuContext {
     }
 }
 
-/// Whether `limits` let `step.wgsl` run: 64 invocations per workgroup and its eight
+/// Whether `limits` let the step shader (`step/`) run: 64 invocations per workgroup and its eight
 /// storage buffers (a device without compute reports zero invocations).
 pub(crate) fn can_step(limits: &wgpu::Limits) -> bool {
     limits.max_compute_invocations_per_workgroup >= WORKGROUP_SIZE

@@ -22,9 +22,9 @@ struct Placement {
 }
 
 @group(0) @binding(0) var<uniform> placement: Placement;
-// The solver's positions (`step.wgsl`'s `positions`).
+// The solver's positions (the step shader's `positions`).
 @group(0) @binding(1) var<storage, read> positions: array<vec4<f32>>;
-// The solver's rest shape (`step.wgsl`'s `rest`): two planes, the head-local rest position
+// The solver's rest shape (the step shader's `rest`): two planes, the head-local rest position
 // first.
 @group(0) @binding(2) var<storage, read> rest: array<vec4<f32>>;
 // Head-space particles after the step before the last, and after the last.

@@ -76,8 +76,30 @@ pub use sort::{GpuDrawOrder, SORT_SHADER};
 use uniform::{GridInfo, StepUniform, bits, pack_patch};
 pub use wgpu;
 
-/// The solver's WGSL source (`layout.wgsl`, then `step.wgsl`, beside this file).
-pub const SHADER: &str = concat!(include_str!("layout.wgsl"), "\n", include_str!("step.wgsl"));
+/// The solver's WGSL source: `layout.wgsl`, then the step shader's sections in `step/` (common
+/// declarations, wind, the head, whole segments, the final length pass, the skin, the
+/// substep, the springs, the entry points), assembled into one module.
+pub const SHADER: &str = concat!(
+    include_str!("layout.wgsl"),
+    "\n",
+    include_str!("step/common.wgsl"),
+    "\n",
+    include_str!("step/wind.wgsl"),
+    "\n",
+    include_str!("step/head.wgsl"),
+    "\n",
+    include_str!("step/segments.wgsl"),
+    "\n",
+    include_str!("step/final_length.wgsl"),
+    "\n",
+    include_str!("step/skin.wgsl"),
+    "\n",
+    include_str!("step/substep.wgsl"),
+    "\n",
+    include_str!("step/springs.wgsl"),
+    "\n",
+    include_str!("step/entry.wgsl"),
+);
 /// The roots' pass (`layout.wgsl`, then `roots.wgsl`).
 const ROOTS_SHADER: &str = concat!(include_str!("layout.wgsl"), "\n", include_str!("roots.wgsl"));
 /// Invocations per workgroup, as `layout.wgsl` declares (a test checks).
@@ -90,7 +112,7 @@ const MAX_SUBSTEPS: u32 = 64;
 pub struct GpuStrands {
     device: wgpu::Device,
     queue: wgpu::Queue,
-    /// The step's passes (`step.wgsl`'s entry points).
+    /// The step's passes (the step shader's entry points).
     passes: StepPasses,
     /// Which substep each dispatch of a step works on.
     phases: Phases,
@@ -102,9 +124,9 @@ pub struct GpuStrands {
     motion: wgpu::Buffer,
     rest: wgpu::Buffer,
     root_frames: wgpu::Buffer,
-    /// Extra colliders and the moving skin (see `step.wgsl`).
+    /// Extra colliders and the moving skin (see `step/skin.wgsl`).
     colliders: wgpu::Buffer,
-    /// The head's distance grid and near query tables (`step.wgsl`'s `head`).
+    /// The head's distance grid and near query tables (the step shader's `head`).
     head: wgpu::Buffer,
     /// The spring model's memory and scratch: a placeholder until a step asks for springs.
     springs: wgpu::Buffer,
@@ -167,7 +189,7 @@ impl RootsUpload {
     }
 }
 
-/// `step.wgsl`'s entry points: a step dispatches them in turn for each substep.
+/// The step shader's entry points: a step dispatches them in turn for each substep.
 struct StepPasses {
     /// Integration, shape and length, an invocation per strand.
     move_strands: wgpu::ComputePipeline,
@@ -180,10 +202,10 @@ struct StepPasses {
     turn_strands: wgpu::ComputePipeline,
 }
 
-/// Bytes of one entry of [`Phases`] (`step.wgsl`'s `phase`, a vec4 of u32).
+/// Bytes of one entry of [`Phases`] (the step shader's `phase`, a vec4 of u32).
 const PHASE_BYTES: u64 = 16;
 
-/// Which substep each dispatch of a step works on (`step.wgsl`'s `phase`): the substeps
+/// Which substep each dispatch of a step works on (the step shader's `phase`): the substeps
 /// 0, 1, 2, … written once, each at an offset a dynamic offset can point at.
 struct Phases {
     buffer: wgpu::Buffer,
@@ -219,12 +241,12 @@ impl Phases {
 }
 
 /// Bytes per slot in `motion`: velocity, substep start, FTL correction, position before
-/// collision and sleep anchor (`step.wgsl`'s `PLANES`).
+/// collision and sleep anchor (the step shader's `PLANES`).
 const MOTION_BYTES: u64 = 5 * 16;
-/// Bytes per strand of the step report after the particles in `motion` (`step.wgsl`'s
+/// Bytes per strand of the step report after the particles in `motion` (the step shader's
 /// `Tally`, added up).
 const REPORT_BYTES: u64 = 2 * 16;
-/// Bytes per slot in `springs` (see `step.wgsl`).
+/// Bytes per slot in `springs` (see `step/springs.wgsl`).
 const SPRINGS_BYTES: u64 = 6 * 16;
 
 impl GpuStrands {
@@ -282,7 +304,7 @@ impl GpuStrands {
             mapped_at_creation: false,
         });
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("hair_gpu step.wgsl"),
+            label: Some("hair_gpu step"),
             source: wgpu::ShaderSource::Wgsl(SHADER.into()),
         });
         let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
@@ -479,7 +501,7 @@ impl GpuStrands {
             return false;
         }
         let plane: Vec<[f32; 4]> = velocities.iter().map(|v| [v.x, v.y, v.z, 0.0]).collect();
-        // The first of `motion`'s planes (`step.wgsl`'s `velocity`).
+        // The first of `motion`'s planes (the step shader's `velocity`).
         let plane = self.slots.spread(&plane, [0.0; 4]);
         recording(&mut self.recorder).upload(&self.motion, bytemuck::cast_slice(&plane));
         true

@@ -1,4 +1,4 @@
-//! What a step hands `step.wgsl` besides the buffers: the per-step constants
+//! What a step hands the step shader (`step/`) besides the buffers: the per-step constants
 //! ([`StepUniform`]), the head's grid and tables as the shader reads them ([`GridInfo`]),
 //! and the extra colliders and the moving skin packed as words.
 
@@ -6,7 +6,7 @@ use bytemuck::{Pod, Zeroable};
 use hair_sim::collide::HeadCollider;
 use hair_sim::math::Vec3;
 
-/// The per-step constants, laid out as `step.wgsl`'s `Step`.
+/// The per-step constants, laid out as the step shader's `Step`.
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
 pub(crate) struct StepUniform {
@@ -42,25 +42,25 @@ pub(crate) struct GridInfo {
     pub(crate) inverse_cell: f32,
     pub(crate) dims: [u32; 3],
     pub(crate) centre: Vec3,
-    /// `step.wgsl`'s `near`: where the cell ranges, blocks and triangles start, and the
+    /// The step shader's `near`: where the cell ranges, blocks and triangles start, and the
     /// bits of a range that count its blocks (0: no tables, the grid alone).
     pub(crate) near: [u32; 4],
-    /// `step.wgsl`'s `near_bounds`: the grid's largest error, the bounds' slack, the cell.
+    /// The step shader's `near_bounds`: the grid's largest error, the bounds' slack, the cell.
     pub(crate) near_bounds: [f32; 4],
-    /// `step.wgsl`'s `rise`, `rise_dims` and `rise_limits`: the curvature table's corner and
+    /// The step shader's `rise`, `rise_dims` and `rise_limits`: the curvature table's corner and
     /// cells per metre, its cells along each axis and where it starts, the longest segment
     /// it bounds (0: no table) and the most its normal may turn.
     pub(crate) rise: [f32; 4],
     pub(crate) rise_dims: [u32; 4],
     pub(crate) rise_limits: [f32; 4],
-    /// `step.wgsl`'s `bvh`: the BVH over the tables' triangles, for the closest point where
+    /// The step shader's `bvh`: the BVH over the tables' triangles, for the closest point where
     /// a cell has no list and for segment crossings: its node count (0: no tables), where
     /// its nodes and its triangle order start.
     pub(crate) bvh: [u32; 4],
 }
 
 impl GridInfo {
-    /// `collider` as `step.wgsl`'s `head` buffer holds it (words): the grid's samples,
+    /// `collider` as the step shader's `head` buffer holds it (words): the grid's samples,
     /// then, if they fit in `limit` bytes, the exact near query's cell ranges, blocks and
     /// triangles (ten vec4 each), the BVH over them (two vec4 a node, then its triangle
     /// order), and the curvature table (two words a cell).
@@ -120,12 +120,12 @@ impl GridInfo {
     }
 }
 
-/// A vec4 of floats as `step.wgsl`'s `colliders` holds them: their bits.
+/// A vec4 of floats as the step shader's `colliders` holds them: their bits.
 pub(crate) fn bits(v: [f32; 4]) -> [u32; 4] {
     v.map(f32::to_bits)
 }
 
-/// Appends `patch` to `data` as `step.wgsl` reads it (after the extra colliders) and
+/// Appends `patch` to `data` as the step shader (`step/`) reads it (after the extra colliders) and
 /// returns its place: header + 1, triangles, bin starts, bin lists (vec4 indices).
 pub(crate) fn pack_patch(data: &mut Vec<[u32; 4]>, patch: hair_sim::collide::PatchParts) -> [u32; 4] {
     let vec4 = |v: Vec3| bits([v.x, v.y, v.z, 0.0]);

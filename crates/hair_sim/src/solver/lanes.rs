@@ -27,7 +27,7 @@ pub(super) const MAX_LANES: usize = VECTORS * 16;
 /// NaN, as SSE's `maxps` and `minps` do.
 ///
 /// An implementation for a feature the baseline lacks runs only where the CPU has that
-/// feature: the solver calls it from code compiled for it (`step.rs` dispatches on
+/// feature: the solver calls it from code compiled for it (`step/mod.rs` dispatches on
 /// [`SimdPath`](super::SimdPath)), into which its `#[inline(always)]` bodies inline; the
 /// lane tests call it out of line, after detecting the feature.
 pub(super) trait Simd: Copy + 'static {
@@ -160,7 +160,7 @@ mod x86 {
     pub(in crate::solver) struct Avx2;
 
     // SAFETY (every `unsafe` below): the intrinsics need AVX (AVX2 for the integer ones);
-    // `step.rs` runs this path only where `is_x86_feature_detected!("avx2")` said so.
+    // `step/mod.rs` runs this path only where `is_x86_feature_detected!("avx2")` said so.
     impl Simd for Avx2 {
         type F = __m256;
         type M = __m256;

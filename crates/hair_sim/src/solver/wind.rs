@@ -1,4 +1,5 @@
 //! Gusting wind: smooth 1-D value noise per strand, deterministic in (strand, time).
+//! GPU twin: `hair_gpu`'s `step/wind.wgsl`, bit for bit.
 
 use super::params::Wind;
 use crate::math::Vec3;
