@@ -88,7 +88,7 @@ pub struct HairLook {
 /// How strands thinner than a pixel are drawn ([`HairLook::antialias`]).
 ///
 /// Measured on the procedural head at 2 m and 4 m in a 256-pixel view, strands a tenth and
-/// a twentieth of a pixel wide (`tests/render.rs`): a quarter-pixel camera move changes the
+/// a twentieth of a pixel wide (`tests/render/`): a quarter-pixel camera move changes the
 /// hair's pixels by about 0.6 of what plain ribbons give with [`Coverage`](Self::Coverage),
 /// and by about a fifth with [`Blended`](Self::Blended), near what the move changes in a
 /// picture that only slides.

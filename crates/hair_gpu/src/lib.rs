@@ -15,7 +15,7 @@
 //! ([`HeadCollider::near_query_tables`]: the grid cell's candidate triangles), so it finds
 //! the closest point the CPU solver finds. Deep inside the head, or in a cell with too many
 //! candidates for a list, it walks the same BVH the CPU solver walks
-//! ([`hair_sim::collide::FlatBvh`]). The tests in `tests/against_cpu.rs` measure how far the
+//! ([`hair_sim::collide::FlatBvh`]). The tests in `tests/against_cpu/` measure how far the
 //! two part.
 //!
 //! Both length models (Follow-The-Leader and the implicit mass-spring model), both

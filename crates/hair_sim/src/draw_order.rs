@@ -1,4 +1,5 @@
 //! The order to draw blended strands in: back to front from the eye, piece by piece.
+//! GPU twin: `hair_gpu`'s `GpuDrawOrder` (`sort.wgsl`).
 //!
 //! Blended hair (each strand thinner than a pixel drawn wider with its coverage as
 //! opacity) is composited in the order it is drawn, so nearer hair must come later. Whole

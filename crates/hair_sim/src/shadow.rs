@@ -1,7 +1,7 @@
 //! How much hair lies between a point and a light: deep opacity maps (Yuksel & Keyser,
 //! "Deep Opacity Maps", 2008), built from the guide strands on the CPU every frame and
 //! looked up by the hair shader, so the inner and lower layers of a head of hair fall into
-//! the shade of the outer ones.
+//! the shade of the outer ones. GPU twin: `hair_gpu`'s `GpuOpacityMap` (`shadow.wgsl`).
 //!
 //! A map covers the hair as the light sees it: a grid of `size × size` cells across the
 //! light's view (orthographic for a directional light, perspective for a point or spot
