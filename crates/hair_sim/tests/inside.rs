@@ -223,7 +223,7 @@ fn without_segment_collision_segments_cut_through_the_ears() {
 /// The procedural head is star-shaped about its centre, so the ray always leaves through
 /// the surface the particle came in by, and nothing stays inside; on the flanks of the
 /// ears the ray is far from the normal, and segments cut through the ears more often than
-/// with the normal push (printed; 75 segment-steps against 0–18 at 60 rad/s, 2026-12-02).
+/// with the normal push (printed).
 #[test]
 fn the_centre_ray_response_measured() {
     let centre =

@@ -263,8 +263,8 @@ fn springs_keep_every_segment_within_tolerance_while_hanging() {
     );
     assert!(worst <= 0.1 + 1e-5, "a segment left the tolerance: {worst}");
     // The bound is doing work: gravity stretched the springs right up to it, and at rest
-    // they still carry the hair's weight (2026-12-04: the most stretched segment at the end
-    // 0.0905, the mean 0.058; the head and local shape's bends carry the rest).
+    // they still carry the hair's weight (the head and local shape's bends carry the
+    // rest, so the end is below the bound).
     assert!(worst > 0.099, "springs should sag to the clamp, got {worst}");
     assert!(end > 0.08, "springs at rest should carry the weight, the most stretched at {end}");
     assert!(mean > 0.01 && stretched > 0, "mean stretch {mean}");
@@ -272,10 +272,9 @@ fn springs_keep_every_segment_within_tolerance_while_hanging() {
 
 /// Hair under a still head, without wind or collision, comes to rest at every substep
 /// count: only drag and the constraints act, and the settled groom's swing into the
-/// simulation's balance dies away (the largest move a step at 1 s: 0.5 to 2.8 mm; at 8 s
-/// 0.03 µm at 1 substep to 2.7 µm at 8; 2026-12-04). Local shape as a follower force (the
-/// child pulled, its parent not pushed back) kept hair swinging for good: 1.4 mm a step at
-/// 2 substeps, 12 cm at 8 (64 × 16 guides, after 4 s).
+/// simulation's balance dies away (printed: the largest move in the step at 8 s).
+/// Local shape as a follower force (the child pulled, its parent not pushed back) would
+/// keep hair swinging for good, by centimetres at 8 substeps.
 #[test]
 fn hair_comes_to_rest_under_a_still_head_at_every_substep_count() {
     let g = groom();
@@ -496,8 +495,7 @@ fn friction_holds_the_hair_resting_on_a_turning_head() {
         held * 1e3
     );
     assert!(free_count > 1000 && held_count > 1000, "particles rest on the head");
-    // Measured 0.375 mm and 0.081 mm (2026-12-04; without local shape 0.42 and 0.075: the
-    // bends of the hair off the head drag the resting part a little); assert well under
-    // half.
+    // Friction cannot hold the resting part entirely: the bends of the hair off the head
+    // drag it a little. Well under half the frictionless slide is what it must keep.
     assert!(held < 0.35 * free, "friction 1 slides {held} m a step, friction 0 {free} m");
 }

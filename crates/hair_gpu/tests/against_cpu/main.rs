@@ -262,9 +262,8 @@ fn without_collision_the_gpu_follows_the_cpu_to_rounding() {
     let (mean, max) = apart(&cpu, &on_gpu);
     eprintln!("without collision, after 120 steps: mean {:.2e} m, max {:.2e} m apart", mean, max);
     assert!(on_gpu.iter().all(|p| p.is_finite()));
-    // Rounding (the GPU may fuse a multiply and an add) grows along a whipping strand: on
-    // lavapipe 0.8 µm on average and 0.25 mm at the worst tip (2026-12-03); 0.1 µm and
-    // 12 µm since local shape is a bend (2026-12-04).
+    // Rounding (the GPU may fuse a multiply and an add) grows along a whipping strand, most
+    // at the tips: the bound on the worst particle is far looser than on the mean.
     assert!(mean < 1e-5 && max < 1e-3, "mean {mean} m, max {max} m");
     assert!(max_stretch(&on_gpu, &rest) < 1e-4, "stretch {}", max_stretch(&on_gpu, &rest));
 }
@@ -366,10 +365,10 @@ fn the_spring_model_follows_the_cpu() {
         let (cpu, on_gpu) = run_both(&gpu, &rest, &collider, &params, 10, head_pose);
         let (mean, max) = apart(&cpu, &on_gpu);
         eprintln!("springs, collision {collision}, after 10 steps: mean {mean:.2e} m, max {max:.2e} m apart");
-        // Measured without collision (2026-12-04): mean 0.32 µm, max 84 µm on lavapipe;
-        // mean 1.03 µm, max 114 µm on an NVIDIA H200, whose compiler fuses multiply-adds
-        // that the CPU rounds twice. With collision on lavapipe: 0.34 µm, 16 µm (taking
-        // the velocities over the substep instead of the spring model's step: 7.3 mm).
+        // A GPU compiler may fuse multiply-adds that the CPU rounds twice, and the stiff
+        // solve carries that rounding along the strand (docs/benchmarks.md has the figures
+        // per adapter). Taking the velocities over the substep instead of the spring
+        // model's step would part the two by millimetres.
         // Since local shape is a bend (lavapipe): 0.09 µm, 1.4 µm; with collision 0.1 µm,
         // 0.75 µm.
         assert!(mean < 3e-6 && max < 5e-4, "mean {mean} m, max {max} m");
@@ -562,8 +561,8 @@ fn more_substeps_than_the_buffers_were_made_for_step_as_on_the_cpu() {
     // made for; a caller of `hair_gpu` may ask for more, and both grow. 66 substeps, with
     // collision and the segments' pass on the last. (Beyond ~70 substeps of a 60 Hz step
     // the two part by more than rounding within a step, and the CPU alone does too: at 100,
-    // a 0.17 µm nudge of every particle ends a step 14 µm away on average, and the GPU
-    // 2.1 mm from the CPU; 2026-12-04, the same before a substep was split in dispatches.)
+    // a 0.17 µm nudge of every particle ends a step tens of µm away on average, and the GPU
+    // millimetres from the CPU, whether or not a substep is split in dispatches.)
     let params = SimParams { substeps: 66, ..SimParams::default() };
     let [(cpu, cpu_report), (on_gpu, gpu_report)] =
         run_both_reporting(&gpu, &rest, &collider, &params, &[], 1, head_pose, None);
@@ -572,9 +571,7 @@ fn more_substeps_than_the_buffers_were_made_for_step_as_on_the_cpu() {
         "66 substeps, after a step: mean {mean:.2e} m, max {max:.2e} m apart; CPU {cpu_report:?}, GPU {gpu_report:?}"
     );
     assert!(on_gpu.iter().all(|p| p.is_finite()));
-    // Lavapipe, 2026-12-04: mean 1.3 µm, max 32 µm; 8,328 contacts against the CPU's 8,315
-    // (at 64 and 65 substeps, 8,207 and 8,273 against 8,210 and 8,269); since local shape
-    // is a bend 0.3 µm, 5 µm, 8,933 contacts on both.
+    // Within a step the two still agree to rounding, and count the same contacts.
     assert!(mean < 1e-5 && max < 1e-4, "mean {mean} m, max {max} m apart");
     assert_eq!(gpu_report.nan_resets + gpu_report.teleport_resets, 0, "{gpu_report:?}");
     let (g, c) = (gpu_report.contacts as f32, cpu_report.contacts as f32);
@@ -630,13 +627,10 @@ fn a_one_second_hitch_is_taken_as_on_the_cpu() {
         crossing_segments(cpu.positions(), n, &collider, turned(time))
     );
     assert!(positions.iter().all(|p| p.is_finite()));
-    // The turn leaves particles deep inside the head, where no candidate list reaches: with
-    // the grid's gradient standing in for the CPU's BVH walk there, mean 0.007 mm and max
-    // 3.2 mm (lavapipe and an NVIDIA H200, 2026-12-04); with the exact query there for a
-    // particle's contact (every triangle tested, then the BVH walked), mean 0.1 µm and max
-    // 1.6–1.9 µm (lavapipe). Since local shape is a bend (lavapipe, 2026-12-04): mean
-    // 1.8 µm, max 2.13 mm, where the nudged CPU parts from itself by 2.13 mm (one contact
-    // tipped the other way).
+    // The turn leaves particles deep inside the head, where no candidate list reaches: the
+    // GPU answers a particle's contact there as the CPU does (every triangle tested, then
+    // the BVH walked), not by the grid's gradient, which parted the two by millimetres. A
+    // contact can still tip either way on rounding, which the nudged CPU's spread shows.
     assert_follows((mean, max), spread);
     assert!(depth <= 5e-4, "{depth} m inside the head");
     assert!(stretch <= 1e-4, "stretch {stretch}");
@@ -760,18 +754,16 @@ fn the_skin_moving_against_the_head_pushes_as_on_the_cpu() {
         deepest * 1e3
     );
     assert!(push > 10.0 * mean, "the skin pushes: {push} m on average");
-    // The skin's contacts are counted: lavapipe, 2026-12-04, 610,877 on the GPU, 617,897 on
-    // the CPU and 486,364 without the skin (hair resting on the moving shell, whose
-    // closest points the two compute each their own way, touches it or not by rounding).
+    // The skin's contacts are counted, within a few per cent of each other: hair resting on
+    // the moving shell, whose closest points the two compute each their own way, touches
+    // it or not by rounding.
     let from_skin = |r: &StepReport| r.contacts as f32 - unpushed_report.contacts as f32;
     assert!(from_skin(&gpu_report) >= 0.9 * from_skin(&cpu_report), "contacts: GPU {gpu_report:?}, CPU {cpu_report:?}");
     assert!(gpu_report.contacts.abs_diff(cpu_report.contacts) as f32 <= 0.02 * cpu_report.contacts as f32);
     // The deepest contact of all, on one particle of hair that rounding places up to
-    // millimetres apart (hair resting on the moving shell): lavapipe, 2026-12-04, the GPU's
-    // 1.38 mm from the CPU's 6.46 mm, the nudged CPU's up to 1.35 mm.
+    // millimetres apart (hair resting on the moving shell), as far as the nudged CPU's.
     let depth_apart = (gpu_report.max_depth - cpu_report.max_depth).abs();
     assert!(depth_apart <= 5e-4f32.max(SPREAD_FACTOR * depth_spread), "deepest: {gpu_report:?}");
-    // Lavapipe, 2026-12-04: mean 0.010 mm, max 6.1 mm; the nudged CPU 0.008 mm and 3.0 mm.
     assert_follows((mean, max), spread);
     assert!(deepest <= 5e-4, "{deepest} m behind the moving skin");
 }
