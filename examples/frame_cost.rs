@@ -11,21 +11,21 @@
 //! Prints one JSON line (medians over the measured frames, milliseconds):
 //! - `main_thread_ms` (and `_p95`): the main world's hair systems, wall time
 //!   ([`HairSystems`]: growth, the steps, the drawing's preparation), and
-//!   `main_thread_cpu_ms` their thread's CPU time over the same spans: what wall time has
-//!   beyond it is waiting (a lock, the queue). `PostUpdate` runs single-threaded here, so
+//!   `main_thread_cpu_ms` (and `_p95`) their thread's CPU time over the same spans: what
+//!   wall time has beyond it is waiting (a lock, the queue, or other threads on the cores). `PostUpdate` runs single-threaded here, so
 //!   those spans are the main thread's.
 //! - `extract_ms`: the hair's extraction ([`HairDiagnostics::EXTRACT_TIME`]).
 //! - `render_thread_ms`: the hair's other render-world systems ([`HairDiagnostics::RENDER_TIME`]:
 //!   recording the GPU grooms' passes, writing the CPU grooms' particles, collecting
 //!   copies back), measured in them: besides them, the render thread's submission runs
 //!   what lavapipe does of the GPU's work.
-//! - `upload_ms` and `step_ms`: the parts of the main thread's hair that
+//! - `upload_ms` and `step_ms` (and each `_p95`): the parts of the main thread's hair that
 //!   [`HairDiagnostics::UPLOAD_TIME`] and [`HairDiagnostics::STEP_TIME`] publish.
 //! - `gpu_step_ms`: one hair step on the GPU, from timestamp queries (`null` on the CPU
 //!   solver or without timestamps).
 //! - `frame_ms` and `frame_ms_without_hair`: a whole update of each app, and
-//!   `main_thread_ms_without_hair` the same span in the app without hair (the plugin's
-//!   systems with nothing to do, and whatever else the executor runs between them).
+//!   `main_thread_ms_without_hair` (and `_p95`) the same span in the app without hair (the
+//!   plugin's systems with nothing to do, and whatever else the executor runs between them).
 
 use bevy::app::PluginsState;
 use bevy::camera::RenderTarget;
@@ -166,15 +166,19 @@ fn main() {
         "pipelined": app.is_plugin_added::<bevy::render::pipelined_rendering::PipelinedRenderingPlugin>(),
         "main_thread_ms": median(main.clone()),
         "main_thread_ms_p95": percentile(main, 0.95),
-        "main_thread_cpu_ms": median(main_cpu),
+        "main_thread_cpu_ms": median(main_cpu.clone()),
+        "main_thread_cpu_ms_p95": percentile(main_cpu, 0.95),
         "extract_ms": median(extract),
         "render_thread_ms": median(render),
-        "upload_ms": median(upload),
-        "step_ms": median(step_ms),
+        "upload_ms": median(upload.clone()),
+        "upload_ms_p95": percentile(upload, 0.95),
+        "step_ms": median(step_ms.clone()),
+        "step_ms_p95": percentile(step_ms, 0.95),
         "gpu_step_ms": (!gpu_steps.is_empty()).then(|| median(gpu_steps)),
         "frame_ms": median(frame_ms),
         "frame_ms_without_hair": median(bare_ms),
-        "main_thread_ms_without_hair": median(bare_main),
+        "main_thread_ms_without_hair": median(bare_main.clone()),
+        "main_thread_ms_without_hair_p95": percentile(bare_main, 0.95),
     });
     println!("{line}");
 }

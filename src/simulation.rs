@@ -78,6 +78,8 @@ pub struct HairState {
     /// The head's pose (relative to the origin) and the origin, as `current_local` was
     /// copied out.
     published: (Pose, SimVec3),
+    /// How many times positions were copied out ([`Self::published_count`]).
+    published_count: u64,
     pub(crate) last_report: StepReport,
     last_step_time: Duration,
     /// A skinned head's scalp joint: the head's frame is the joint's.
@@ -125,6 +127,7 @@ impl HairState {
             time: 0.0,
             previous_local: current_local.clone(),
             current_local,
+            published_count: 0,
             current: OnceLock::new(),
             published: (relative_to(pose, origin), origin),
             last_report: StepReport::default(),
@@ -220,6 +223,21 @@ impl HairState {
     pub fn interpolated_positions(&self, overstep_fraction: f32) -> impl Iterator<Item = Vec3> + '_ {
         let pose = self.frame_now.pose;
         self.interpolated_local_positions(overstep_fraction).map(move |p| from_sim(pose.transform_point(to_sim(p))))
+    }
+
+    /// Where [`Self::interpolated_positions`] puts the roots this frame, without the
+    /// other particles.
+    pub fn root_positions(&self) -> impl Iterator<Item = Vec3> + '_ {
+        let pose = self.frame_now.pose;
+        let n = self.particles_per_strand().max(1);
+        self.strands.rest().positions.iter().step_by(n).map(move |&r| from_sim(pose.transform_point(r)))
+    }
+
+    /// How many times the positions that [`Self::current_positions`] and
+    /// [`Self::interpolated_positions`] read have changed: after each step on the CPU, and
+    /// for a groom the GPU steps when a copy comes back ([`HairReadback`](crate::HairReadback)).
+    pub fn published_count(&self) -> u64 {
+        self.published_count
     }
 
     /// [`Self::interpolated_positions`] in head space. Roots are where the rest shape pins
@@ -351,6 +369,7 @@ impl HairState {
     fn refresh(&mut self, pool: &TaskPool) {
         let pose = relative_to(self.pose_to, self.origin);
         self.published = (pose, self.origin);
+        self.published_count += 1;
         self.current = OnceLock::new();
         let n = self.strands.particles_per_strand().max(1);
         let count = self.strands.positions().len();

@@ -168,7 +168,12 @@ struct DrawnRoot {
 /// positions here do not follow the drawn ones: there it holds every strand as far as it
 /// reaches from its root.
 #[derive(Component, Clone, Copy, Debug, Default)]
-struct StrandsBox(Aabb);
+struct StrandsBox {
+    aabb: Aabb,
+    /// The head's [`HairState::published_count`] the box was fitted to: a GPU groom's
+    /// positions here change only when a copy comes back, and its box stands until then.
+    fitted_to: Option<u64>,
+}
 
 /// On a head: the entity that draws its hair. Set that entity's [`Visibility`] to hide
 /// the hair alone.
@@ -319,7 +324,7 @@ fn choose_blending(
     cameras: Query<(&Camera, &Projection, &GlobalTransform)>,
     mut drawings: Query<(&mut HairDrawing, &GlobalTransform, &StrandsBox)>,
 ) {
-    for (mut drawing, placed, StrandsBox(aabb)) in &mut drawings {
+    for (mut drawing, placed, StrandsBox { aabb, .. }) in &mut drawings {
         let Ok(look) = heads.get(drawing.head) else { continue };
         // The strands' bounding sphere, in the world.
         let centre = placed.transform_point(aabb.center.into());
@@ -452,32 +457,37 @@ fn upload_guides(
     let overstep = clock.overstep_fraction();
     /// The particles and frames (unless the GPU writes them), the guide buffer, and the
     /// boxes the blending choice and culling read ([`StrandsBox`]).
-    type Written = (Option<Vec<Vec4>>, Vec<Vec4>, Option<(Aabb, Aabb)>);
-    let write = |drawing: &HairDrawing, placed: &GlobalTransform| -> Option<Written> {
+    type Written = (Option<Vec<Vec4>>, Vec<Vec4>, Option<StrandsBox>, Option<Aabb>);
+    let write = |drawing: &HairDrawing, placed: &GlobalTransform, fitted_before: &StrandsBox| -> Option<Written> {
         let (state, groom, look, local_settings) = heads.get(drawing.head).ok()?;
         if state.roots().len() != drawing.roots.len() {
             return None; // regrown with another guide count; sync_drawing rebuilds next frame
         }
         let rotation = quat_from_sim(state.drawn_head_pose().rotation);
-        let positions: Vec<Vec3> = state.interpolated_positions(overstep).collect();
         let to_drawing = placed.affine().inverse();
         let n = state.particles_per_strand();
         let on_gpu = drawn_on_gpu(drawing, state);
+        // The GPU draws, shadows and sorts its own strands: their positions here matter
+        // only for the box the blending choice reads, which changes only when a copy
+        // comes back. Until then only the roots are placed.
+        let refit = !on_gpu || fitted_before.fitted_to != Some(state.published_count());
+        let positions: Vec<Vec3> = if refit { state.interpolated_positions(overstep).collect() } else { Vec::new() };
         // The box around the particles, and around the roots as placed this frame.
         let (mut min, mut max) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-        let (mut roots_min, mut roots_max) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-        for (i, &p) in positions.iter().enumerate() {
+        for &p in &positions {
             let local = to_drawing.transform_point3(p);
             min = min.min(local);
             max = max.max(local);
-            if i % n == 0 {
-                roots_min = roots_min.min(local);
-                roots_max = roots_max.max(local);
-            }
+        }
+        let (mut roots_min, mut roots_max) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+        for root in state.root_positions() {
+            let local = to_drawing.transform_point3(root);
+            roots_min = roots_min.min(local);
+            roots_max = roots_max.max(local);
         }
         // The solver's vectors of the same positions, for the frames, the draw order and
-        // the opacity maps.
-        let points: Vec<_> = positions.iter().map(|&p| to_sim(p)).collect();
+        // the opacity maps, which the GPU makes of its own.
+        let points: Vec<_> = if on_gpu { Vec::new() } else { positions.iter().map(|&p| to_sim(p)).collect() };
         // The particles with their frames on a task of their own, beside the guide data
         // (the opacity maps take longest): a frame waits for the longer, not for both.
         let particles_with_frames = || {
@@ -527,7 +537,11 @@ fn upload_guides(
             (min.is_finite() && max.is_finite())
                 .then(|| Aabb::from_min_max(min - Vec3::splat(by), max + Vec3::splat(by)))
         };
-        let fitted = widened(min, max, reach);
+        let fitted = if refit {
+            widened(min, max, reach).map(|aabb| StrandsBox { aabb, fitted_to: Some(state.published_count()) })
+        } else {
+            Some(*fitted_before)
+        };
         // The GPU's strands are drawn where they are now, which the positions here follow
         // only with `HairReadback`: culling takes every strand as far as it reaches from its
         // root (stretched as far as the length tolerance lets it), the blending choice the
@@ -538,9 +552,9 @@ fn upload_guides(
             let tolerance = effective(&settings, local_settings).sanitized().0.length_tolerance;
             widened(roots_min, roots_max, longest * (1.0 + tolerance) * stretch + reach)
         } else {
-            fitted
+            fitted.map(|fitted| fitted.aabb)
         };
-        Some((particles, data, fitted.zip(culled)))
+        Some((particles, data, fitted, culled))
     };
     // Each groom's buffer is written on a task of its own (a crowd's grooms on every core),
     // then handed to its asset here.
@@ -550,9 +564,9 @@ fn upload_guides(
         if !inherited.get() {
             return;
         }
-        if let Some((particles, data, boxes)) = write(drawing, placed) {
-            if let Some((fitted, culled)) = boxes {
-                strands_box.0 = fitted;
+        if let Some((particles, data, fitted, culled)) = write(drawing, placed, &strands_box) {
+            if let (Some(fitted), Some(culled)) = (fitted, culled) {
+                *strands_box = fitted;
                 *aabb = culled;
             }
             written.borrow_local_mut().push(WrittenGuides {
