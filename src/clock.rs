@@ -18,6 +18,15 @@ use std::time::Duration;
 /// The hair clock's context: `Time<Hair>` is a resource the plugin inserts. Read and
 /// change it through [`HairTime`]. While [`HairSchedule`] runs, the generic `Time` is the
 /// hair clock, as `Time` is `Time<Fixed>` inside `FixedMain`.
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_hair::prelude::*;
+/// // Slow motion for the hair alone.
+/// fn slow_hair(mut clock: ResMut<Time<Hair>>) {
+///     clock.set_relative_speed(0.25);
+/// }
+/// ```
 #[derive(Debug, Clone, Copy, Reflect)]
 pub struct Hair {
     timestep: Duration,
@@ -48,6 +57,7 @@ impl Default for Hair {
 }
 
 /// Reading and steering the hair clock, `Time<Hair>`.
+/// See [`Hair`]'s example.
 pub trait HairTime {
     /// The length of one hair step.
     fn timestep(&self) -> Duration;
@@ -145,6 +155,15 @@ impl HairTime for Time<Hair> {
 /// [`HairSystems::SyncRoots`](crate::HairSystems::SyncRoots),
 /// [`Simulate`](crate::HairSystems::Simulate) and
 /// [`Writeback`](crate::HairSystems::Writeback); add systems here to see every step.
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_hair::prelude::*;
+/// # fn every_step() {}
+/// # let mut app = App::new();
+/// # app.init_schedule(HairSchedule);
+/// app.add_systems(HairSchedule, every_step.after(HairSystems::Writeback));
+/// ```
 #[derive(ScheduleLabel, Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct HairSchedule;
 

@@ -11,6 +11,20 @@ use hair_sim::collide::ExtraCollider;
 /// hierarchy (a child of a character, of its shoulder bone…) touches only the grooms of
 /// that hierarchy, those whose head has the same root ancestor, so one character's
 /// shoulders never push another character's hair.
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_hair::prelude::*;
+/// // Shoulders under a head, children of it so they touch only its hair.
+/// fn shoulders(mut commands: Commands, heads: Query<Entity, Added<HairGroom>>) {
+///     for head in &heads {
+///         commands.entity(head).with_child((
+///             HairCollider::Capsule { radius: 0.06, half_length: 0.15 },
+///             Transform::from_xyz(0.0, -0.25, 0.0).with_rotation(Quat::from_rotation_z(std::f32::consts::FRAC_PI_2)),
+///         ));
+///     }
+/// }
+/// ```
 #[derive(Component, Reflect, Clone, Copy, Debug, PartialEq)]
 #[reflect(Component)]
 #[require(Transform)]

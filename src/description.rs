@@ -12,6 +12,16 @@ use hair_sim::solver::{ParamIssue, StrandsError};
 
 /// Something is wrong with a groom: its head, its mesh, its description or its settings.
 /// The groom stays inert (or runs with the bad settings replaced) until it is fixed.
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_hair::prelude::*;
+/// fn log_hair_errors(mut errors: MessageReader<HairError>) {
+///     for error in errors.read() {
+///         warn!("{error}");
+///     }
+/// }
+/// ```
 #[derive(Message, Clone, Debug, PartialEq)]
 pub struct HairError {
     /// The head entity whose groom has the problem.
@@ -30,6 +40,7 @@ impl std::error::Error for HairError {}
 
 /// What is wrong with a groom. Reflected as one opaque value (inspectors show its
 /// `Debug`; its parts come from `hair_sim`, which knows nothing of reflection).
+/// [`HairError`] and [`GroomStatus`] show how to read it.
 #[derive(thiserror::Error, Reflect, Clone, Debug, PartialEq)]
 #[reflect(opaque, Debug, PartialEq, Clone)]
 pub enum HairErrorKind {
@@ -109,6 +120,18 @@ fn settings_list(issues: &[ParamIssue]) -> String {
 }
 
 /// Where on the head hair may grow.
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_hair::prelude::*;
+/// // Hair on every vertex above the head mesh's origin, whatever its paint.
+/// fn above_the_origin(p: Vec3) -> bool {
+///     p.y > 0.0
+/// }
+/// let groom = HairGroom { scalp: ScalpSource::Predicate, ..default() };
+/// let rule = ScalpPredicate(above_the_origin);
+/// # let _ = (groom, rule);
+/// ```
 #[derive(Reflect, Clone, Copy, Debug, PartialEq)]
 pub enum ScalpSource {
     /// Vertices painted darker than `threshold` in `COLOR_0` (luminance of linear RGB):
@@ -133,6 +156,13 @@ impl Default for ScalpSource {
 }
 
 /// How roots are spread over the scalp.
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_hair::prelude::*;
+/// let groom = HairGroom { distribution: RootDistribution::Vertices { jitter: 0.5 }, ..default() };
+/// # let _ = groom;
+/// ```
 #[derive(Reflect, Clone, Copy, Debug, Default, PartialEq)]
 pub enum RootDistribution {
     /// The reference's roots: drawn uniformly from the scalp-labelled vertices, each
@@ -154,12 +184,23 @@ pub enum RootDistribution {
 
 /// A user rule for [`ScalpSource::Predicate`]: `true` for head-local vertex positions
 /// (in the mesh's own units, before the entity's scale) that are scalp.
+/// See [`ScalpSource`]'s example.
 #[derive(Component, Clone, Copy)]
 pub struct ScalpPredicate(pub fn(Vec3) -> bool);
 
 /// Put hair on this entity: the description of a groom. The entity needs a [`Mesh3d`]
 /// (the head) and a transform. The plugin grows the strands once the mesh is loaded, and
 /// again whenever this component changes.
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_hair::prelude::*;
+/// fn spawn_head(mut commands: Commands, assets: Res<AssetServer>) {
+///     let head = assets.load(GltfAssetLabel::Primitive { mesh: 0, primitive: 0 }.from_asset("head.glb"));
+///     let groom = HairGroom { guides: 800, length: 0.3, curl: 0.2, ..default() };
+///     commands.spawn((Mesh3d(head), MeshMaterial3d(assets.add(StandardMaterial::default())), groom));
+/// }
+/// ```
 #[derive(Component, Reflect, Clone, Debug, PartialEq)]
 #[reflect(Component, Default)]
 #[require(GroomStatus, Transform)]
@@ -243,6 +284,20 @@ impl HairGroom {
 
 /// Where a groom stands. Check it (or read [`HairError`] messages) to learn why a head
 /// has no hair.
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_hair::prelude::*;
+/// fn report(grooms: Query<(Entity, &GroomStatus), Changed<GroomStatus>>) {
+///     for (head, status) in &grooms {
+///         match status {
+///             GroomStatus::Ready { guides, .. } => info!("{head}: {guides} guides"),
+///             GroomStatus::Failed(why) => warn!("{head} has no hair: {why}"),
+///             _ => {}
+///         }
+///     }
+/// }
+/// ```
 #[derive(Component, Reflect, Clone, Debug, Default, PartialEq)]
 #[reflect(Component, Default, Debug, PartialEq)]
 pub enum GroomStatus {

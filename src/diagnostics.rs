@@ -4,6 +4,19 @@ use bevy::diagnostic::DiagnosticPath;
 
 /// Paths of the hair diagnostics. The simulation ones are always published; the drawing
 /// ones with the `render` feature.
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_hair::prelude::*;
+/// # use bevy::diagnostic::DiagnosticsStore;
+/// fn hair_step_time(store: Res<DiagnosticsStore>) {
+///     if let Some(ms) = store.get(&HairDiagnostics::STEP_TIME).and_then(|d| d.smoothed()) {
+///         info!("hair step: {ms:.2} ms");
+///     }
+/// }
+/// ```
+///
+/// Add Bevy's `DiagnosticsPlugin` (part of `DefaultPlugins`) to have them recorded.
 pub struct HairDiagnostics;
 
 impl HairDiagnostics {

@@ -9,14 +9,29 @@ use bevy::prelude::*;
 use hair_sim::groom::{HairFile, HairFileError};
 
 /// A hair model: strands as polylines in the head mesh's space (the file's units).
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_hair::prelude::*;
+/// # use bevy_hair::HairAsset;
+/// fn guides_from_a_file(mut commands: Commands, assets: Res<AssetServer>, mut meshes: ResMut<Assets<Mesh>>) {
+///     let model: Handle<HairAsset> = assets.load("procedural.hair");
+///     let head = meshes.add(bevy_hair::procedural_head_mesh(4));
+///     commands.spawn((Mesh3d(head), HairGroom { guides_from: Some(model), ..default() }));
+/// }
+/// ```
+///
+/// `examples/hair_file.rs` saves a settled groom and grows another from the file.
 #[derive(Asset, TypePath, Clone, Debug, Default, PartialEq)]
 pub struct HairAsset(pub HairFile);
 
 /// Loads `.hair` files as [`HairAsset`]s.
+/// [`HairPlugin`](crate::HairPlugin) registers it: [`HairAsset`]'s example loads a file.
 #[derive(Default, TypePath)]
 pub struct HairAssetLoader;
 
 /// Why a `.hair` file did not load.
+/// The asset server reports it for a file that [`HairAsset`]'s example would load.
 #[derive(thiserror::Error, Debug)]
 pub enum HairAssetError {
     /// The bytes could not be read.

@@ -146,6 +146,12 @@ pub mod prelude {
 /// pool: `DefaultPlugins` has them all, and so do `MinimalPlugins` + `TransformPlugin` +
 /// `AssetPlugin` + `MeshPlugin` for headless apps. Add it after `DefaultPlugins`: it draws
 /// only if Bevy's `RenderPlugin` is already there.
+///
+/// ```no_run
+/// # use bevy::prelude::*;
+/// # use bevy_hair::prelude::*;
+/// App::new().add_plugins((DefaultPlugins, HairPlugin::from_hz(90.0))).run();
+/// ```
 #[derive(Clone, Debug)]
 pub struct HairPlugin {
     /// The length of one hair step (60 Hz by default). Hair keeps a clock of its own,
@@ -172,6 +178,15 @@ impl HairPlugin {
 /// [`Grow`](HairSystems::Grow) → [`Step`](HairSystems::Step) → [`Draw`](HairSystems::Draw).
 /// In [`HairSchedule`], once per hair step, chained: [`SyncRoots`](HairSystems::SyncRoots)
 /// → [`Simulate`](HairSystems::Simulate) → [`Writeback`](HairSystems::Writeback).
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_hair::prelude::*;
+/// # fn react_to_hair() {}
+/// # let mut app = App::new();
+/// // A system that reads what this frame's steps left, before the drawing reads it too.
+/// app.add_systems(PostUpdate, react_to_hair.after(HairSystems::Step).before(HairSystems::Draw));
+/// ```
 #[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum HairSystems {
     /// Starts and collects background growth of new or changed grooms.

@@ -44,6 +44,7 @@ pub struct HairPreset {
 }
 
 /// Why a preset could not be saved or loaded.
+/// [`HairPreset`]'s example saves and loads one.
 #[derive(thiserror::Error, Debug)]
 pub enum PresetError {
     /// Writing RON failed.

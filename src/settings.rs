@@ -8,16 +8,50 @@ use hair_sim::solver::SimParams;
 /// A thin `Reflect` wrapper around [`SimParams`], so inspectors and UIs can edit it.
 /// Bad values (NaN, negative stiffness…) never reach the solver: they are replaced, and a
 /// [`HairError`](crate::HairError) names each one.
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_hair::prelude::*;
+/// # let mut app = App::new();
+/// // Every groom: four substeps, a little wind.
+/// let mut params = SimParams { substeps: 4, ..default() };
+/// params.wind.strength = 0.5;
+/// app.insert_resource(HairSettings(params));
+/// ```
 #[derive(Resource, Reflect, Clone, Debug, Default, PartialEq, Deref, DerefMut)]
 #[reflect(Resource, Default)]
 pub struct HairSettings(pub SimParams);
 
 /// Per-groom settings: put it on the head entity to override [`HairSettings`].
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_hair::prelude::*;
+/// // This head's hair on the reference's springs, whatever the global settings say.
+/// fn springy(mut commands: Commands, heads: Query<Entity, Added<HairGroom>>) {
+///     for head in &heads {
+///         let params = SimParams { length_mode: LengthMode::Springs, ..default() };
+///         commands.entity(head).insert(HairSettingsOverride(params));
+///     }
+/// }
+/// ```
 #[derive(Component, Reflect, Clone, Debug, Default, PartialEq, Deref, DerefMut)]
 #[reflect(Component, Default)]
 pub struct HairSettingsOverride(pub SimParams);
 
 /// Which solver steps a groom: put it on the head entity (without it, the CPU).
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_hair::prelude::*;
+/// fn on_the_gpu(mut commands: Commands, heads: Query<Entity, Added<HairGroom>>) {
+///     for head in &heads {
+///         commands.entity(head).insert(HairBackend::Gpu);
+///     }
+/// }
+/// ```
+///
+/// `examples/gpu_backend.rs` runs it.
 #[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[reflect(Component, Default, PartialEq)]
 pub enum HairBackend {

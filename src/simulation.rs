@@ -45,6 +45,19 @@ const MIN_PARTICLES_PER_TASK: usize = 4096;
 
 /// A grown, simulating groom: the strand state and what it collides with. The plugin
 /// inserts it on the head entity once growth finishes.
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_hair::prelude::*;
+/// // The tip of each strand, where the last step left it.
+/// fn tips(grooms: Query<&HairState>) {
+///     for state in &grooms {
+///         let n = state.particles_per_strand();
+///         let tips = state.current_positions().chunks_exact(n).map(|strand| strand[n - 1]);
+///         info!("{} strands, lowest tip at {:?}", state.roots().len(), tips.map(|t| t.y).reduce(f32::min));
+///     }
+/// }
+/// ```
 #[derive(Component)]
 pub struct HairState {
     pub(crate) strands: Strands,

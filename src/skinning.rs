@@ -27,6 +27,8 @@ use hair_sim::mesh::HeadMesh;
 const PATCH_REACH: f32 = 0.02;
 
 /// The joint a skinned head's hair follows, found at growth.
+/// Read it from [`HairState::scalp_joint`](crate::HairState::scalp_joint); `examples/character.rs`
+/// grows hair on a skinned head.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ScalpJoint {
     /// The joint entity (one of [`SkinnedMesh::joints`]).

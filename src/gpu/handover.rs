@@ -299,6 +299,16 @@ pub(crate) fn request_copies(mut grooms: Query<(&mut HairState, Has<HairReadback
 /// its positions back to the main world, a frame or two late, without waiting
 /// ([`HairState::current_positions`], [`HairState::gpu_lag`]). Without it only the steps'
 /// reports come back: what the GPU draws, shadows and sorts never needs them.
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_hair::prelude::*;
+/// fn watch_gpu_hair(mut commands: Commands, heads: Query<Entity, Added<HairGroom>>) {
+///     for head in &heads {
+///         commands.entity(head).insert((HairBackend::Gpu, HairReadback));
+///     }
+/// }
+/// ```
 #[derive(Component, Reflect, Clone, Copy, Debug, Default)]
 #[reflect(Component, Default)]
 pub struct HairReadback;

@@ -24,6 +24,8 @@ pub const ATTRIBUTE_HAIR_VERTEX: MeshVertexAttribute =
     MeshVertexAttribute::new("HairVertex", 0x6861_6972_5f76_7478, VertexFormat::Uint32x2);
 
 /// How many strands, samples and vertices a groom draws.
+/// The plugin sizes each drawing with it; `tests/render/drawing.rs` builds one by hand to
+/// draw chosen strands.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct StrandLayout {
     /// Simulated guide strands.

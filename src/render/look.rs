@@ -3,6 +3,16 @@
 use bevy::prelude::*;
 
 /// A specular highlight of Scheuermann's two-lobe hair model.
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_hair::prelude::*;
+/// let look = HairLook {
+///     primary: SpecularLobe { color: Color::WHITE, exponent: 120.0, shift: -0.05 },
+///     ..default()
+/// };
+/// # let _ = look;
+/// ```
 #[derive(Reflect, Clone, Copy, Debug, PartialEq)]
 pub struct SpecularLobe {
     /// Highlight colour (the secondary lobe is also tinted by the hair colour).
@@ -16,6 +26,7 @@ pub struct SpecularLobe {
 
 /// Which scattering model shades the strands' highlights (the diffuse term is Kajiya-Kay's
 /// in both).
+/// [`HairLook`]'s example sets one.
 #[derive(Reflect, Clone, Copy, Debug, PartialEq, Default)]
 pub enum HairShading {
     /// Scheuermann's two shifted Kajiya-Kay highlights ([`HairLook::primary`] and
@@ -42,6 +53,22 @@ impl HairShading {
 
 /// How a groom looks. On the head entity next to [`HairGroom`](crate::HairGroom) (inserted with defaults
 /// when missing); edit it at any time.
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_hair::prelude::*;
+/// fn auburn(mut commands: Commands, heads: Query<Entity, Added<HairGroom>>) {
+///     for head in &heads {
+///         commands.entity(head).insert(HairLook {
+///             root_color: Color::srgb(0.25, 0.08, 0.03),
+///             tip_color: Color::srgb(0.55, 0.2, 0.08),
+///             shading: HairShading::MARSCHNER,
+///             antialias: HairAntialias::Blended,
+///             ..default()
+///         });
+///     }
+/// }
+/// ```
 #[derive(Component, Reflect, Clone, Debug, PartialEq)]
 #[reflect(Component, Default)]
 pub struct HairLook {
@@ -85,13 +112,10 @@ pub struct HairLook {
     pub antialias: HairAntialias,
 }
 
-/// How strands thinner than a pixel are drawn ([`HairLook::antialias`]).
-///
-/// Measured on the procedural head at 2 m and 4 m in a 256-pixel view, strands a tenth and
-/// a twentieth of a pixel wide (`tests/render/`): a quarter-pixel camera move changes the
-/// hair's pixels by about 0.6 of what plain ribbons give with [`Coverage`](Self::Coverage),
-/// and by about a fifth with [`Blended`](Self::Blended), near what the move changes in a
-/// picture that only slides.
+/// How strands thinner than a pixel are drawn ([`HairLook::antialias`]). Far hair drawn
+/// as plain ribbons breaks up and shimmers as the camera moves; [`Coverage`](Self::Coverage)
+/// calms that, [`Blended`](Self::Blended) most (the figures are in `docs/rendering.md`).
+/// [`HairLook`]'s example sets one.
 #[derive(Reflect, Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum HairAntialias {
     /// Solid ribbons however thin: far hair breaks up and shimmers as it moves.

@@ -22,6 +22,7 @@ pub fn shader_path() -> AssetPath<'static> {
 
 /// The material of a drawn groom. The plugin creates and updates it from the groom's
 /// [`HairLook`](super::HairLook) and layout; users edit the look, not this.
+/// `tests/render/drawing.rs` makes one by hand to draw chosen strands.
 #[derive(Asset, TypePath, AsBindGroup, Clone, Debug)]
 pub struct HairMaterial {
     /// Per guide the scalp's normal and curvature at its root, then the head's centre, the
@@ -40,6 +41,7 @@ pub struct HairMaterial {
 }
 
 /// The uniform block of `strand.wgsl` (`bevy_hair::strand::HairUniform`), field for field.
+/// `tests/render/drawing.rs` fills one by hand to draw chosen strands.
 #[derive(ShaderType, Clone, Copy, Debug, Default, PartialEq)]
 pub struct HairUniform {
     /// Linear colour at the root.

@@ -48,6 +48,7 @@ use hair_sim::groom::{ChildParams, MAX_CURVATURE, transport_frames_of_strands};
 
 /// Draws every groom: added by [`HairPlugin`](crate::HairPlugin) when the `render`
 /// feature is on and the app renders.
+/// Nothing to add by hand: [`HairPlugin`](crate::HairPlugin)'s example is all it takes.
 pub struct HairRenderPlugin;
 
 impl Plugin for HairRenderPlugin {
@@ -86,6 +87,16 @@ impl Plugin for HairRenderPlugin {
 
 /// The hair's systems in Bevy's render world, for ordering against them or measuring them.
 /// Each runs in its own schedule of the render app.
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy::render::{Render, RenderApp};
+/// # use bevy_hair::prelude::*;
+/// # fn after_hair_recorded() {}
+/// # let mut app = App::new();
+/// # app.insert_sub_app(RenderApp, SubApp::new());
+/// app.sub_app_mut(RenderApp).add_systems(Render, after_hair_recorded.after(HairRenderSystems::Write));
+/// ```
 #[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum HairRenderSystems {
     /// `ExtractSchedule`: the frame's letters to the GPU grooms and the CPU grooms'
@@ -108,6 +119,14 @@ struct CurveShader(#[allow(dead_code)] Handle<Shader>);
 
 /// What the hair drawing cost this frame, summed over grooms. Also published as Bevy
 /// diagnostics ([`HairDiagnostics`]).
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_hair::prelude::*;
+/// fn hair_load(stats: Res<HairRenderStats>) {
+///     info!("{} strands, {} bytes uploaded", stats.rendered_strands, stats.uploaded_bytes);
+/// }
+/// ```
 #[derive(Resource, Reflect, Clone, Copy, Debug, Default, PartialEq)]
 #[reflect(Resource, Default, Debug, PartialEq)]
 pub struct HairRenderStats {
@@ -120,6 +139,7 @@ pub struct HairRenderStats {
 }
 
 /// On a groom's drawing entity (a child of the head): which head it draws and with what.
+/// Read it to find a drawing's head, as `tests/render/` does; the plugin makes and keeps it.
 #[derive(Component, Debug)]
 pub struct HairDrawing {
     /// The head entity (with [`HairGroom`] and [`HairState`]).
@@ -177,6 +197,20 @@ struct StrandsBox {
 
 /// On a head: the entity that draws its hair. Set that entity's [`Visibility`] to hide
 /// the hair alone.
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_hair::prelude::*;
+/// # use bevy_hair::render::HairDrawnBy;
+/// // Hide the hair of every head, keeping the heads.
+/// fn bald(drawn: Query<&HairDrawnBy>, mut visibility: Query<&mut Visibility>) {
+///     for HairDrawnBy(drawing) in &drawn {
+///         if let Ok(mut visible) = visibility.get_mut(*drawing) {
+///             *visible = Visibility::Hidden;
+///         }
+///     }
+/// }
+/// ```
 #[derive(Component, Debug)]
 pub struct HairDrawnBy(pub Entity);
 
