@@ -634,6 +634,59 @@ fn the_gpu_backend_steps_a_groom_as_the_cpu_does() {
 /// A GPU groom's positions come back only where asked for (`HairReadback`): without it the
 /// steps' reports still arrive, and the positions stay where the GPU took the groom over
 /// while the GPU turns it; with it they catch up with the last step.
+/// The largest stretch of any segment of `positions` (strand-major), against the rest
+/// lengths of `state`'s strands.
+fn stretch_of(positions: &[Vec3], state: &HairState) -> f32 {
+    let (n, lengths) = (state.particles_per_strand(), &state.strands().rest().lengths);
+    (0..positions.len())
+        .filter(|i| i % n != 0)
+        .map(|i| (positions[i].distance(positions[i - 1]) / lengths[i] - 1.0).abs())
+        .fold(0.0, f32::max)
+}
+
+/// [`teleport_and_frame_hitch_stay_sane`] on the GPU backend, read back: a 10 m teleport
+/// resets every strand there and brings the hair along, a one-second hitch while the head
+/// moves and turns leaves no segment stretched and nothing inside the head.
+#[test]
+fn a_gpu_groom_survives_a_teleport_and_a_frame_hitch() {
+    let Some(mut app) = app_on_a_gpu() else { return };
+    let head = spawn_head(&mut app, groom(), Transform::default());
+    app.world_mut().entity_mut(head).insert((HairBackend::Gpu, HairReadback));
+    wait_until_ready(&mut app, head);
+    wait_until_on_gpu(&mut app, head);
+    run(&mut app, 30);
+    app.world_mut().get_mut::<Transform>(head).unwrap().translation = Vec3::new(10.0, 0.0, 0.0);
+    app.update();
+    let reported = wait_for_gpu(&mut app, head);
+    let positions = state(&app, head).current_positions().to_vec();
+    let stretch = stretch_of(&positions, state(&app, head));
+    let (root, tip) = roots_and_tips(&app, head)[0];
+    println!(
+        "GPU, after a 10 m teleport: {} strands reset, stretch {stretch:.5}, root at {root}, tip at {tip}",
+        reported.teleport_resets
+    );
+    assert_eq!(reported.teleport_resets, 200, "every strand was reset to the new place");
+    assert!(all_finite(&app, head));
+    assert!(stretch <= 0.1, "a segment is stretched by {stretch}");
+    assert!((root.x - 10.0).abs() < 0.2 && tip.distance(root) < 0.3, "the hair came along");
+
+    app.insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs(1)));
+    let mut transform = app.world_mut().get_mut::<Transform>(head).unwrap();
+    transform.translation.y += 0.3;
+    transform.rotation = Quat::from_rotation_y(1.0);
+    app.update();
+    app.insert_resource(TimeUpdateStrategy::ManualDuration(FRAME));
+    run(&mut app, 5);
+    wait_for_gpu(&mut app, head);
+    let positions = state(&app, head).current_positions().to_vec();
+    let stretch = stretch_of(&positions, state(&app, head));
+    let inside = max_penetration(&app, head);
+    println!("GPU, after a 1 s hitch: stretch {stretch:.5}, deepest particle {:.3} mm", inside * 1e3);
+    assert!(all_finite(&app, head));
+    assert!(stretch <= 0.1, "a segment is stretched by {stretch}");
+    assert!(inside <= 1e-4, "a particle is {} mm inside the head", inside * 1e3);
+}
+
 #[test]
 fn a_gpu_groom_copies_its_positions_back_only_when_asked() {
     let Some(mut app) = app_on_a_gpu() else { return };

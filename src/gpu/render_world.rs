@@ -18,7 +18,8 @@ use bevy::render::storage::GpuShaderBuffer;
 use bevy::render::{ExtractSchedule, MainWorld, Render, RenderApp, RenderSystems};
 use bevy::tasks::{AsyncComputeTaskPool, Task, block_on, futures_lite::future};
 use hair_gpu::{
-    GpuContext, GpuDrawOrder, GpuDrawing, GpuError, GpuOpacityMap, GpuStrands, PositionsCopy, ReportCopy, Submission,
+    GpuContext, GpuDrawOrder, GpuDrawing, GpuError, GpuOpacityMap, GpuPasses, GpuStrands, PositionsCopy, ReportCopy,
+    Submission,
 };
 use hair_sim::collide::HeadCollider;
 use std::sync::{Arc, Mutex, PoisonError};
@@ -48,6 +49,10 @@ impl Plugin for GpuRenderWorldPlugin {
 struct RenderGrooms {
     /// The render device as the GPU solver sees it, made at the first groom.
     context: Option<Result<Arc<GpuContext>, String>>,
+    /// The drawing's, opacity maps' and sort's passes, compiled off the render thread at
+    /// the first groom, for every groom: a groom is handed over once they and its strands
+    /// are made, so no frame waits on a compile.
+    passes: Option<Passes>,
     grooms: HashMap<u64, RenderGroom>,
     letters: Vec<(u64, GpuCommand)>,
     /// The keys the main world still holds.
@@ -80,6 +85,27 @@ enum Strands {
     Made(Box<GpuStrands>),
 }
 
+enum Passes {
+    /// Compiling, off the render thread.
+    Making(Task<GpuPasses>),
+    Made(Arc<GpuPasses>),
+}
+
+impl Passes {
+    /// The passes, once made (polled here, without waiting).
+    fn made(&mut self) -> Option<&Arc<GpuPasses>> {
+        if let Passes::Making(task) = self
+            && let Some(passes) = block_on(future::poll_once(task))
+        {
+            *self = Passes::Made(Arc::new(passes));
+        }
+        match self {
+            Passes::Made(passes) => Some(passes),
+            Passes::Making(_) => None,
+        }
+    }
+}
+
 impl RenderGroom {
     fn inbox(&self) -> std::sync::MutexGuard<'_, Inbox> {
         self.inbox.lock().unwrap_or_else(PoisonError::into_inner)
@@ -92,9 +118,9 @@ impl RenderGroom {
         }
     }
 
-    /// Records `letter` (the strands are made: the main world writes nothing else before
-    /// they are); `Err` says why the GPU cannot step the groom.
-    fn record(&mut self, letter: GpuCommand) -> Result<(), GpuError> {
+    /// Records `letter` (the strands and `passes` are made: the main world writes nothing
+    /// else before they are); `Err` says why the GPU cannot step the groom.
+    fn record(&mut self, letter: GpuCommand, passes: Option<&GpuPasses>) -> Result<(), GpuError> {
         let collider = Arc::clone(&self.collider);
         let Some(strands) = self.made() else { return Ok(()) };
         match letter {
@@ -119,12 +145,9 @@ impl RenderGroom {
                 self.copies.push(copied);
             }
             GpuCommand::Draw { target, root_u, overstep, pose, shadows, order } => {
-                let strands = match &self.strands {
-                    Strands::Made(strands) => strands,
-                    Strands::Making(_) => return Ok(()),
-                };
+                let (Strands::Made(strands), Some(passes)) = (&self.strands, passes) else { return Ok(()) };
                 if self.drawing.as_ref().is_none_or(|(id, _)| *id != target.id()) {
-                    let drawing = GpuDrawing::new(strands, &root_u, &target)?;
+                    let drawing = GpuDrawing::with_passes(strands, &passes.drawing, &root_u, &target)?;
                     self.drawing = Some((target.id(), drawing));
                 }
                 if let Some((_, drawing)) = &self.drawing {
@@ -171,7 +194,7 @@ fn record_grooms(
     times: Res<RenderTimes>,
 ) {
     let started = Instant::now();
-    let RenderGrooms { context: gpu, grooms, letters, live } = &mut *grooms;
+    let RenderGrooms { context: gpu, passes, grooms, letters, live } = &mut *grooms;
     grooms.retain(|key, _| live.contains(key));
     for (key, letter) in letters.drain(..) {
         if let GpuCommand::Start { rest, pose, collider, inbox } = letter {
@@ -181,6 +204,12 @@ fn record_grooms(
             });
             let made = match gpu {
                 Ok(gpu) => {
+                    if passes.is_none() {
+                        let device = gpu.device.clone();
+                        *passes = Some(Passes::Making(
+                            AsyncComputeTaskPool::get().spawn(async move { GpuPasses::new(&device) }),
+                        ));
+                    }
                     let gpu = Arc::clone(gpu);
                     let collider = Arc::clone(&collider);
                     AsyncComputeTaskPool::get().spawn(async move {
@@ -209,14 +238,17 @@ fn record_grooms(
             continue;
         }
         let Some(groom) = grooms.get_mut(&key) else { continue };
-        if let Err(e) = groom.record(letter) {
+        let made = passes.as_mut().and_then(Passes::made).map(Arc::clone);
+        if let Err(e) = groom.record(letter, made.as_deref()) {
             groom.inbox().failed = Some(e.to_string());
             grooms.remove(&key);
         }
     }
     let mut failed = Vec::new();
+    let passes = passes.as_mut().and_then(Passes::made).map(Arc::clone);
     for (&key, groom) in grooms.iter_mut() {
         if let Strands::Making(task) = &mut groom.strands
+            && passes.is_some()
             && let Some(made) = block_on(future::poll_once(task))
         {
             match made {
@@ -236,16 +268,18 @@ fn record_grooms(
         // After the drawing: the order of what it drew, and its opacity maps.
         if let Some((order, drawn)) = groom.order.take()
             && let Some(guides) = shader_buffers.get(order.guides)
+            && let Some(passes) = &passes
             && let Some(strands) = groom.made()
         {
             let counts = [strands.strand_count() as u32, strands.particles_per_strand() as u32];
             let pieces = strands.pieces(order.segments_per_piece);
             let wanted = (drawn.id(), guides.buffer.id());
             if groom.sort.as_ref().is_none_or(|(d, g, _)| (*d, *g) != wanted) {
-                groom.sort = GpuDrawOrder::new(device.wgpu_device(), &drawn, pieces, &guides.buffer)
-                    .inspect_err(|e| warn!("hair: no draw order on the GPU: {e}"))
-                    .ok()
-                    .map(|sort| (wanted.0, wanted.1, sort));
+                groom.sort =
+                    GpuDrawOrder::with_passes(device.wgpu_device(), &passes.draw_order, &drawn, pieces, &guides.buffer)
+                        .inspect_err(|e| warn!("hair: no draw order on the GPU: {e}"))
+                        .ok()
+                        .map(|sort| (wanted.0, wanted.1, sort));
             }
             if let Some((_, _, sort)) = &groom.sort {
                 let encoder = context.command_encoder();
@@ -256,6 +290,7 @@ fn record_grooms(
         }
         if let Some((maps, drawn)) = groom.shadows.take()
             && let Some(guides) = shader_buffers.get(maps.guides)
+            && let Some(passes) = &passes
             && let Some(strands) = groom.made()
         {
             let counts = [strands.strand_count() as u32, strands.particles_per_strand() as u32];
@@ -265,7 +300,15 @@ fn record_grooms(
             groom.maps.truncate(maps.lights.len());
             for (k, &light) in maps.lights.iter().enumerate() {
                 if groom.maps.len() == k {
-                    match GpuOpacityMap::new(device.wgpu_device(), &drawn, counts[0] * counts[1], &guides.buffer) {
+                    let particles = counts[0] * counts[1];
+                    let map = GpuOpacityMap::with_passes(
+                        device.wgpu_device(),
+                        &passes.opacity_map,
+                        &drawn,
+                        particles,
+                        &guides.buffer,
+                    );
+                    match map {
                         Ok(map) => groom.maps.push((wanted.0, wanted.1, map)),
                         Err(e) => {
                             warn!("hair: no opacity map on the GPU: {e}");

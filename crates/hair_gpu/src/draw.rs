@@ -55,6 +55,20 @@ fn uniform_buffer(device: &wgpu::Device) -> wgpu::Buffer {
     })
 }
 
+/// The drawing pass compiled, for any number of [`GpuDrawing`]s: compiling takes long,
+/// binding buffers to it does not.
+#[derive(Clone)]
+pub struct DrawingPasses {
+    pipeline: wgpu::ComputePipeline,
+}
+
+impl DrawingPasses {
+    /// Compiles the pass on `device`.
+    pub fn new(device: &wgpu::Device) -> Self {
+        DrawingPasses { pipeline: pipeline(device, &module(device), "draw_strands") }
+    }
+}
+
 /// The particles of the last two steps in head space, which [`GpuDrawing`] interpolates:
 /// two buffers that swap roles at each [`Published::publish`].
 pub(crate) struct Published {
@@ -121,7 +135,18 @@ impl std::fmt::Debug for GpuDrawing {
 impl GpuDrawing {
     /// Draws `strands` into `target`, which needs `STORAGE` use and room for two `vec4`
     /// per particle; `root_u` is each strand's frame vector at its root, in head space.
+    /// Compiled for it alone.
     pub fn new(strands: &GpuStrands, root_u: &[Vec3], target: &wgpu::Buffer) -> Result<Self, GpuError> {
+        Self::with_passes(strands, &DrawingPasses::new(&strands.device), root_u, target)
+    }
+
+    /// [`Self::new`] on passes compiled before.
+    pub fn with_passes(
+        strands: &GpuStrands,
+        passes: &DrawingPasses,
+        root_u: &[Vec3],
+        target: &wgpu::Buffer,
+    ) -> Result<Self, GpuError> {
         let [count, n] = strands.counts();
         let needed = 2 * u64::from(count * n) * 16;
         if target.size() < needed || !target.usage().contains(wgpu::BufferUsages::STORAGE) {
@@ -131,7 +156,7 @@ impl GpuDrawing {
             return Err(GpuError::RootCount { given: root_u.len(), expected: count as usize });
         }
         let device = &strands.device;
-        let pipeline = pipeline(device, &module(device), "draw_strands");
+        let pipeline = passes.pipeline.clone();
         let uniform = uniform_buffer(device);
         let roots: Vec<[f32; 4]> = root_u.iter().map(|u| [u.x, u.y, u.z, 0.0]).collect();
         let root_u =

@@ -54,6 +54,7 @@ use recorder::Recorder;
 pub use recorder::{Submission, submissions};
 use wgpu::util::DeviceExt;
 
+mod compiled;
 mod context;
 mod draw;
 mod layout;
@@ -65,14 +66,15 @@ mod shadow;
 mod sort;
 mod uniform;
 
+pub use compiled::GpuPasses;
 pub use context::{GpuContext, GpuError};
-pub use draw::{CURVE_SHADER, DRAW_SHADER, GpuDrawing};
+pub use draw::{CURVE_SHADER, DRAW_SHADER, DrawingPasses, GpuDrawing};
 pub use live::live_objects;
 pub(crate) use live::{Alive, LIVE_DRAWINGS, LIVE_STRANDS};
 use readback::{BufferCopy, StagingPool, duration_ms};
 pub use readback::{PositionsCopy, ReportCopy};
-pub use shadow::{GpuOpacityMap, MAP_FLOATS, SHADOW_SHADER};
-pub use sort::{GpuDrawOrder, SORT_SHADER};
+pub use shadow::{GpuOpacityMap, MAP_FLOATS, OpacityMapPasses, SHADOW_SHADER};
+pub use sort::{DrawOrderPasses, GpuDrawOrder, SORT_SHADER};
 use uniform::{GridInfo, StepUniform, bits, pack_patch};
 pub use wgpu;
 

@@ -28,6 +28,7 @@ fn pipeline_on(
 /// One bind group layout of buffers for every entry point of a module (each uses its
 /// share of the buffers), so that one bind group serves all its passes: an implied layout
 /// holds only what its own entry point uses, and fits no other pipeline.
+#[derive(Clone)]
 pub(crate) struct SharedLayout {
     group: wgpu::BindGroupLayout,
     pipeline: wgpu::PipelineLayout,

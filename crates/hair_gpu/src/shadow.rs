@@ -51,29 +51,17 @@ const PASSES: [(&str, Invocations); 8] = [
     ("write_map", Invocations::Cells),
 ];
 
-/// Builds one light's opacity map of the particles in a buffer, into a buffer, on the GPU.
-pub struct GpuOpacityMap {
+/// The opacity map's compiled passes, for any number of [`GpuOpacityMap`]s: compiling
+/// takes long, binding buffers to them does not.
+#[derive(Clone)]
+pub struct OpacityMapPasses {
+    layout: SharedLayout,
     pipelines: Vec<wgpu::ComputePipeline>,
-    group: wgpu::BindGroup,
-    uniform: wgpu::Buffer,
-    work: wgpu::Buffer,
-    /// Room for this many particles.
-    capacity: u32,
 }
 
-impl GpuOpacityMap {
-    /// The passes for up to `capacity` particles read from `points` (one `vec4` per
-    /// particle, strand-major, `xyz` the position: what [`crate::GpuDrawing`] writes
-    /// first), writing into `target` (`STORAGE` use, floats).
-    pub fn new(
-        device: &wgpu::Device,
-        points: &wgpu::Buffer,
-        capacity: u32,
-        target: &wgpu::Buffer,
-    ) -> Result<Self, GpuError> {
-        if !target.usage().contains(wgpu::BufferUsages::STORAGE) {
-            return Err(GpuError::DrawTarget { bytes: target.size(), needed: (MAP_FLOATS * 4) as u64 });
-        }
+impl OpacityMapPasses {
+    /// Compiles the passes on `device`.
+    pub fn new(device: &wgpu::Device) -> Self {
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("hair_gpu shadow.wgsl"),
             source: wgpu::ShaderSource::Wgsl(SHADOW_SHADER.into()),
@@ -88,6 +76,46 @@ impl GpuOpacityMap {
         ];
         let layout = SharedLayout::new(device, "hair_gpu opacity map", &bindings);
         let pipelines = PASSES.iter().map(|(entry_point, _)| layout.pipeline(device, &module, entry_point)).collect();
+        OpacityMapPasses { layout, pipelines }
+    }
+}
+
+/// Builds one light's opacity map of the particles in a buffer, into a buffer, on the GPU.
+pub struct GpuOpacityMap {
+    pipelines: Vec<wgpu::ComputePipeline>,
+    group: wgpu::BindGroup,
+    uniform: wgpu::Buffer,
+    work: wgpu::Buffer,
+    /// Room for this many particles.
+    capacity: u32,
+}
+
+impl GpuOpacityMap {
+    /// The passes for up to `capacity` particles read from `points` (one `vec4` per
+    /// particle, strand-major, `xyz` the position: what [`crate::GpuDrawing`] writes
+    /// first), writing into `target` (`STORAGE` use, floats), compiled for it alone.
+    pub fn new(
+        device: &wgpu::Device,
+        points: &wgpu::Buffer,
+        capacity: u32,
+        target: &wgpu::Buffer,
+    ) -> Result<Self, GpuError> {
+        Self::with_passes(device, &OpacityMapPasses::new(device), points, capacity, target)
+    }
+
+    /// [`Self::new`] on passes compiled before.
+    pub fn with_passes(
+        device: &wgpu::Device,
+        passes: &OpacityMapPasses,
+        points: &wgpu::Buffer,
+        capacity: u32,
+        target: &wgpu::Buffer,
+    ) -> Result<Self, GpuError> {
+        if !target.usage().contains(wgpu::BufferUsages::STORAGE) {
+            return Err(GpuError::DrawTarget { bytes: target.size(), needed: (MAP_FLOATS * 4) as u64 });
+        }
+        let OpacityMapPasses { layout, pipelines } = passes;
+        let pipelines = pipelines.clone();
         let uniform = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("hair_gpu opacity map light"),
             size: size_of::<LightUniform>() as u64,

@@ -21,6 +21,39 @@ struct OrderUniform {
     extent: [u32; 4],
 }
 
+/// The sort's compiled passes, for any number of [`GpuDrawOrder`]s: compiling takes long,
+/// binding buffers to them does not.
+#[derive(Clone)]
+pub struct DrawOrderPasses {
+    layout: SharedLayout,
+    keys_pass: wgpu::ComputePipeline,
+    step_pass: wgpu::ComputePipeline,
+    write_pass: wgpu::ComputePipeline,
+}
+
+impl DrawOrderPasses {
+    /// Compiles the passes on `device`.
+    pub fn new(device: &wgpu::Device) -> Self {
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("hair_gpu sort.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(SORT_SHADER.into()),
+        });
+        let uniform_type = wgpu::BufferBindingType::Uniform;
+        let bindings = [
+            (uniform_type, false),
+            (storage(true), false),
+            (storage(false), false),
+            (storage(false), false),
+            (uniform_type, true),
+        ];
+        let layout = SharedLayout::new(device, "hair_gpu draw order", &bindings);
+        let pipeline = |entry_point: &str| layout.pipeline(device, &module, entry_point);
+        let (keys_pass, step_pass, write_pass) =
+            (pipeline("keys_of_pieces"), pipeline("sort_step"), pipeline("write_order"));
+        DrawOrderPasses { layout, keys_pass, step_pass, write_pass }
+    }
+}
+
 /// Sorts the pieces of up to a number of strands back to front on the GPU.
 pub struct GpuDrawOrder {
     keys_pass: wgpu::ComputePipeline,
@@ -38,9 +71,20 @@ pub struct GpuDrawOrder {
 impl GpuDrawOrder {
     /// The passes for up to `pieces` pieces of the strands in `points` (one `vec4` per
     /// particle, strand-major: what [`crate::GpuDrawing`] writes first), writing the order
-    /// into `target` (`STORAGE` use, floats: the pieces' numbers).
+    /// into `target` (`STORAGE` use, floats: the pieces' numbers), compiled for it alone.
     pub fn new(
         device: &wgpu::Device,
+        points: &wgpu::Buffer,
+        pieces: u32,
+        target: &wgpu::Buffer,
+    ) -> Result<Self, GpuError> {
+        Self::with_passes(device, &DrawOrderPasses::new(device), points, pieces, target)
+    }
+
+    /// [`Self::new`] on passes compiled before.
+    pub fn with_passes(
+        device: &wgpu::Device,
+        passes: &DrawOrderPasses,
         points: &wgpu::Buffer,
         pieces: u32,
         target: &wgpu::Buffer,
@@ -48,20 +92,7 @@ impl GpuDrawOrder {
         if !target.usage().contains(wgpu::BufferUsages::STORAGE) {
             return Err(GpuError::DrawTarget { bytes: target.size(), needed: u64::from(pieces) * 4 });
         }
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("hair_gpu sort.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(SORT_SHADER.into()),
-        });
-        let uniform_type = wgpu::BufferBindingType::Uniform;
-        let bindings = [
-            (uniform_type, false),
-            (storage(true), false),
-            (storage(false), false),
-            (storage(false), false),
-            (uniform_type, true),
-        ];
-        let layout = SharedLayout::new(device, "hair_gpu draw order", &bindings);
-        let pipeline = |entry_point: &str| layout.pipeline(device, &module, entry_point);
+        let layout = &passes.layout;
         let extent = pieces.max(2).next_power_of_two();
         // The network: for each block size k, each compare distance j from k/2 down to 1.
         let mut network = Vec::new();
@@ -108,9 +139,9 @@ impl GpuDrawOrder {
         ];
         let group = layout.bind(device, "hair_gpu draw order", resources);
         Ok(GpuDrawOrder {
-            keys_pass: pipeline("keys_of_pieces"),
-            step_pass: pipeline("sort_step"),
-            write_pass: pipeline("write_order"),
+            keys_pass: passes.keys_pass.clone(),
+            step_pass: passes.step_pass.clone(),
+            write_pass: passes.write_pass.clone(),
             group,
             uniform,
             steps: network.len() as u32,
