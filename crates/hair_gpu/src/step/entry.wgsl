@@ -9,8 +9,8 @@
 // queries' memory waits behind other invocations' work (65,536 strands are ~15 warps a
 // core on an H200); what goes root to tip stays one invocation per strand. The segments'
 // pass has a dispatch of its own, run once a step, so that the placing pass, run every
-// substep, does not carry its code (llvmpipe, which runs through a branch no invocation
-// takes, stepped 512 strands resting on the head in 150 ms with it there, 62 without).
+// substep, does not carry its code (llvmpipe runs through a branch no invocation takes,
+// and a placing pass carrying it took more than twice as long).
 //
 // What a dispatch leaves the next is kept in the motion planes' w, unused otherwise: at a
 // root's substep start, 1 where the strand started over at rest this step (its substeps

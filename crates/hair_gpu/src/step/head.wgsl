@@ -24,8 +24,8 @@ fn head_surface(p: vec3<f32>) -> Surface {
 // walks its own; otherwise the grid's gradient answers there. A particle's own
 // contact asks for it (`head_contact`: a particle deep inside after a hitch goes out where
 // the CPU's goes); the turns, traces and placements keep the grid there (with every
-// triangle in them too, near-root hair stayed 5.3 mm inside a skinned head blended into
-// its neck, `tests/characters.rs`; not understood).
+// triangle in them too, near-root hair stayed millimetres inside a skinned head blended
+// into its neck, which `tests/characters.rs` checks; why is not understood).
 fn head_surface_from(p: vec3<f32>, deep: bool) -> Surface {
     let g = (p - step.centre.xyz - step.grid_origin.xyz) * step.grid_origin.w;
     let upper = vec3<f32>(step.grid_dims.xyz - vec3<u32>(1u));

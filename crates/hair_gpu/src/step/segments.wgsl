@@ -1,8 +1,8 @@
 // --- Whole segments: hair_sim's `keep_segments_outside`, by tracing ---
 
 // The shortest step of the trace along a segment, metres: a stretch inside the head longer
-// than this is found (at 20 µm the trace stepped over one by an edge that the CPU, which
-// intersects the triangles, turned).
+// than this is found (a coarser step could step over one by an edge that the CPU, which
+// intersects the triangles, turns).
 const MIN_TRACE_STEP: f32 = 1e-6;
 
 // Where the segment from head-local `a` (`a_distance` from the surface) to `b` runs inside the
