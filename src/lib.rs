@@ -112,7 +112,7 @@ pub use hair_asset::{HairAsset, HairAssetError, HairAssetLoader};
 pub use hair_gpu;
 pub use hair_sim;
 pub use hair_sim::groom::{ChildParams, Spiral};
-pub use hair_sim::solver::{CollisionResponse, LengthMode, SimParams, SimdPath, StepReport, Wind};
+pub use hair_sim::solver::{CollisionResponse, LengthMode, SimParams, SimdPath, StepReport, Volume, Wind};
 pub use head_mesh::{ATTRIBUTE_SCALP, is_procedural_scalp, procedural_head_mesh};
 pub use preset::{HairPreset, PresetError};
 #[cfg(feature = "render")]
@@ -133,7 +133,7 @@ pub mod prelude {
         ChildParams, CollisionResponse, GroomStatus, Hair, HairBackend, HairCollider, HairDiagnostics, HairError,
         HairErrorKind, HairGroom, HairLod, HairPlugin, HairPreset, HairSchedule, HairSettings, HairSettingsOverride,
         HairState, HairSystems, HairTime, LengthMode, RootDistribution, ScalpPredicate, ScalpSource, SimParams,
-        SimdPath, Spiral, StepReport, Wind,
+        SimdPath, Spiral, StepReport, Volume, Wind,
     };
     #[cfg(feature = "render")]
     pub use crate::{

@@ -712,6 +712,7 @@ fn warn_of_resets(entity: Entity, report: &StepReport) {
 /// Like the plugin, it leaves a level of detail's followers where they were
 /// ([`Strands::fade_and_rise`]): [`Strands::place_followers`] places them.
 pub fn step_on_pool(strands: &mut Strands, input: &StepInput, pool: &TaskPool) -> StepReport {
+    strands.apply_volume(input);
     // Tasks of at least MIN_STRANDS_PER_TASK simulated strands each: a far head's few are
     // spread over all its strands (a task's SIMD groups gather its simulated ones), and
     // stepping them in one task fills the groups' lanes and spares the pool a round trip.

@@ -498,6 +498,40 @@ fn turning(k: usize) -> Transform {
     Transform::from_rotation(Quat::from_rotation_y(1.5 * (k as f32 / 30.0).sin()))
 }
 
+/// Hair volume is the CPU's: a groom asking for the GPU with volume on steps on the CPU,
+/// exactly as one that asks for the CPU, and says why once.
+#[test]
+fn a_gpu_groom_with_volume_steps_on_the_cpu_and_says_why_once() {
+    let Some(mut app) = app_on_a_gpu() else { return };
+    let volume = SimParams { volume: Volume { enabled: true, ..default() }, ..default() };
+    app.insert_resource(HairSettings(volume));
+    let mut plain = common::app();
+    plain.insert_resource(HairSettings(volume));
+    app.init_resource::<GpuFallbacks>().add_systems(Last, collect_gpu_fallbacks);
+    let heads = [(&mut app, HairBackend::Gpu), (&mut plain, HairBackend::Cpu)].map(|(app, backend)| {
+        let head = spawn_head(app, groom(), Transform::default());
+        app.world_mut().entity_mut(head).insert(backend);
+        wait_until_ready(app, head);
+        head
+    });
+    for k in 0..30 {
+        for (app, head) in [(&mut app, heads[0]), (&mut plain, heads[1])] {
+            *app.world_mut().get_mut::<Transform>(head).unwrap() = turning(k);
+            app.update();
+        }
+    }
+    let fallbacks = app.world().resource::<GpuFallbacks>().0.clone();
+    println!("volume on the GPU backend: {fallbacks:?}");
+    assert_eq!(fallbacks.len(), 1, "reported once: {fallbacks:?}");
+    assert!(fallbacks[0].contains("volume"), "{}", fallbacks[0]);
+    assert!(state(&app, heads[0]).strands().volume_grid().is_some(), "the CPU stepped it with the volume");
+    assert_eq!(
+        state(&app, heads[0]).current_positions(),
+        state(&plain, heads[1]).current_positions(),
+        "the same bits as a groom on the CPU"
+    );
+}
+
 /// Every `GpuFallback` reason reported so far.
 #[derive(Resource, Default)]
 struct GpuFallbacks(Vec<String>);

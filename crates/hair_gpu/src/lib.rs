@@ -572,6 +572,9 @@ impl GpuStrands {
     /// timestamp queries the step is timed, for [`Self::step_timed`] and the report
     /// ([`ReportCopy::into_timed_report`]).
     pub fn step(&mut self, input: &StepInput) -> Result<(), GpuError> {
+        if input.params.volume.enabled {
+            return Err(GpuError::VolumeOnCpuOnly);
+        }
         // At most one step waits for its submission: a caller that never submits holds one
         // step's commands and uploads, not all of them.
         let recorder = recording(&mut self.recorder);

@@ -58,6 +58,6 @@ pub mod prelude {
     pub use crate::math::{Pose, Quat, Vec3};
     pub use crate::mesh::{HeadMesh, MeshError, test_head, test_scalp};
     pub use crate::solver::{
-        CollisionResponse, LengthMode, RestShape, SimParams, SimdPath, StepInput, StepReport, Strands, Wind,
+        CollisionResponse, LengthMode, RestShape, SimParams, SimdPath, StepInput, StepReport, Strands, Volume, Wind,
     };
 }

@@ -52,6 +52,15 @@ fn wild_params() -> impl Strategy<Value = SimParams> {
     ];
     let simd =
         prop_oneof![Just(SimdPath::Auto), Just(SimdPath::Baseline), Just(SimdPath::Avx2), Just(SimdPath::Avx512)];
+    let volume = (any::<bool>(), wild_count(), wild_f32(), wild_f32(), wild_f32()).prop_map(
+        |(enabled, resolution, friction_root, friction_tip, density_push)| Volume {
+            enabled,
+            resolution,
+            friction_root,
+            friction_tip,
+            density_push,
+        },
+    );
     (
         (prop::array::uniform3(wild_f32()), wild_count(), wild_count(), wild_f32(), mode, wild_f32(), wild_f32()),
         (wild_f32(), wild_f32(), wild_f32(), wild_f32(), wild_f32(), wild_f32(), wind),
@@ -67,6 +76,7 @@ fn wild_params() -> impl Strategy<Value = SimParams> {
             wild_f32(),
             wild_f32(),
         ),
+        volume,
     )
         .prop_map(
             |(
@@ -84,6 +94,7 @@ fn wild_params() -> impl Strategy<Value = SimParams> {
                     sleep_distance,
                     sleep_time,
                 ),
+                volume,
             )| SimParams {
                 gravity,
                 substeps,
@@ -109,6 +120,7 @@ fn wild_params() -> impl Strategy<Value = SimParams> {
                 simd,
                 sleep_distance,
                 sleep_time,
+                volume,
             },
         )
 }

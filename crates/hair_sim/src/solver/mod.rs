@@ -18,9 +18,13 @@ pub use detail::{FULL_DETAIL_HEIGHT, MAX_DETAIL_LEVEL, level_for_height, level_w
 use rest_lanes::RestLanes;
 
 pub use step::{MIN_STEP, StepConstants};
+pub use volume::{PARTICLE_MASS_UNITS, VolumeGrid};
+mod volume;
 mod wind;
 
-pub use params::{CollisionResponse, LengthMode, ParamIssue, SimParams, SimdPath, Wind, stiffness_per_application};
+pub use params::{
+    CollisionResponse, LengthMode, ParamIssue, SimParams, SimdPath, Volume, Wind, stiffness_per_application,
+};
 use sleep::SleepWatch;
 pub use sleep::Stillness;
 pub use wind::{is_calm, wind_at};
@@ -221,6 +225,8 @@ pub struct Strands {
     anchors: Vec<Vec3>,
     /// Levels of detail, once asked for ([`Self::set_detail_level`]).
     detail: Option<Detail>,
+    /// The hair–hair grid, while [`SimParams::volume`] is on, and its resolution.
+    volume: Option<(u32, VolumeGrid)>,
 }
 
 impl Strands {
@@ -241,6 +247,7 @@ impl Strands {
             velocities,
             hints,
             detail: None,
+            volume: None,
         }
     }
 
@@ -390,9 +397,10 @@ impl Strands {
             .collect()
     }
 
-    /// Advances every strand by one step on the calling thread (chunks, then
-    /// [`Self::follow_leaders`]).
+    /// Advances every strand by one step on the calling thread ([`Self::apply_volume`],
+    /// the chunks, then [`Self::follow_leaders`]).
     pub fn step(&mut self, input: &StepInput) -> StepReport {
+        self.apply_volume(input);
         let report = self.step_chunks(input);
         self.follow_leaders(input);
         report
@@ -402,9 +410,36 @@ impl Strands {
     /// ([`Self::fade_and_rise`]), for a caller that places them as it copies the
     /// positions out.
     pub fn step_leaving_followers(&mut self, input: &StepInput) -> StepReport {
+        self.apply_volume(input);
         let report = self.step_chunks(input);
         self.fade_and_rise(input);
         report
+    }
+
+    /// Hair–hair interaction for the step `input` asks for, where [`SimParams::volume`] is
+    /// on: every particle's velocity moves toward the hair's around it and away from where
+    /// the hair is denser than at rest ([`VolumeGrid`]). A caller that steps
+    /// [`Self::chunks_mut`] itself calls this first; [`Self::step`] does.
+    pub fn apply_volume(&mut self, input: &StepInput) {
+        let (params, _) = input.params.sanitized();
+        let Some(dt) = step::step_length(input).filter(|_| params.volume.enabled) else {
+            if !params.volume.enabled {
+                self.volume = None;
+            }
+            return;
+        };
+        let resolution = params.volume.resolution;
+        if self.volume.as_ref().is_none_or(|(r, _)| *r != resolution) {
+            self.volume = Some((resolution, VolumeGrid::new(&self.rest, resolution)));
+        }
+        let pose = if input.head_from.is_valid() { input.head_from } else { input.head_to };
+        let (_, grid) = self.volume.as_mut().expect("made above");
+        volume::apply(grid, &self.rest, &self.positions, &mut self.velocities, pose, &params.volume, dt);
+    }
+
+    /// The hair–hair grid as the last step left it, while [`SimParams::volume`] is on.
+    pub fn volume_grid(&self) -> Option<&VolumeGrid> {
+        self.volume.as_ref().map(|(_, grid)| grid)
     }
 
     /// Steps every simulated strand, on this thread.

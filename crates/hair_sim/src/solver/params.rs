@@ -72,6 +72,36 @@ impl Default for Wind {
     }
 }
 
+/// Hair–hair interaction on a grid ([`VolumeGrid`](super::VolumeGrid)): strands that meet
+/// share their motion and push apart where the hair is denser than in its rest pose, so
+/// a groom keeps its volume and locks swept through each other do not interpenetrate.
+/// The grid's cells are about a centimetre on a head: it stops bulk interpenetration, not
+/// single strands crossing. CPU solver only.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "reflect", derive(Reflect))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(default))]
+pub struct Volume {
+    /// Whether the hair interacts with itself.
+    pub enabled: bool,
+    /// Cells along the longest side of the grid (4 to 64).
+    pub resolution: u32,
+    /// Share of the difference between a particle's velocity and the hair's mean velocity
+    /// around it removed per 1/60 s, at the root, 0..1.
+    pub friction_root: f32,
+    /// The same at the tip; linear in between.
+    pub friction_tip: f32,
+    /// Acceleration, m/s², away from where the hair is denser than at rest, per cell of a
+    /// density excess as large as the mean rest density.
+    pub density_push: f32,
+}
+
+impl Default for Volume {
+    fn default() -> Self {
+        Volume { enabled: false, resolution: 32, friction_root: 0.05, friction_tip: 0.01, density_push: 2.0 }
+    }
+}
+
 /// Which SIMD instructions the solver steps strands with. Every path gives the same
 /// positions, bit for bit (IEEE rounding, no fused multiply-add); they differ in speed
 /// only. Strands are stepped in groups of four vectors' worth of lanes, so a wider path
@@ -222,6 +252,8 @@ pub struct SimParams {
     /// The SIMD instructions to step with; the same results on every path. A path this
     /// CPU lacks runs as [`SimdPath::Auto`].
     pub simd: SimdPath,
+    /// Hair–hair interaction on a grid (off by default).
+    pub volume: Volume,
 }
 
 impl Default for SimParams {
@@ -251,6 +283,7 @@ impl Default for SimParams {
             sleep_time: 0.5,
             teleport_distance: 0.5,
             simd: SimdPath::Auto,
+            volume: Volume::default(),
         }
     }
 }
@@ -322,6 +355,10 @@ impl SimParams {
         fix("sleep_distance", &mut p.sleep_distance, defaults.sleep_distance, 0.0, 1.0);
         fix("sleep_time", &mut p.sleep_time, defaults.sleep_time, 0.0, 1e3);
         fix("teleport_distance", &mut p.teleport_distance, defaults.teleport_distance, 1e-3, 1e4);
+        let volume = defaults.volume;
+        fix("volume.friction_root", &mut p.volume.friction_root, volume.friction_root, 0.0, 1.0);
+        fix("volume.friction_tip", &mut p.volume.friction_tip, volume.friction_tip, 0.0, 1.0);
+        fix("volume.density_push", &mut p.volume.density_push, volume.density_push, 0.0, 1e3);
         if let CollisionResponse::CentreRay { offset: [x, y, z] } = &mut p.collision_response {
             for (field, v) in [
                 ("collision_response.offset.x", x),
@@ -353,6 +390,15 @@ impl SimParams {
         };
         fix_count("substeps", &mut p.substeps, 64);
         fix_count("iterations", &mut p.iterations, 32);
+        let resolution = p.volume.resolution.clamp(4, 64);
+        if resolution != p.volume.resolution {
+            issues.push(ParamIssue {
+                field: "volume.resolution",
+                given: p.volume.resolution as f32,
+                used: resolution as f32,
+            });
+            p.volume.resolution = resolution;
+        }
         (p, issues)
     }
 }

@@ -1,0 +1,225 @@
+//! Hair with volume: hair–hair interaction on a grid in head space (Petrovic et al. 2005;
+//! Müller et al. 2012, §6). Once a step, every particle splats its share of mass and
+//! momentum into the grid's eight cells around it; each particle's velocity then moves
+//! toward the mean velocity of the hair around it (friction between strands) and away from
+//! where the hair is denser than in its rest pose (the density push), so strands that
+//! meet push each other apart instead of passing through.
+//!
+//! The splat is in fixed point, so the sums are exact integers in any order: every thread
+//! count and every SIMD path gives the same grid. The rest density is the same splat of
+//! the rest pose, so at rest the push is exactly zero.
+
+use super::RestShape;
+use super::params::Volume;
+use crate::math::{Pose, Vec3};
+
+/// Fractional bits of a trilinear weight per axis: a particle's eight weights are
+/// products of three, summing to exactly `1 << (3 · WEIGHT_BITS)`.
+const WEIGHT_BITS: u32 = 10;
+const WEIGHT_ONE: i64 = 1 << WEIGHT_BITS;
+/// One particle's whole mass in a cell's integer sum.
+pub const PARTICLE_MASS_UNITS: i64 = 1 << (3 * WEIGHT_BITS);
+/// Fractional bits of a velocity component, m/s, in the momentum sums.
+const VELOCITY_BITS: i32 = 24;
+
+/// The grid a groom's particles splat into, in head space over the groom's reach.
+#[derive(Clone, Debug)]
+pub struct VolumeGrid {
+    origin: Vec3,
+    /// Cells per metre.
+    inverse_cell: f32,
+    cell: f32,
+    dims: [usize; 3],
+    /// Per cell: the particles' weights, summed (units of [`PARTICLE_MASS_UNITS`]).
+    mass: Vec<i64>,
+    /// Per cell: weight × velocity (world axes, `VELOCITY_BITS` fixed point), summed.
+    momentum: Vec<[i128; 3]>,
+    /// Per cell: the rest pose's mass.
+    rest_mass: Vec<i64>,
+    /// The mean rest mass over the cells the rest pose reaches, what the push compares
+    /// a density excess with.
+    rest_scale: f32,
+}
+
+/// A point's eight cells and their fixed-point weights.
+struct Splat {
+    cells: [usize; 8],
+    weights: [i64; 8],
+}
+
+impl VolumeGrid {
+    /// A grid of `resolution` cells along the longest side of the box around `rest`'s
+    /// particles (head space) grown by a quarter of the longest strand on every side: the
+    /// reach of hair that swings away from its rest pose. Its rest density is `rest`'s.
+    pub fn new(rest: &RestShape, resolution: u32) -> Self {
+        let n = rest.particles_per_strand.max(1);
+        let (mut min, mut max) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for &p in &rest.positions {
+            min = min.min(p);
+            max = max.max(p);
+        }
+        if !min.is_finite() || !max.is_finite() {
+            (min, max) = (Vec3::ZERO, Vec3::ZERO);
+        }
+        let longest = rest.lengths.chunks(n).map(|strand| strand.iter().sum::<f32>()).fold(0.0, f32::max);
+        let margin = 0.25 * longest + 1e-3;
+        let (min, max) = (min - Vec3::splat(margin), max + Vec3::splat(margin));
+        let extent = (max - min).max_element().max(1e-3);
+        let cell = extent / resolution.max(1) as f32;
+        let dims = ((max - min) / cell).to_array().map(|e| e.ceil() as usize + 1);
+        let cells = dims[0] * dims[1] * dims[2];
+        let mut grid = VolumeGrid {
+            origin: min,
+            inverse_cell: 1.0 / cell,
+            cell,
+            dims,
+            mass: vec![0; cells],
+            momentum: vec![[0; 3]; cells],
+            rest_mass: vec![0; cells],
+            rest_scale: 1.0,
+        };
+        grid.splat(rest, &rest.positions, None, Pose::IDENTITY);
+        grid.rest_mass.clone_from(&grid.mass);
+        let reached: Vec<i64> = grid.rest_mass.iter().copied().filter(|&m| m > 0).collect();
+        let mean = reached.iter().map(|&m| m as f64).sum::<f64>() / reached.len().max(1) as f64;
+        grid.rest_scale = (mean / PARTICLE_MASS_UNITS as f64).max(1e-6) as f32;
+        grid
+    }
+
+    /// Cells along each axis.
+    pub fn dims(&self) -> [usize; 3] {
+        self.dims
+    }
+
+    /// Each cell's mass, in units of [`PARTICLE_MASS_UNITS`] per particle.
+    pub fn mass(&self) -> &[i64] {
+        &self.mass
+    }
+
+    /// Each cell's mass in the rest pose.
+    pub fn rest_mass(&self) -> &[i64] {
+        &self.rest_mass
+    }
+
+    /// Each cell's momentum sums (fixed point: velocity × 2^24 × weight).
+    pub fn momentum(&self) -> &[[i128; 3]] {
+        &self.momentum
+    }
+
+    /// The eight cells around head-local `p` and their weights; `None` outside the grid.
+    fn splat_of(&self, p: Vec3) -> Option<Splat> {
+        let g = (p - self.origin) * self.inverse_cell;
+        let [dx, dy, dz] = self.dims;
+        if !(g.x >= 0.0 && g.y >= 0.0 && g.z >= 0.0) {
+            return None;
+        }
+        let base = g.floor();
+        let [i, j, k] = base.to_array().map(|b| b as usize);
+        if i + 1 >= dx || j + 1 >= dy || k + 1 >= dz {
+            return None;
+        }
+        let fraction = (g - base).to_array().map(|f| ((f * WEIGHT_ONE as f32).round() as i64).clamp(0, WEIGHT_ONE));
+        let mut splat = Splat { cells: [0; 8], weights: [0; 8] };
+        for corner in 0..8 {
+            let (a, b, c) = (corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
+            let axis = |bit: usize, f: i64| if bit == 1 { f } else { WEIGHT_ONE - f };
+            splat.cells[corner] = (i + a) + dx * ((j + b) + dy * (k + c));
+            splat.weights[corner] = axis(a, fraction[0]) * axis(b, fraction[1]) * axis(c, fraction[2]);
+        }
+        Some(splat)
+    }
+
+    /// Clears the grid and splats the particles at `positions` (their velocities
+    /// `velocities`, world axes; none: at rest), head-local by `pose`; roots are pinned and
+    /// not counted.
+    fn splat(&mut self, rest: &RestShape, positions: &[Vec3], velocities: Option<&[Vec3]>, pose: Pose) {
+        self.mass.fill(0);
+        self.momentum.fill([0; 3]);
+        let n = rest.particles_per_strand.max(1);
+        for (i, &x) in positions.iter().enumerate() {
+            if i % n == 0 {
+                continue;
+            }
+            let Some(splat) = self.splat_of(pose.inverse_transform_point(x)) else { continue };
+            let v = velocities.map_or([0; 3], |v| v[i].to_array().map(fixed_velocity));
+            for (&c, &w) in splat.cells.iter().zip(&splat.weights) {
+                self.mass[c] += w;
+                for (sum, v) in self.momentum[c].iter_mut().zip(v) {
+                    *sum += i128::from(w) * i128::from(v);
+                }
+            }
+        }
+    }
+
+    /// The mean velocity of the hair at head-local `p`, and the gradient (per metre, head
+    /// axes) of its density excess over the rest pose's, as a share of the mean rest
+    /// density; `None` outside the grid.
+    fn sample(&self, p: Vec3) -> Option<(Vec3, Vec3)> {
+        let splat = self.splat_of(p)?;
+        let g = (p - self.origin) * self.inverse_cell;
+        let f = g - g.floor();
+        let (mut velocity, mut weight) = (Vec3::ZERO, 0.0f64);
+        let mut gradient = Vec3::ZERO;
+        for corner in 0..8 {
+            let c = splat.cells[corner];
+            let w = splat.weights[corner] as f64 / PARTICLE_MASS_UNITS as f64;
+            if self.mass[c] > 0 {
+                let m = self.mass[c] as f64;
+                let mean = self.momentum[c].map(|s| (s as f64 / m / f64::from(1u32 << VELOCITY_BITS)) as f32);
+                velocity += Vec3::from_array(mean) * w as f32;
+                weight += w;
+            }
+            let excess = (self.mass[c] - self.rest_mass[c]) as f32 / PARTICLE_MASS_UNITS as f32 / self.rest_scale;
+            // The trilinear interpolant's derivative along each axis.
+            let (a, b, cz) = ((corner & 1) as f32, ((corner >> 1) & 1) as f32, ((corner >> 2) & 1) as f32);
+            let along = |bit: f32, t: f32| if bit == 1.0 { t } else { 1.0 - t };
+            let slope = |bit: f32| if bit == 1.0 { 1.0 } else { -1.0 };
+            gradient += Vec3::new(
+                slope(a) * along(b, f.y) * along(cz, f.z),
+                along(a, f.x) * slope(b) * along(cz, f.z),
+                along(a, f.x) * along(b, f.y) * slope(cz),
+            ) * excess;
+        }
+        let velocity = if weight > 0.0 { velocity / weight as f32 } else { Vec3::ZERO };
+        Some((velocity, gradient * self.inverse_cell))
+    }
+}
+
+/// A velocity component in the momentum sums' fixed point.
+fn fixed_velocity(v: f32) -> i64 {
+    (f64::from(v) * f64::from(1u32 << VELOCITY_BITS)).round() as i64
+}
+
+/// The volume's effect on one step of `dt` seconds: splats `positions` and `velocities`
+/// (head-local by `pose`, the head's pose at the step's start) into `grid`, then moves each
+/// particle's velocity toward the hair's mean velocity around it (`volume.friction_root`
+/// at the root to `friction_tip` at the tip, per 1/60 s) and down the density excess
+/// (`volume.density_push`, m/s² per unit of excess per cell). Roots are left alone.
+pub(super) fn apply(
+    grid: &mut VolumeGrid,
+    rest: &RestShape,
+    positions: &[Vec3],
+    velocities: &mut [Vec3],
+    pose: Pose,
+    volume: &Volume,
+    dt: f32,
+) {
+    grid.splat(rest, positions, Some(velocities), pose);
+    let n = rest.particles_per_strand.max(1);
+    let steps = dt * 60.0;
+    for (i, (&x, v)) in positions.iter().zip(velocities.iter_mut()).enumerate() {
+        let j = i % n;
+        if j == 0 {
+            continue;
+        }
+        let Some((mean, gradient)) = grid.sample(pose.inverse_transform_point(x)) else { continue };
+        let t = j as f32 / (n - 1).max(1) as f32;
+        let friction = volume.friction_root + (volume.friction_tip - volume.friction_root) * t;
+        let share = 1.0 - (1.0 - friction).powf(steps);
+        let push = pose.rotation * gradient * (-volume.density_push * grid.cell * dt);
+        *v += (mean - *v) * share + push;
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,69 @@
+use super::*;
+
+/// Three strands of 5 particles, 4 cm apart, hanging 1 cm per segment.
+fn rest() -> RestShape {
+    let mut positions = Vec::new();
+    for s in 0..3 {
+        for j in 0..5 {
+            positions.push(Vec3::new(0.04 * s as f32, -0.01 * j as f32, 0.0));
+        }
+    }
+    RestShape::new(positions, 5).unwrap()
+}
+
+#[test]
+fn the_splat_holds_every_particle_exactly_and_the_rest_pose_is_its_own_rest() {
+    let rest = rest();
+    let mut grid = VolumeGrid::new(&rest, 16);
+    // Twelve particles (roots are pinned, not counted), each a whole unit, whatever the
+    // order they were added in.
+    assert_eq!(grid.rest_mass().iter().sum::<i64>(), 12 * PARTICLE_MASS_UNITS);
+    let reversed: Vec<Vec3> = rest.positions.chunks(5).rev().flatten().copied().collect();
+    let reversed_rest = RestShape::new(reversed.clone(), 5).unwrap();
+    grid.splat(&reversed_rest, &reversed, None, Pose::IDENTITY);
+    assert_eq!(grid.mass(), grid.rest_mass(), "the same particles in another order splat the same integers");
+    let mut velocities = vec![Vec3::ZERO; rest.positions.len()];
+    apply(&mut grid, &rest, &rest.positions, &mut velocities, Pose::IDENTITY, &Volume::default(), 1.0 / 60.0);
+    assert!(grid.mass().iter().zip(grid.rest_mass()).all(|(m, r)| m == r), "at rest the density is the rest density");
+    assert!(velocities.iter().all(|v| *v == Vec3::ZERO), "and nothing moves: {velocities:?}");
+}
+
+#[test]
+fn a_uniform_velocity_round_trips() {
+    let rest = rest();
+    let mut grid = VolumeGrid::new(&rest, 16);
+    let u = Vec3::new(0.37, -1.25, 2.5);
+    let velocities = vec![u; rest.positions.len()];
+    grid.splat(&rest, &rest.positions, Some(&velocities), Pose::IDENTITY);
+    for (i, &x) in rest.positions.iter().enumerate().filter(|(i, _)| i % 5 != 0) {
+        let (mean, _) = grid.sample(x).expect("inside the grid");
+        assert!((mean - u).length() < 1e-6, "particle {i}: {mean} for {u}");
+    }
+}
+
+#[test]
+fn friction_moves_a_particle_toward_the_hair_around_it_and_the_push_away_from_a_crowd() {
+    let rest = rest();
+    let volume =
+        Volume { enabled: true, friction_root: 0.5, friction_tip: 0.5, density_push: 0.0, ..Volume::default() };
+    // Strand 1 moves, strands 0 and 2 do not: friction slows it toward their mean, and
+    // speeds them toward its, by the same rule.
+    let mut velocities: Vec<Vec3> = (0..15).map(|i| if i / 5 == 1 { Vec3::X } else { Vec3::ZERO }).collect();
+    // Two cells across: every strand has a share of the middle one.
+    let mut grid = VolumeGrid::new(&rest, 2);
+    apply(&mut grid, &rest, &rest.positions, &mut velocities, Pose::IDENTITY, &volume, 1.0 / 60.0);
+    assert!(velocities[7].x < 1.0 && velocities[7].x > 0.0, "the moving strand slows: {}", velocities[7]);
+    assert!(velocities[2].x > 0.0, "a still one is dragged along: {}", velocities[2]);
+
+    // Strand 1 pressed onto strand 0: the hair there is denser than at rest, and the push
+    // separates them.
+    let pushed = Volume { density_push: 5.0, friction_root: 0.0, friction_tip: 0.0, ..volume };
+    let mut crowded = rest.positions.clone();
+    for x in &mut crowded[5..10] {
+        x.x = 0.005;
+    }
+    let mut velocities = vec![Vec3::ZERO; 15];
+    let mut grid = VolumeGrid::new(&rest, 8);
+    apply(&mut grid, &rest, &crowded, &mut velocities, Pose::IDENTITY, &pushed, 1.0 / 60.0);
+    assert!(velocities[7].x > 0.0 && velocities[2].x < 0.0, "pushed apart: {} and {}", velocities[7], velocities[2]);
+}
