@@ -192,6 +192,9 @@ fn float_fields(p: &SimParams) -> Vec<f32> {
         p.sleep_distance,
         p.sleep_time,
         p.teleport_distance,
+        p.volume.friction_root,
+        p.volume.friction_tip,
+        p.volume.density_push,
         gx,
         gy,
         gz,
@@ -324,6 +327,7 @@ proptest! {
         prop_assert_eq!(again, clean);
         prop_assert!(float_fields(&clean).iter().all(|v| v.is_finite()), "{:?}", clean);
         prop_assert!((1..=64).contains(&clean.substeps) && (1..=32).contains(&clean.iterations));
+        prop_assert!((4..=64).contains(&clean.volume.resolution));
         prop_assert!((0.0..=0.9).contains(&clean.length_tolerance));
         prop_assert!(clean.particle_mass > 0.0 && clean.max_speed > 0.0 && clean.teleport_distance > 0.0);
         // One issue per changed field, naming a value that really changed, to what it became.
@@ -333,7 +337,8 @@ proptest! {
         }
         let changed = float_fields(&params).iter().zip(float_fields(&clean)).filter(|(a, b)| **a != *b).count()
             + usize::from(params.substeps != clean.substeps)
-            + usize::from(params.iterations != clean.iterations);
+            + usize::from(params.iterations != clean.iterations)
+            + usize::from(params.volume.resolution != clean.volume.resolution);
         prop_assert_eq!(issues.len(), changed, "{:?}", issues);
     }
 

@@ -110,7 +110,10 @@ impl VolumeGrid {
     fn splat_of(&self, p: Vec3) -> Option<Splat> {
         let g = (p - self.origin) * self.inverse_cell;
         let [dx, dy, dz] = self.dims;
-        if !(g.x >= 0.0 && g.y >= 0.0 && g.z >= 0.0) {
+        // Compared as floats, so that a point far outside (or not finite) never becomes
+        // an index.
+        let within = |g: f32, d: usize| g >= 0.0 && g < (d - 1) as f32;
+        if !(within(g.x, dx) && within(g.y, dy) && within(g.z, dz)) {
             return None;
         }
         let base = g.floor();
