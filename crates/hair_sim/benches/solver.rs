@@ -106,6 +106,49 @@ fn strand_step(c: &mut Criterion) {
     group.finish();
 }
 
+/// A settled 2,048 × 16 groom on a turning head, stepped on this thread with and without
+/// hair volume, and the volume's grid work alone (splat and feedback: `apply_volume`).
+fn volume(c: &mut Criterion) {
+    let (collider, rest) = settled_groom(2048, 60);
+    let mut group = c.benchmark_group("volume 2048x16");
+    group.throughput(Throughput::Elements(2048 * 16));
+    let on = SimParams { volume: Volume { enabled: true, ..Volume::default() }, ..SimParams::default() };
+    for (name, params) in [("step, volume off", SimParams::default()), ("step, volume on", on)] {
+        let mut strands = Strands::new(rest.clone(), head_pose(0));
+        let mut frame = 0u64;
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                let input = input_at(frame, &collider, &params);
+                frame += 1;
+                strands.step(black_box(&input))
+            })
+        });
+    }
+    let mut strands = Strands::new(rest.clone(), head_pose(0));
+    let mut frame = 0u64;
+    group.bench_function("apply_volume alone", |b| {
+        b.iter(|| {
+            strands.apply_volume(black_box(&input_at(frame, &collider, &on)));
+            frame += 1;
+        })
+    });
+    group.finish();
+}
+
+/// The step of frame `frame` of the turning head.
+fn input_at<'a>(frame: u64, collider: &'a HeadCollider, params: &'a SimParams) -> StepInput<'a> {
+    StepInput {
+        dt: DT,
+        time: frame as f32 * DT,
+        head_from: head_pose(frame),
+        head_to: head_pose(frame + 1),
+        collider: Some(collider),
+        extra_colliders: &[],
+        surface_patch: None,
+        params,
+    }
+}
+
 fn groom(c: &mut Criterion) {
     let head = head();
     let weights = test_scalp(&head);
@@ -182,6 +225,6 @@ fn config() -> Criterion {
 criterion_group! {
     name = benches;
     config = config();
-    targets = collider_build, collider_resolve, strand_step, groom, opacity_map, frames, draw_order
+    targets = collider_build, collider_resolve, strand_step, volume, groom, opacity_map, frames, draw_order
 }
 criterion_main!(benches);

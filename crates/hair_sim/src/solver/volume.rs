@@ -39,12 +39,21 @@ pub struct VolumeGrid {
     /// The mean rest mass over the cells the rest pose reaches, what the push compares
     /// a density excess with.
     rest_scale: f32,
+    /// Per cell, worked out once a step from the sums: the hair's mean velocity (zero in
+    /// an empty cell), and its density excess over the rest pose's as a share of
+    /// `rest_scale`.
+    mean_velocity: Vec<Vec3>,
+    excess: Vec<f32>,
+    /// Each particle's splat, kept from the sums for the feedback.
+    splats: Vec<Option<Splat>>,
 }
 
-/// A point's eight cells and their fixed-point weights.
+/// A point's eight cells, their fixed-point weights, and where in its cell it lies.
+#[derive(Clone, Debug)]
 struct Splat {
     cells: [usize; 8],
     weights: [i64; 8],
+    fraction: Vec3,
 }
 
 impl VolumeGrid {
@@ -77,6 +86,9 @@ impl VolumeGrid {
             momentum: vec![[0; 3]; cells],
             rest_mass: vec![0; cells],
             rest_scale: 1.0,
+            mean_velocity: vec![Vec3::ZERO; cells],
+            excess: vec![0.0; cells],
+            splats: Vec::new(),
         };
         grid.splat(rest, &rest.positions, None, Pose::IDENTITY);
         grid.rest_mass.clone_from(&grid.mass);
@@ -121,13 +133,14 @@ impl VolumeGrid {
         if i + 1 >= dx || j + 1 >= dy || k + 1 >= dz {
             return None;
         }
-        let fraction = (g - base).to_array().map(|f| ((f * WEIGHT_ONE as f32).round() as i64).clamp(0, WEIGHT_ONE));
-        let mut splat = Splat { cells: [0; 8], weights: [0; 8] };
+        let fraction = g - base;
+        let fixed = fraction.to_array().map(|f| ((f * WEIGHT_ONE as f32).round() as i64).clamp(0, WEIGHT_ONE));
+        let mut splat = Splat { cells: [0; 8], weights: [0; 8], fraction };
         for corner in 0..8 {
             let (a, b, c) = (corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
             let axis = |bit: usize, f: i64| if bit == 1 { f } else { WEIGHT_ONE - f };
             splat.cells[corner] = (i + a) + dx * ((j + b) + dy * (k + c));
-            splat.weights[corner] = axis(a, fraction[0]) * axis(b, fraction[1]) * axis(c, fraction[2]);
+            splat.weights[corner] = axis(a, fixed[0]) * axis(b, fixed[1]) * axis(c, fixed[2]);
         }
         Some(splat)
     }
@@ -139,11 +152,14 @@ impl VolumeGrid {
         self.mass.fill(0);
         self.momentum.fill([0; 3]);
         let n = rest.particles_per_strand.max(1);
-        for (i, &x) in positions.iter().enumerate() {
-            if i % n == 0 {
-                continue;
-            }
-            let Some(splat) = self.splat_of(pose.inverse_transform_point(x)) else { continue };
+        let mut splats = std::mem::take(&mut self.splats);
+        splats.clear();
+        splats.extend(positions.iter().enumerate().map(|(i, &x)| {
+            // Roots are pinned: they neither count nor move.
+            (i % n != 0).then(|| self.splat_of(pose.inverse_transform_point(x))).flatten()
+        }));
+        for (i, splat) in splats.iter().enumerate() {
+            let Some(splat) = splat else { continue };
             let v = velocities.map_or([0; 3], |v| v[i].to_array().map(fixed_velocity));
             for (&c, &w) in splat.cells.iter().zip(&splat.weights) {
                 self.mass[c] += w;
@@ -152,40 +168,52 @@ impl VolumeGrid {
                 }
             }
         }
+        self.splats = splats;
+        // Each cell's mean and excess, once, for every particle that reads it.
+        let units = PARTICLE_MASS_UNITS as f32;
+        for (c, ((&m, &r), momentum)) in self.mass.iter().zip(&self.rest_mass).zip(&self.momentum).enumerate() {
+            self.excess[c] = (m - r) as f32 / units / self.rest_scale;
+            self.mean_velocity[c] = if m > 0 {
+                let scale = 1.0 / (m as f64 * f64::from(1u32 << VELOCITY_BITS));
+                Vec3::from_array(momentum.map(|s| (to_f64(s) * scale) as f32))
+            } else {
+                Vec3::ZERO
+            };
+        }
     }
 
-    /// The mean velocity of the hair at head-local `p`, and the gradient (per metre, head
+    /// The mean velocity of the hair where `splat` lies, and the gradient (per metre, head
     /// axes) of its density excess over the rest pose's, as a share of the mean rest
-    /// density; `None` outside the grid.
-    fn sample(&self, p: Vec3) -> Option<(Vec3, Vec3)> {
-        let splat = self.splat_of(p)?;
-        let g = (p - self.origin) * self.inverse_cell;
-        let f = g - g.floor();
-        let (mut velocity, mut weight) = (Vec3::ZERO, 0.0f64);
-        let mut gradient = Vec3::ZERO;
+    /// density.
+    fn sample(&self, splat: &Splat) -> (Vec3, Vec3) {
+        let f = splat.fraction;
+        let (mut velocity, mut weight, mut gradient) = (Vec3::ZERO, 0.0f32, Vec3::ZERO);
         for corner in 0..8 {
             let c = splat.cells[corner];
-            let w = splat.weights[corner] as f64 / PARTICLE_MASS_UNITS as f64;
             if self.mass[c] > 0 {
-                let m = self.mass[c] as f64;
-                let mean = self.momentum[c].map(|s| (s as f64 / m / f64::from(1u32 << VELOCITY_BITS)) as f32);
-                velocity += Vec3::from_array(mean) * w as f32;
+                let w = splat.weights[corner] as f32 / PARTICLE_MASS_UNITS as f32;
+                velocity += self.mean_velocity[c] * w;
                 weight += w;
             }
-            let excess = (self.mass[c] - self.rest_mass[c]) as f32 / PARTICLE_MASS_UNITS as f32 / self.rest_scale;
             // The trilinear interpolant's derivative along each axis.
-            let (a, b, cz) = ((corner & 1) as f32, ((corner >> 1) & 1) as f32, ((corner >> 2) & 1) as f32);
-            let along = |bit: f32, t: f32| if bit == 1.0 { t } else { 1.0 - t };
-            let slope = |bit: f32| if bit == 1.0 { 1.0 } else { -1.0 };
+            let bits = [corner & 1, (corner >> 1) & 1, (corner >> 2) & 1];
+            let along = |axis: usize, t: f32| if bits[axis] == 1 { t } else { 1.0 - t };
+            let slope = |axis: usize| if bits[axis] == 1 { 1.0 } else { -1.0 };
             gradient += Vec3::new(
-                slope(a) * along(b, f.y) * along(cz, f.z),
-                along(a, f.x) * slope(b) * along(cz, f.z),
-                along(a, f.x) * along(b, f.y) * slope(cz),
-            ) * excess;
+                slope(0) * along(1, f.y) * along(2, f.z),
+                along(0, f.x) * slope(1) * along(2, f.z),
+                along(0, f.x) * along(1, f.y) * slope(2),
+            ) * self.excess[c];
         }
-        let velocity = if weight > 0.0 { velocity / weight as f32 } else { Vec3::ZERO };
-        Some((velocity, gradient * self.inverse_cell))
+        let velocity = if weight > 0.0 { velocity / weight } else { Vec3::ZERO };
+        (velocity, gradient * self.inverse_cell)
     }
+}
+
+/// `s`, rounded to the nearest `f64` as `s as f64` rounds it, by the hardware's
+/// conversion where it fits in 64 bits (nearly always: the 128-bit one is a library call).
+fn to_f64(s: i128) -> f64 {
+    i64::try_from(s).map_or(s as f64, |s| s as f64)
 }
 
 /// A velocity component in the momentum sums' fixed point.
@@ -209,18 +237,19 @@ pub(super) fn apply(
 ) {
     grid.splat(rest, positions, Some(velocities), pose);
     let n = rest.particles_per_strand.max(1);
-    let steps = dt * 60.0;
-    for (i, (&x, v)) in positions.iter().zip(velocities.iter_mut()).enumerate() {
-        let j = i % n;
-        if j == 0 {
-            continue;
-        }
-        let Some((mean, gradient)) = grid.sample(pose.inverse_transform_point(x)) else { continue };
-        let t = j as f32 / (n - 1).max(1) as f32;
-        let friction = volume.friction_root + (volume.friction_tip - volume.friction_root) * t;
-        let share = 1.0 - (1.0 - friction).powf(steps);
-        let push = pose.rotation * gradient * (-volume.density_push * grid.cell * dt);
-        *v += (mean - *v) * share + push;
+    // Each particle index's share of the difference, for a step of `dt`.
+    let shares: Vec<f32> = (0..n)
+        .map(|j| {
+            let t = j as f32 / (n - 1).max(1) as f32;
+            let friction = volume.friction_root + (volume.friction_tip - volume.friction_root) * t;
+            1.0 - (1.0 - friction).powf(dt * 60.0)
+        })
+        .collect();
+    let push = -volume.density_push * grid.cell * dt;
+    for (i, (splat, v)) in grid.splats.iter().zip(velocities.iter_mut()).enumerate() {
+        let Some(splat) = splat else { continue };
+        let (mean, gradient) = grid.sample(splat);
+        *v += (mean - *v) * shares[i % n] + pose.rotation * gradient * push;
     }
 }
 
