@@ -228,6 +228,14 @@ fn simulation_section(ui: &mut egui::Ui, p: &mut SimParams) {
         });
     });
     ui.add(egui::Slider::new(&mut p.sleep_distance, 0.0..=0.005).text("sleep within (m, 0: never)").fixed_decimals(4));
+    // Hair–hair interaction on a grid (the CPU solver only).
+    ui.checkbox(&mut p.volume.enabled, "hair volume (hair pushes hair; CPU solver)");
+    ui.add_enabled_ui(p.volume.enabled, |ui| {
+        slider(ui, &mut p.volume.resolution, 4..=64, "grid cells");
+        slider(ui, &mut p.volume.friction_root, 0.0..=1.0, "friction between strands, root");
+        slider(ui, &mut p.volume.friction_tip, 0.0..=1.0, "friction between strands, tip");
+        slider(ui, &mut p.volume.density_push, 0.0..=50.0, "push out of dense hair (m/s²)");
+    });
     // The same positions on every path; only the step time (in the diagnostics) changes.
     ui.horizontal(|ui| {
         ui.label("SIMD");
