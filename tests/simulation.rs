@@ -254,31 +254,45 @@ fn wind_blows_tips_downwind() {
     assert!(shift > 0.02, "tips moved only {shift} m");
 }
 
-#[test]
-fn teleport_and_frame_hitch_stay_sane() {
-    let (mut app, head) = grown(groom());
-    run(&mut app, 30);
+/// The head jumps 10 m along x in one frame.
+fn teleport(app: &mut App, head: Entity) {
     app.world_mut().get_mut::<Transform>(head).unwrap().translation = Vec3::new(10.0, 0.0, 0.0);
     app.update();
-    // The step of the frame the head jumped in sees the jump.
-    assert_eq!(state(&app, head).last_report().teleport_resets, 200, "every strand was reset to the new place");
-    app.update();
-    let state_now = state(&app, head);
-    let stretch = state_now.strands().max_stretch();
-    let (root, tip) = roots_and_tips(&app, head)[0];
-    println!("after a 10 m teleport: stretch {stretch:.5}, root at {root}, tip at {tip}");
-    assert!(all_finite(&app, head));
-    assert!(stretch <= 0.1, "a segment is stretched by {stretch}");
-    assert!((root.x - 10.0).abs() < 0.2 && tip.distance(root) < 0.3, "the hair came along");
+}
 
-    // A one-second hitch while the head moves 30 cm and turns.
+/// A one-second frame while the head moves 30 cm and turns, then five ordinary frames.
+fn hitch_while_turning(app: &mut App, head: Entity) {
     app.insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs(1)));
     let mut transform = app.world_mut().get_mut::<Transform>(head).unwrap();
     transform.translation.y += 0.3;
     transform.rotation = Quat::from_rotation_y(1.0);
     app.update();
     app.insert_resource(TimeUpdateStrategy::ManualDuration(FRAME));
-    run(&mut app, 5);
+    run(app, 5);
+}
+
+/// After [`teleport`]: the hair finite, no segment stretched past the tolerance, and the
+/// first strand 10 m along with its root.
+fn assert_came_along(app: &App, head: Entity, stretch: f32) {
+    let (root, tip) = roots_and_tips(app, head)[0];
+    assert!(all_finite(app, head));
+    assert!(stretch <= 0.1, "a segment is stretched by {stretch}");
+    assert!((root.x - 10.0).abs() < 0.2 && tip.distance(root) < 0.3, "the hair came along: root {root}, tip {tip}");
+}
+
+#[test]
+fn teleport_and_frame_hitch_stay_sane() {
+    let (mut app, head) = grown(groom());
+    run(&mut app, 30);
+    teleport(&mut app, head);
+    // The step of the frame the head jumped in sees the jump.
+    assert_eq!(state(&app, head).last_report().teleport_resets, 200, "every strand was reset to the new place");
+    app.update();
+    let stretch = state(&app, head).strands().max_stretch();
+    println!("after a 10 m teleport: stretch {stretch:.5}");
+    assert_came_along(&app, head, stretch);
+
+    hitch_while_turning(&mut app, head);
     let stretch = state(&app, head).strands().max_stretch();
     println!("after a 1 s hitch: stretch {stretch:.5}");
     assert!(all_finite(&app, head));
@@ -689,28 +703,15 @@ fn a_gpu_groom_survives_a_teleport_and_a_frame_hitch() {
     wait_until_ready(&mut app, head);
     wait_until_on_gpu(&mut app, head);
     run(&mut app, 30);
-    app.world_mut().get_mut::<Transform>(head).unwrap().translation = Vec3::new(10.0, 0.0, 0.0);
-    app.update();
+    teleport(&mut app, head);
     let reported = wait_for_gpu(&mut app, head);
     let positions = state(&app, head).current_positions().to_vec();
     let stretch = stretch_of(&positions, state(&app, head));
-    let (root, tip) = roots_and_tips(&app, head)[0];
-    println!(
-        "GPU, after a 10 m teleport: {} strands reset, stretch {stretch:.5}, root at {root}, tip at {tip}",
-        reported.teleport_resets
-    );
+    println!("GPU, after a 10 m teleport: {} strands reset, stretch {stretch:.5}", reported.teleport_resets);
     assert_eq!(reported.teleport_resets, 200, "every strand was reset to the new place");
-    assert!(all_finite(&app, head));
-    assert!(stretch <= 0.1, "a segment is stretched by {stretch}");
-    assert!((root.x - 10.0).abs() < 0.2 && tip.distance(root) < 0.3, "the hair came along");
+    assert_came_along(&app, head, stretch);
 
-    app.insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs(1)));
-    let mut transform = app.world_mut().get_mut::<Transform>(head).unwrap();
-    transform.translation.y += 0.3;
-    transform.rotation = Quat::from_rotation_y(1.0);
-    app.update();
-    app.insert_resource(TimeUpdateStrategy::ManualDuration(FRAME));
-    run(&mut app, 5);
+    hitch_while_turning(&mut app, head);
     wait_for_gpu(&mut app, head);
     let positions = state(&app, head).current_positions().to_vec();
     let stretch = stretch_of(&positions, state(&app, head));

@@ -196,6 +196,8 @@ fn record_grooms(
     let started = Instant::now();
     let RenderGrooms { context: gpu, passes, grooms, letters, live } = &mut *grooms;
     grooms.retain(|key, _| live.contains(key));
+    // Only a groom handed over, which waited for the passes, gets letters besides its start.
+    let made = passes.as_mut().and_then(Passes::made).map(Arc::clone);
     for (key, letter) in letters.drain(..) {
         if let GpuCommand::Start { rest, pose, collider, inbox } = letter {
             let gpu = gpu.get_or_insert_with(|| {
@@ -238,7 +240,6 @@ fn record_grooms(
             continue;
         }
         let Some(groom) = grooms.get_mut(&key) else { continue };
-        let made = passes.as_mut().and_then(Passes::made).map(Arc::clone);
         if let Err(e) = groom.record(letter, made.as_deref()) {
             groom.inbox().failed = Some(e.to_string());
             grooms.remove(&key);

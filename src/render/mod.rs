@@ -581,8 +581,7 @@ fn upload_guides(
         // root (stretched as far as the length tolerance lets it), the blending choice the
         // strands' shape on the head as last copied.
         let culled = if on_gpu {
-            let rest = state.strands().rest();
-            let longest = rest.lengths.chunks_exact(n).map(|strand| strand.iter().sum::<f32>()).fold(0.0, f32::max);
+            let longest = state.strands().rest().longest_strand();
             let tolerance = effective(&settings, local_settings).sanitized().0.length_tolerance;
             widened(roots_min, roots_max, longest * (1.0 + tolerance) * stretch + reach)
         } else {

@@ -11,12 +11,9 @@ mod scene;
 mod drawing;
 mod lights;
 
-use bevy::log::LogPlugin;
 use bevy::prelude::*;
 use bevy::render::RenderPlugin;
 use bevy::render::storage::ShaderBuffer;
-use bevy::window::ExitCondition;
-use bevy::winit::WinitPlugin;
 use bevy_hair::prelude::*;
 use bevy_hair::render::{HairDrawing, HairDrawnBy, HairMaterial};
 use bevy_hair::{is_procedural_scalp, procedural_head_mesh};
@@ -238,15 +235,8 @@ fn every_shader_variant_composes_and_validates_without_a_gpu() {
 
     // The app loads Bevy's shader libraries and the hair shader, and renders nothing.
     let mut app = App::new();
-    app.add_plugins(
-        DefaultPlugins
-            .build()
-            .disable::<WinitPlugin>()
-            .disable::<LogPlugin>()
-            .set(WindowPlugin { primary_window: None, exit_condition: ExitCondition::DontExit, ..default() })
-            .set(RenderPlugin { render_creation: WgpuSettings { backends: None, ..default() }.into(), ..default() }),
-    )
-    .add_plugins(HairPlugin::default());
+    let render = RenderPlugin { render_creation: WgpuSettings { backends: None, ..default() }.into(), ..default() };
+    app.add_plugins(common::headless_plugins(render)).add_plugins(HairPlugin::default());
     app.finish();
     app.cleanup();
     let hair: Handle<Shader> = app.world().resource::<AssetServer>().load(bevy_hair::render::shader_path());

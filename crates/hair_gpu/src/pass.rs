@@ -58,6 +58,25 @@ impl SharedLayout {
         SharedLayout { group, pipeline }
     }
 
+    /// `source` compiled as `label`, one pipeline per entry point of `entry_points`, all on
+    /// one layout of `bindings` ([`Self::new`]).
+    pub fn compile<'a>(
+        device: &wgpu::Device,
+        label: &str,
+        source: &str,
+        bindings: &[(wgpu::BufferBindingType, bool)],
+        entry_points: impl IntoIterator<Item = &'a str>,
+    ) -> (Self, Vec<wgpu::ComputePipeline>) {
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(label),
+            source: wgpu::ShaderSource::Wgsl(source.into()),
+        });
+        let layout = SharedLayout::new(device, label, bindings);
+        let pipelines =
+            entry_points.into_iter().map(|entry_point| layout.pipeline(device, &module, entry_point)).collect();
+        (layout, pipelines)
+    }
+
     /// The pipeline of `entry_point` on this layout.
     pub fn pipeline(
         &self,

@@ -62,10 +62,6 @@ pub struct OpacityMapPasses {
 impl OpacityMapPasses {
     /// Compiles the passes on `device`.
     pub fn new(device: &wgpu::Device) -> Self {
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("hair_gpu shadow.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(SHADOW_SHADER.into()),
-        });
         let uniform_type = wgpu::BufferBindingType::Uniform;
         let bindings = [
             (uniform_type, false),
@@ -74,8 +70,9 @@ impl OpacityMapPasses {
             (storage(false), false),
             (storage(false), false),
         ];
-        let layout = SharedLayout::new(device, "hair_gpu opacity map", &bindings);
-        let pipelines = PASSES.iter().map(|(entry_point, _)| layout.pipeline(device, &module, entry_point)).collect();
+        let entry_points = PASSES.iter().map(|(entry_point, _)| *entry_point);
+        let (layout, pipelines) =
+            SharedLayout::compile(device, "hair_gpu opacity map", SHADOW_SHADER, &bindings, entry_points);
         OpacityMapPasses { layout, pipelines }
     }
 }

@@ -34,10 +34,6 @@ pub struct DrawOrderPasses {
 impl DrawOrderPasses {
     /// Compiles the passes on `device`.
     pub fn new(device: &wgpu::Device) -> Self {
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("hair_gpu sort.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(SORT_SHADER.into()),
-        });
         let uniform_type = wgpu::BufferBindingType::Uniform;
         let bindings = [
             (uniform_type, false),
@@ -46,10 +42,10 @@ impl DrawOrderPasses {
             (storage(false), false),
             (uniform_type, true),
         ];
-        let layout = SharedLayout::new(device, "hair_gpu draw order", &bindings);
-        let pipeline = |entry_point: &str| layout.pipeline(device, &module, entry_point);
-        let (keys_pass, step_pass, write_pass) =
-            (pipeline("keys_of_pieces"), pipeline("sort_step"), pipeline("write_order"));
+        let entry_points = ["keys_of_pieces", "sort_step", "write_order"];
+        let (layout, pipelines) =
+            SharedLayout::compile(device, "hair_gpu draw order", SORT_SHADER, &bindings, entry_points);
+        let [keys_pass, step_pass, write_pass] = pipelines.try_into().expect("three entry points");
         DrawOrderPasses { layout, keys_pass, step_pass, write_pass }
     }
 }

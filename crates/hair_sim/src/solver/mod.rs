@@ -142,6 +142,11 @@ impl RestShape {
     pub fn strand_count(&self) -> usize {
         self.positions.len() / self.particles_per_strand
     }
+
+    /// The length of the longest strand at rest, root to tip, m (0 for none).
+    pub fn longest_strand(&self) -> f32 {
+        self.lengths.chunks(self.particles_per_strand).map(|strand| strand.iter().sum::<f32>()).fold(0.0, f32::max)
+    }
 }
 
 /// What one step did, summed over strands.

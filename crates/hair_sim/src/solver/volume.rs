@@ -61,17 +61,11 @@ impl VolumeGrid {
     /// particles (head space) grown by a quarter of the longest strand on every side: the
     /// reach of hair that swings away from its rest pose. Its rest density is `rest`'s.
     pub fn new(rest: &RestShape, resolution: u32) -> Self {
-        let n = rest.particles_per_strand.max(1);
-        let (mut min, mut max) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-        for &p in &rest.positions {
-            min = min.min(p);
-            max = max.max(p);
-        }
-        if !min.is_finite() || !max.is_finite() {
+        let (mut min, mut max) = crate::math::bounds(&rest.positions);
+        if rest.positions.is_empty() {
             (min, max) = (Vec3::ZERO, Vec3::ZERO);
         }
-        let longest = rest.lengths.chunks(n).map(|strand| strand.iter().sum::<f32>()).fold(0.0, f32::max);
-        let margin = 0.25 * longest + 1e-3;
+        let margin = 0.25 * rest.longest_strand() + 1e-3;
         let (min, max) = (min - Vec3::splat(margin), max + Vec3::splat(margin));
         let extent = (max - min).max_element().max(1e-3);
         let cell = extent / resolution.max(1) as f32;
