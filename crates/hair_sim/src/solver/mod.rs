@@ -18,7 +18,9 @@ pub use detail::{FULL_DETAIL_HEIGHT, MAX_DETAIL_LEVEL, level_for_height, level_w
 use rest_lanes::RestLanes;
 
 pub use step::{MIN_STEP, StepConstants};
-pub use volume::{PARTICLE_MASS_UNITS, VolumeGrid};
+pub use volume::{
+    Feedback, MAX_FIXED_VELOCITY, PARTICLE_MASS_UNITS, VELOCITY_BITS, VolumeGrid, WEIGHT_BITS, fixed_velocity,
+};
 mod volume;
 mod wind;
 

@@ -6,8 +6,10 @@
 //! meet push each other apart instead of passing through.
 //!
 //! The splat is in fixed point, so the sums are exact integers in any order: every thread
-//! count and every SIMD path gives the same grid. The rest density is the same splat of
-//! the rest pose, so at rest the push is exactly zero.
+//! count, every SIMD path and the GPU (whose atomics add in any order) give the same grid.
+//! Each particle adds at most 2^31 to a cell's sum, an `i32`, which the GPU adds into a
+//! 64-bit sum held as two words. The rest density is the same splat of the rest pose, so
+//! at rest the push is exactly zero.
 
 use super::RestShape;
 use super::params::Volume;
@@ -15,12 +17,16 @@ use crate::math::{Pose, Vec3};
 
 /// Fractional bits of a trilinear weight per axis: a particle's eight weights are
 /// products of three, summing to exactly `1 << (3 · WEIGHT_BITS)`.
-const WEIGHT_BITS: u32 = 10;
+pub const WEIGHT_BITS: u32 = 5;
 const WEIGHT_ONE: i64 = 1 << WEIGHT_BITS;
 /// One particle's whole mass in a cell's integer sum.
 pub const PARTICLE_MASS_UNITS: i64 = 1 << (3 * WEIGHT_BITS);
 /// Fractional bits of a velocity component, m/s, in the momentum sums.
-const VELOCITY_BITS: i32 = 24;
+pub const VELOCITY_BITS: u32 = 11;
+/// The largest velocity component the momentum sums hold, in their fixed point (about
+/// 32 m/s): with a weight of at most [`PARTICLE_MASS_UNITS`], a particle's share of a
+/// cell's momentum fits an `i32`.
+pub const MAX_FIXED_VELOCITY: i64 = (1 << 16) - 1;
 
 /// The grid a groom's particles splat into, in head space over the groom's reach.
 #[derive(Clone, Debug)]
@@ -32,8 +38,8 @@ pub struct VolumeGrid {
     dims: [usize; 3],
     /// Per cell: the particles' weights, summed (units of [`PARTICLE_MASS_UNITS`]).
     mass: Vec<i64>,
-    /// Per cell: weight × velocity (world axes, `VELOCITY_BITS` fixed point), summed.
-    momentum: Vec<[i128; 3]>,
+    /// Per cell: weight × velocity (world axes, [`VELOCITY_BITS`] fixed point), summed.
+    momentum: Vec<[i64; 3]>,
     /// Per cell: the rest pose's mass.
     rest_mass: Vec<i64>,
     /// The mean rest mass over the cells the rest pose reaches, what the push compares
@@ -92,9 +98,30 @@ impl VolumeGrid {
         grid
     }
 
-    /// Cells along each axis.
+    /// Cells along each axis (x fastest in the cell arrays).
     pub fn dims(&self) -> [usize; 3] {
         self.dims
+    }
+
+    /// The head-local corner of cell 0.
+    pub fn origin(&self) -> Vec3 {
+        self.origin
+    }
+
+    /// The side of a cell, metres.
+    pub fn cell(&self) -> f32 {
+        self.cell
+    }
+
+    /// Cells per metre: what a head-local offset from [`Self::origin`] is multiplied by.
+    pub fn inverse_cell(&self) -> f32 {
+        self.inverse_cell
+    }
+
+    /// The mean rest mass over the cells the rest pose reaches, as a share of
+    /// [`PARTICLE_MASS_UNITS`]: the unit of the density excess the push reads.
+    pub fn rest_scale(&self) -> f32 {
+        self.rest_scale
     }
 
     /// Each cell's mass, in units of [`PARTICLE_MASS_UNITS`] per particle.
@@ -107,8 +134,8 @@ impl VolumeGrid {
         &self.rest_mass
     }
 
-    /// Each cell's momentum sums (fixed point: velocity × 2^24 × weight).
-    pub fn momentum(&self) -> &[[i128; 3]] {
+    /// Each cell's momentum sums (fixed point: velocity × 2^[`VELOCITY_BITS`] × weight).
+    pub fn momentum(&self) -> &[[i64; 3]] {
         &self.momentum
     }
 
@@ -128,7 +155,9 @@ impl VolumeGrid {
             return None;
         }
         let fraction = g - base;
-        let fixed = fraction.to_array().map(|f| ((f * WEIGHT_ONE as f32).round() as i64).clamp(0, WEIGHT_ONE));
+        // Rounded as the GPU rounds (`floor(x + 0.5)`): the product is exact, the sum
+        // correctly rounded on both.
+        let fixed = fraction.to_array().map(|f| ((f * WEIGHT_ONE as f32 + 0.5).floor() as i64).clamp(0, WEIGHT_ONE));
         let mut splat = Splat { cells: [0; 8], weights: [0; 8], fraction };
         for corner in 0..8 {
             let (a, b, c) = (corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
@@ -141,8 +170,8 @@ impl VolumeGrid {
 
     /// Clears the grid and splats the particles at `positions` (their velocities
     /// `velocities`, world axes; none: at rest), head-local by `pose`; roots are pinned and
-    /// not counted.
-    fn splat(&mut self, rest: &RestShape, positions: &[Vec3], velocities: Option<&[Vec3]>, pose: Pose) {
+    /// not counted. [`Self::mass`] and [`Self::momentum`] then hold the sums.
+    pub fn splat(&mut self, rest: &RestShape, positions: &[Vec3], velocities: Option<&[Vec3]>, pose: Pose) {
         self.mass.fill(0);
         self.momentum.fill([0; 3]);
         let n = rest.particles_per_strand.max(1);
@@ -158,7 +187,7 @@ impl VolumeGrid {
             for (&c, &w) in splat.cells.iter().zip(&splat.weights) {
                 self.mass[c] += w;
                 for (sum, v) in self.momentum[c].iter_mut().zip(v) {
-                    *sum += i128::from(w) * i128::from(v);
+                    *sum += w * v;
                 }
             }
         }
@@ -169,7 +198,7 @@ impl VolumeGrid {
             self.excess[c] = (m - r) as f32 / units / self.rest_scale;
             self.mean_velocity[c] = if m > 0 {
                 let scale = 1.0 / (m as f64 * f64::from(1u32 << VELOCITY_BITS));
-                Vec3::from_array(momentum.map(|s| (to_f64(s) * scale) as f32))
+                Vec3::from_array(momentum.map(|s| (s as f64 * scale) as f32))
             } else {
                 Vec3::ZERO
             };
@@ -204,15 +233,14 @@ impl VolumeGrid {
     }
 }
 
-/// `s`, rounded to the nearest `f64` as `s as f64` rounds it, by the hardware's
-/// conversion where it fits in 64 bits (nearly always: the 128-bit one is a library call).
-fn to_f64(s: i128) -> f64 {
-    i64::try_from(s).map_or(s as f64, |s| s as f64)
-}
-
-/// A velocity component in the momentum sums' fixed point.
-fn fixed_velocity(v: f32) -> i64 {
-    (f64::from(v) * f64::from(1u32 << VELOCITY_BITS)).round() as i64
+/// A velocity component in the momentum sums' fixed point, rounded as the GPU rounds
+/// (`floor(x + 0.5)` in `f32`: the product is exact, the sum correctly rounded on both),
+/// within [`MAX_FIXED_VELOCITY`]; not finite: 0 (such a strand is reset by the step).
+pub fn fixed_velocity(v: f32) -> i64 {
+    if !v.is_finite() {
+        return 0;
+    }
+    ((v * (1u32 << VELOCITY_BITS) as f32 + 0.5).floor() as i64).clamp(-MAX_FIXED_VELOCITY, MAX_FIXED_VELOCITY)
 }
 
 /// The volume's effect on one step of `dt` seconds: splats `positions` and `velocities`
@@ -231,19 +259,38 @@ pub(super) fn apply(
 ) {
     grid.splat(rest, positions, Some(velocities), pose);
     let n = rest.particles_per_strand.max(1);
-    // Each particle index's share of the difference, for a step of `dt`.
-    let shares: Vec<f32> = (0..n)
-        .map(|j| {
-            let t = j as f32 / (n - 1).max(1) as f32;
-            let friction = volume.friction_root + (volume.friction_tip - volume.friction_root) * t;
-            1.0 - (1.0 - friction).powf(dt * 60.0)
-        })
-        .collect();
-    let push = -volume.density_push * grid.cell * dt;
+    let feedback = Feedback::new(grid, volume, n, dt);
     for (i, (splat, v)) in grid.splats.iter().zip(velocities.iter_mut()).enumerate() {
         let Some(splat) = splat else { continue };
         let (mean, gradient) = grid.sample(splat);
-        *v += (mean - *v) * shares[i % n] + pose.rotation * gradient * push;
+        *v += (mean - *v) * feedback.shares[i % n] + pose.rotation * gradient * feedback.push;
+    }
+}
+
+/// How much of the grid's answer a step of the volume feeds back into the velocities, the
+/// same for the CPU and the GPU.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Feedback {
+    /// Per particle index, root to tip: the share of the difference to the hair's mean
+    /// velocity taken in this step (`volume.friction_root` to `friction_tip` per 1/60 s,
+    /// compounded over the step's length).
+    pub shares: Vec<f32>,
+    /// The velocity change per unit of density-excess gradient (per cell) in this step:
+    /// `−density_push × cell × dt`.
+    pub push: f32,
+}
+
+impl Feedback {
+    /// The feedback of a step of `dt` seconds on `grid`, for strands of `n` particles.
+    pub fn new(grid: &VolumeGrid, volume: &Volume, n: usize, dt: f32) -> Self {
+        let shares = (0..n)
+            .map(|j| {
+                let t = j as f32 / (n - 1).max(1) as f32;
+                let friction = volume.friction_root + (volume.friction_tip - volume.friction_root) * t;
+                1.0 - (1.0 - friction).powf(dt * 60.0)
+            })
+            .collect();
+        Feedback { shares, push: -volume.density_push * grid.cell * dt }
     }
 }
 

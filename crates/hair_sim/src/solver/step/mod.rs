@@ -103,6 +103,8 @@ impl PoseMatrix {
 /// GPU solver (`hair_gpu` uploads it). `None` from [`StepConstants::new`] means no step.
 #[derive(Clone, Debug, PartialEq)]
 pub struct StepConstants {
+    /// The step's length, seconds: what was asked, shortened to the longest step taken.
+    pub dt: f32,
     /// Substep length, seconds.
     pub h: f32,
     /// The head's pose at each substep boundary: `substeps + 1` of them, from the step's
@@ -143,6 +145,7 @@ impl StepConstants {
             })
             .collect();
         Some(StepConstants {
+            dt,
             h,
             poses,
             drag_factor: (-p.drag * h).exp(),
