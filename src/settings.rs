@@ -72,8 +72,8 @@ pub enum HairBackend {
     /// blending choice, the blended draw order, self-shadow maps, `.hair` files) is as
     /// late. [`HairState::last_report`] comes back the same way.
     /// Every guide is simulated (levels of detail do not apply).
-    /// Where the GPU cannot step the groom (no render device, an adapter without compute,
-    /// hair volume on, which only the CPU has), it steps on the CPU and a
+    /// Where the GPU cannot step the groom (no render device, an adapter without compute),
+    /// it steps on the CPU and a
     /// [`HairError`](crate::HairError) says why, once.
     ///
     /// [`HairState`]: crate::HairState

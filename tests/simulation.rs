@@ -512,10 +512,10 @@ fn turning(k: usize) -> Transform {
     Transform::from_rotation(Quat::from_rotation_y(1.5 * (k as f32 / 30.0).sin()))
 }
 
-/// Hair volume is the CPU's: a groom asking for the GPU with volume on steps on the CPU,
-/// exactly as one that asks for the CPU, and says why once.
+/// Hair volume runs on the GPU too: a groom asking for the GPU with volume on is stepped
+/// there, reports nothing, and moves as the same groom on the CPU does.
 #[test]
-fn a_gpu_groom_with_volume_steps_on_the_cpu_and_says_why_once() {
+fn a_gpu_groom_with_volume_steps_on_the_gpu() {
     let Some(mut app) = app_on_a_gpu() else { return };
     let volume = SimParams { volume: Volume { enabled: true, ..default() }, ..default() };
     app.insert_resource(HairSettings(volume));
@@ -524,26 +524,34 @@ fn a_gpu_groom_with_volume_steps_on_the_cpu_and_says_why_once() {
     app.init_resource::<GpuFallbacks>().add_systems(Last, collect_gpu_fallbacks);
     let heads = [(&mut app, HairBackend::Gpu), (&mut plain, HairBackend::Cpu)].map(|(app, backend)| {
         let head = spawn_head(app, groom(), Transform::default());
-        app.world_mut().entity_mut(head).insert(backend);
+        app.world_mut().entity_mut(head).insert((backend, HairReadback));
         wait_until_ready(app, head);
         head
     });
+    wait_until_on_gpu(&mut app, heads[0]);
+    // Grown and handed over at different updates: from here on, the same steps.
+    for (app, head) in [(&mut app, heads[0]), (&mut plain, heads[1])] {
+        wait_for_gpu(app, head);
+    }
     for k in 0..30 {
         for (app, head) in [(&mut app, heads[0]), (&mut plain, heads[1])] {
             *app.world_mut().get_mut::<Transform>(head).unwrap() = turning(k);
             app.update();
         }
     }
+    wait_for_gpu(&mut app, heads[0]);
     let fallbacks = app.world().resource::<GpuFallbacks>().0.clone();
-    println!("volume on the GPU backend: {fallbacks:?}");
-    assert_eq!(fallbacks.len(), 1, "reported once: {fallbacks:?}");
-    assert!(fallbacks[0].contains("volume"), "{}", fallbacks[0]);
-    assert!(state(&app, heads[0]).strands().volume_grid().is_some(), "the CPU stepped it with the volume");
-    assert_eq!(
-        state(&app, heads[0]).current_positions(),
-        state(&plain, heads[1]).current_positions(),
-        "the same bits as a groom on the CPU"
-    );
+    assert!(fallbacks.is_empty(), "stepped on the GPU: {fallbacks:?}");
+    assert!(state(&app, heads[0]).gpu_lag().is_some(), "the groom is on the GPU");
+    let (on_gpu, on_cpu) = (state(&app, heads[0]).current_positions(), state(&plain, heads[1]).current_positions());
+    let apart: Vec<f32> = on_gpu.iter().zip(on_cpu).map(|(a, b)| a.distance(*b)).collect();
+    let mean = apart.iter().sum::<f32>() / apart.len() as f32;
+    let max = apart.iter().copied().fold(0.0, f32::max);
+    println!("volume on the GPU beside the CPU after 30 steps: mean {:.4} mm, max {:.3} mm", mean * 1e3, max * 1e3);
+    assert!(on_gpu.iter().all(|p| p.is_finite()));
+    // The grid couples neighbouring strands, so rounding parts the two more than without
+    // volume (hair_gpu's against_cpu compares them with the CPU's own nudged twins).
+    assert!(mean < 2e-4 && max < 0.01, "mean {mean} m, max {max} m apart");
 }
 
 /// Every `GpuFallback` reason reported so far.

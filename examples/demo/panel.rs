@@ -228,8 +228,8 @@ fn simulation_section(ui: &mut egui::Ui, p: &mut SimParams) {
         });
     });
     ui.add(egui::Slider::new(&mut p.sleep_distance, 0.0..=0.005).text("sleep within (m, 0: never)").fixed_decimals(4));
-    // Hair–hair interaction on a grid (the CPU solver only).
-    ui.checkbox(&mut p.volume.enabled, "hair volume (hair pushes hair; CPU solver)");
+    // Hair–hair interaction on a grid.
+    ui.checkbox(&mut p.volume.enabled, "hair volume (hair pushes hair)");
     ui.add_enabled_ui(p.volume.enabled, |ui| {
         slider(ui, &mut p.volume.resolution, 4..=64, "grid cells");
         slider(ui, &mut p.volume.friction_root, 0.0..=1.0, "friction between strands, root");

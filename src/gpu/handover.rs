@@ -107,12 +107,6 @@ impl GpuSolver {
             self.link = None;
             return Err(why.clone());
         }
-        // Said before the GPU takes a step it would refuse, so that the CPU goes on from
-        // the positions it has.
-        if input.params.volume.enabled {
-            self.link = None;
-            return Err(hair_gpu::GpuError::VolumeOnCpuOnly.to_string());
-        }
         let link = self.link.get_or_insert_with(|| Link::start(strands, input.head_from, collider));
         if !link.running {
             return Ok(false);

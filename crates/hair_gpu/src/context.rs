@@ -49,12 +49,6 @@ pub enum GpuError {
     /// Reading the positions back failed.
     #[error("reading the positions back from the GPU failed: {0}")]
     ReadBack(String),
-    /// The step asks for hair–hair interaction ([`SimParams::volume`]), which only the CPU
-    /// solver has.
-    ///
-    /// [`SimParams::volume`]: hair_sim::solver::SimParams::volume
-    #[error("hair volume (SimParams::volume) runs on the CPU solver only")]
-    VolumeOnCpuOnly,
 }
 
 /// A wgpu device and queue to step on, and the adapter's description.

@@ -65,6 +65,7 @@ mod recorder;
 mod shadow;
 mod sort;
 mod uniform;
+mod volume;
 
 pub use compiled::GpuPasses;
 pub use context::{GpuContext, GpuError};
@@ -76,6 +77,8 @@ pub use readback::{PositionsCopy, ReportCopy};
 pub use shadow::{GpuOpacityMap, MAP_FLOATS, OpacityMapPasses, SHADOW_SHADER};
 pub use sort::{DrawOrderPasses, GpuDrawOrder, SORT_SHADER};
 use uniform::{GridInfo, StepUniform, bits, pack_patch};
+use volume::{GpuVolume, VolumePasses};
+pub use volume::VolumeSums;
 pub use wgpu;
 
 /// The solver's WGSL source: `layout.wgsl`, then the step shader's sections in `step/` (common
@@ -153,6 +156,10 @@ pub struct GpuStrands {
     id: u64,
     /// The pass that moves every root at once, made on first use.
     roots: Option<RootsUpload>,
+    /// Hair–hair interaction's passes, and its grid, made when a step first asks for it
+    /// (and again when it asks for another resolution).
+    volume_passes: VolumePasses,
+    volume: Option<GpuVolume>,
     /// The calls' commands since the last submission (locked by the calls that take
     /// `&self` and submit them: the copies, the waits, a [`GpuDrawing`]).
     recorder: std::sync::Mutex<Recorder>,
@@ -402,6 +409,8 @@ impl GpuStrands {
             published,
             id: NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
             roots: None,
+            volume_passes: VolumePasses::new(device),
+            volume: None,
             recorder: std::sync::Mutex::new(Recorder::new(device)),
             staging: StagingPool::default(),
             _alive: Alive::new(&LIVE_STRANDS),
@@ -572,9 +581,6 @@ impl GpuStrands {
     /// timestamp queries the step is timed, for [`Self::step_timed`] and the report
     /// ([`ReportCopy::into_timed_report`]).
     pub fn step(&mut self, input: &StepInput) -> Result<(), GpuError> {
-        if input.params.volume.enabled {
-            return Err(GpuError::VolumeOnCpuOnly);
-        }
         // At most one step waits for its submission: a caller that never submits holds one
         // step's commands and uploads, not all of them.
         let recorder = recording(&mut self.recorder);
@@ -631,6 +637,9 @@ impl GpuStrands {
         self.upload_tables(&tables);
         // What the next step may remember: this one's spring memory, or none.
         self.springs_remembered = springs;
+        if p.volume.enabled {
+            self.record_volume(&p.volume, constants.poses[0], constants.dt);
+        }
         let recorder = recording(&mut self.recorder);
         recorder.upload(&self.uniform, bytemuck::bytes_of(&uniform));
         let encoder = recorder.encoder();
@@ -666,6 +675,31 @@ impl GpuStrands {
         }
         recorder.steps += 1;
         Ok(())
+    }
+
+    /// Records the volume's effect on a step of `dt` ([`GpuVolume`]), the head at `pose` at
+    /// its start, making the grid first where there is none at `volume`'s resolution.
+    fn record_volume(&mut self, volume: &hair_sim::solver::Volume, pose: Pose, dt: f32) {
+        let n = self.particles_per_strand as usize;
+        if self.volume.as_ref().is_none_or(|v| v.resolution != volume.resolution) {
+            // The rest shape as uploaded: the CPU's grid is made from the same positions.
+            let rest = RestShape::new(self.rest_positions.clone(), n).expect("uploaded from a valid rest shape");
+            let (positions, motion) = (&self.positions, &self.motion);
+            let grid = GpuVolume::new(&self.device, &self.volume_passes, &rest, volume.resolution, positions, motion);
+            self.volume = Some(grid);
+        }
+        let grid = self.volume.as_ref().expect("made above");
+        let counts = (self.strands, self.particles_per_strand, self.slots.count() as u32);
+        grid.record(&self.volume_passes, recording(&mut self.recorder), volume, pose, dt, counts);
+    }
+
+    /// The hair–hair grid's integer sums after the last step with volume on, as
+    /// [`hair_sim::solver::VolumeGrid::mass`] and [`hair_sim::solver::VolumeGrid::momentum`]
+    /// hold them (the same splat gives the same bits on the CPU); `None` before any such
+    /// step. Waits for the queued steps.
+    pub fn volume_sums(&self) -> Option<Result<VolumeSums, GpuError>> {
+        let grid = self.volume.as_ref()?;
+        Some(self.copy_back(&grid.sums).into_bytes().map(|bytes| GpuVolume::decode(bytemuck::cast_slice(&bytes))))
     }
 
     /// The uniform and the pose and alpha table for one step with `c`'s constants (the
@@ -818,6 +852,13 @@ impl GpuStrands {
         self.copy_positions().into_positions()
     }
 
+    /// Waits for the queued steps and reads the velocities back, strand by strand (as
+    /// [`hair_sim::solver::Strands::velocities`]).
+    pub fn velocities(&self) -> Result<Vec<Vec3>, GpuError> {
+        // The first plane of `motion` is the velocities, in the positions' slots.
+        PositionsCopy(self.copy_back(&self.motion), self.slots).into_positions()
+    }
+
     /// Starts copying the positions back to the CPU, without waiting: they arrive when the
     /// GPU has run what was queued before ([`PositionsCopy::arrived`], [`PositionsCopy::into_positions`]).
     pub fn copy_positions(&self) -> PositionsCopy {
@@ -888,7 +929,12 @@ fn write_growing(
 /// A storage buffer (with `usage` besides) holding `contents`. A groom without strands
 /// still binds its buffers, which may not be empty: at least a report's worth of zeros
 /// (summed, it reports nothing; as root frames, no strand reads them).
-fn storage_buffer(device: &wgpu::Device, label: &str, contents: &[u8], usage: wgpu::BufferUsages) -> wgpu::Buffer {
+pub(crate) fn storage_buffer(
+    device: &wgpu::Device,
+    label: &str,
+    contents: &[u8],
+    usage: wgpu::BufferUsages,
+) -> wgpu::Buffer {
     let zeros = [0u8; REPORT_BYTES as usize];
     device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some(label),

@@ -9,6 +9,7 @@ use hair_sim::prelude::*;
 use std::sync::{Mutex, MutexGuard};
 
 mod drawing;
+mod volume;
 
 /// Head keyframes: (time s, yaw rad, pitch rad); a turn, a nod and a fast shake, as the
 /// CPU bench moves its head.

@@ -76,7 +76,8 @@ impl Default for Wind {
 /// share their motion and push apart where the hair is denser than in its rest pose, so
 /// a groom keeps its volume and locks swept through each other do not interpenetrate.
 /// The grid's cells are about a centimetre on a head: it stops bulk interpenetration, not
-/// single strands crossing. CPU solver only.
+/// single strands crossing. The GPU solver (`hair_gpu`) has the same grid, with the same
+/// integer sums.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "reflect", derive(Reflect))]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]

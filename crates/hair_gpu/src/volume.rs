@@ -1,0 +1,209 @@
+//! Hair with volume on the GPU (`volume.wgsl`): the GPU twin of hair_sim's
+//! `solver/volume.rs`. Once a step, before the substeps, the particles splat into the grid
+//! with integer atomics, each cell is resolved once, and each particle's velocity is fed
+//! back, as [`hair_sim::solver::Strands::apply_volume`] does on the CPU. The grid's
+//! geometry and rest mass are the CPU's own ([`VolumeGrid::new`]), so its integer sums are
+//! the CPU's, bit for bit ([`GpuStrands::volume_sums`](crate::GpuStrands::volume_sums)).
+
+use crate::pass::{SharedLayout, storage};
+use crate::recorder::Recorder;
+use bytemuck::{Pod, Zeroable};
+use hair_sim::math::Pose;
+use hair_sim::solver::{Feedback, RestShape, VolumeGrid};
+
+/// The volume shader's source: `layout.wgsl`, then `volume.wgsl`.
+pub(crate) const VOLUME_SHADER: &str = concat!(include_str!("layout.wgsl"), "\n", include_str!("volume.wgsl"));
+
+/// A grid's integer sums per cell: mass, and momentum along x, y and z (as
+/// [`VolumeGrid::mass`] and [`VolumeGrid::momentum`] hold them).
+pub type VolumeSums = (Vec<i64>, Vec<[i64; 3]>);
+
+/// Words per cell in the sums: mass and momentum along x, y and z, each 64 bits.
+const WORDS_PER_CELL: usize = 8;
+
+/// The volume shader's `Volume`.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct VolumeUniform {
+    counts: [u32; 4],
+    dims: [u32; 4],
+    origin: [f32; 4],
+    inverse: [[f32; 4]; 3],
+    translation: [f32; 4],
+    rotation: [[f32; 4]; 3],
+    feedback: [f32; 4],
+}
+
+/// The volume shader's three passes (`splat_particles`, `resolve_cells`, `feed_back`) on
+/// one layout: compiled with the strands, so that a step that first asks for volume does
+/// not wait for a compiler.
+pub(crate) struct VolumePasses {
+    layout: SharedLayout,
+    pipelines: Vec<wgpu::ComputePipeline>,
+}
+
+impl VolumePasses {
+    pub fn new(device: &wgpu::Device) -> Self {
+        let bindings = [
+            (wgpu::BufferBindingType::Uniform, false),
+            (storage(true), false),
+            (storage(false), false),
+            (storage(false), false),
+            (storage(false), false),
+            (storage(true), false),
+            (storage(true), false),
+        ];
+        let (layout, pipelines) = SharedLayout::compile(
+            device,
+            "hair_gpu volume",
+            VOLUME_SHADER,
+            &bindings,
+            ["splat_particles", "resolve_cells", "feed_back"],
+        );
+        VolumePasses { layout, pipelines }
+    }
+}
+
+/// A groom's grid on the GPU at one resolution, bound for [`VolumePasses`].
+pub(crate) struct GpuVolume {
+    /// The resolution it was made at ([`hair_sim::solver::Volume::resolution`]).
+    pub resolution: u32,
+    grid: VolumeGrid,
+    uniform: wgpu::Buffer,
+    /// The cells' integer sums (the shader's `sums`), copied back by the tests.
+    pub sums: wgpu::Buffer,
+    shares: wgpu::Buffer,
+    group: wgpu::BindGroup,
+    /// Buffers made for it (kept alive with the bind group).
+    _cells: wgpu::Buffer,
+    _rest_mass: wgpu::Buffer,
+}
+
+impl GpuVolume {
+    /// The grid of `rest` at `resolution`, over the solver's `positions` and `motion`.
+    pub fn new(
+        device: &wgpu::Device,
+        passes: &VolumePasses,
+        rest: &RestShape,
+        resolution: u32,
+        positions: &wgpu::Buffer,
+        motion: &wgpu::Buffer,
+    ) -> Self {
+        let grid = VolumeGrid::new(rest, resolution);
+        let cells = grid.rest_mass().len();
+        let buffer = |label: &str, size: usize, usage: wgpu::BufferUsages| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: size.max(16) as u64,
+                usage: wgpu::BufferUsages::STORAGE | usage,
+                mapped_at_creation: false,
+            })
+        };
+        let copy = wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
+        let sums = buffer("hair_gpu volume sums", cells * WORDS_PER_CELL * 4, copy);
+        let cell_values = buffer("hair_gpu volume cells", cells * 32, wgpu::BufferUsages::empty());
+        let shares = buffer("hair_gpu volume shares", rest.particles_per_strand * 4, wgpu::BufferUsages::COPY_DST);
+        // Each rest mass as its two words, low then high.
+        let words: Vec<u32> = grid.rest_mass().iter().flat_map(|&m| [m as u32, (m >> 32) as u32]).collect();
+        let rest_mass = crate::storage_buffer(
+            device,
+            "hair_gpu volume rest mass",
+            bytemuck::cast_slice(&words),
+            wgpu::BufferUsages::empty(),
+        );
+        let uniform = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("hair_gpu volume"),
+            size: std::mem::size_of::<VolumeUniform>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let group = passes.layout.bind(
+            device,
+            "hair_gpu volume",
+            [&uniform, positions, motion, &sums, &cell_values, &rest_mass, &shares]
+                .map(|b| b.as_entire_binding())
+                .to_vec(),
+        );
+        GpuVolume { resolution, grid, uniform, sums, shares, group, _cells: cell_values, _rest_mass: rest_mass }
+    }
+
+    /// Records the volume's effect on one step of `dt` seconds under `volume`'s settings,
+    /// the head at `pose` at the step's start, for `strands` strands of `n` particles in
+    /// `slots` slots.
+    pub fn record(
+        &self,
+        passes: &VolumePasses,
+        recorder: &mut Recorder,
+        volume: &hair_sim::solver::Volume,
+        pose: Pose,
+        dt: f32,
+        (strands, n, slots): (u32, u32, u32),
+    ) {
+        let feedback = Feedback::new(&self.grid, volume, n as usize, dt);
+        let cells = self.grid.rest_mass().len() as u32;
+        let [dx, dy, dz] = self.grid.dims();
+        let columns = |m: glam::Mat3| [m.x_axis, m.y_axis, m.z_axis].map(|c| [c.x, c.y, c.z, 0.0]);
+        let rotation = glam::Mat3::from_quat(pose.rotation);
+        let origin = self.grid.origin();
+        let t = pose.translation;
+        let uniform = VolumeUniform {
+            counts: [strands, n, cells, 0],
+            dims: [dx as u32, dy as u32, dz as u32, 0],
+            origin: [origin.x, origin.y, origin.z, self.grid.inverse_cell()],
+            inverse: columns(rotation.transpose()),
+            translation: [t.x, t.y, t.z, 0.0],
+            rotation: columns(rotation),
+            feedback: [feedback.push, self.grid.rest_scale(), 0.0, 0.0],
+        };
+        recorder.upload(&self.uniform, bytemuck::bytes_of(&uniform));
+        recorder.upload(&self.shares, bytemuck::cast_slice(&feedback.shares));
+        recorder.encoder().clear_buffer(&self.sums, 0, None);
+        let [splat, resolve, feed_back] = [&passes.pipelines[0], &passes.pipelines[1], &passes.pipelines[2]];
+        recorder.dispatch("hair_gpu volume splat", splat, (&self.group, &[]), slots);
+        recorder.dispatch("hair_gpu volume cells", resolve, (&self.group, &[]), cells);
+        recorder.dispatch("hair_gpu volume feedback", feed_back, (&self.group, &[]), slots);
+    }
+
+    /// The sums as [`VolumeGrid::mass`] and [`VolumeGrid::momentum`] hold them, from the
+    /// words of [`Self::sums`].
+    pub fn decode(words: &[u32]) -> VolumeSums {
+        let wide = |k: usize, cell: &[u32]| i64::from(cell[2 * k]) | (i64::from(cell[2 * k + 1]) << 32);
+        words.chunks_exact(WORDS_PER_CELL).map(|cell| (wide(0, cell), [1, 2, 3].map(|k| wide(k, cell)))).unzip()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The value of constant `name` in the validated volume shader.
+    fn constant(name: &str) -> f64 {
+        let module = crate::pass::validated(VOLUME_SHADER);
+        let (_, c) = module.constants.iter().find(|(_, c)| c.name.as_deref() == Some(name)).expect(name);
+        match module.global_expressions[c.init] {
+            naga::Expression::Literal(naga::Literal::I32(v)) => f64::from(v),
+            naga::Expression::Literal(naga::Literal::U32(v)) => f64::from(v),
+            naga::Expression::Literal(naga::Literal::F32(v)) => f64::from(v),
+            ref other => panic!("{name} is {other:?}"),
+        }
+    }
+
+    #[test]
+    fn the_shader_splats_in_the_cpus_fixed_point() {
+        use hair_sim::solver::{MAX_FIXED_VELOCITY, PARTICLE_MASS_UNITS, VELOCITY_BITS, WEIGHT_BITS};
+        assert_eq!(constant("WEIGHT_ONE"), f64::from(1u32 << WEIGHT_BITS));
+        assert_eq!(constant("PARTICLE_MASS_UNITS"), PARTICLE_MASS_UNITS as f64);
+        assert_eq!(constant("VELOCITY_SCALE"), f64::from(1u32 << VELOCITY_BITS));
+        assert_eq!(constant("MAX_FIXED_VELOCITY"), MAX_FIXED_VELOCITY as f64);
+        assert_eq!(constant("WORDS_PER_CELL"), WORDS_PER_CELL as f64);
+        assert_eq!(std::mem::size_of::<VolumeUniform>(), crate::pass::validated_struct_size(VOLUME_SHADER, "Volume"));
+    }
+
+    #[test]
+    fn wide_sums_decode_as_signed_64_bit_integers() {
+        let words = [5, 0, u32::MAX, u32::MAX, 0, 1, 7, 0x8000_0000];
+        let (mass, momentum) = GpuVolume::decode(&words);
+        assert_eq!(mass, [5]);
+        assert_eq!(momentum, [[-1, 1 << 32, i64::MIN + 7]]);
+    }
+}

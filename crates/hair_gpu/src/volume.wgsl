@@ -1,0 +1,221 @@
+// Hair with volume: hair_sim's `VolumeGrid` (`solver/volume.rs`) on the GPU, once a step
+// before its substeps. Every particle splats its mass and momentum into the eight cells
+// around it with integer atomics (`splat_particles`); each cell's mean velocity and density
+// excess are worked out once (`resolve_cells`); each particle's velocity then moves toward
+// the mean around it and down the excess (`feed_back`). The splat is the CPU's, integer for
+// integer: a particle adds at most 2^31 to a cell's sum, and the sums are 64-bit, held as
+// two words (low, high), so they are the same in any order.
+// `layout.wgsl` is prepended: where each particle's values live.
+
+struct Volume {
+    // Strands, particles per strand, cells.
+    counts: vec4<u32>,
+    // Cells along x, y and z (x fastest).
+    dims: vec4<u32>,
+    // The grid's head-local corner; cells per metre.
+    origin: vec4<f32>,
+    // The head's pose at the step's start: world → head-local as a rotation's columns and
+    // the translation it undoes; head-local → world as a rotation's columns.
+    inverse: array<vec4<f32>, 3>,
+    translation: vec4<f32>,
+    rotation: array<vec4<f32>, 3>,
+    // The push per unit of gradient (`Feedback::push`), the mean rest mass per cell as a
+    // share of one particle (`rest_scale`).
+    feedback: vec4<f32>,
+}
+
+@group(0) @binding(0) var<uniform> volume: Volume;
+@group(0) @binding(1) var<storage, read> positions: array<vec4<f32>>;
+// The solver's `motion`: its first plane is the velocities.
+@group(0) @binding(2) var<storage, read_write> motion: array<vec4<f32>>;
+// Per cell, eight words: mass, then momentum along x, y and z, each low word then high.
+@group(0) @binding(3) var<storage, read_write> sums: array<atomic<u32>>;
+// Per cell, two vec4: the mean velocity and the density excess; the mass (0: empty).
+@group(0) @binding(4) var<storage, read_write> cells: array<vec4<f32>>;
+// Per cell, the rest pose's mass, low word then high.
+@group(0) @binding(5) var<storage, read> rest_mass: array<u32>;
+// Per particle index, root to tip, the share of the difference to the mean taken.
+@group(0) @binding(6) var<storage, read> shares: array<f32>;
+
+// hair_sim's `WEIGHT_BITS` (as a weight of one), `PARTICLE_MASS_UNITS`, `VELOCITY_BITS` (as a scale) and
+// `MAX_FIXED_VELOCITY` (a test checks).
+const WEIGHT_ONE: i32 = 32;
+const PARTICLE_MASS_UNITS: f32 = 32768.0;
+const VELOCITY_SCALE: f32 = 2048.0;
+const MAX_FIXED_VELOCITY: f32 = 65535.0;
+const WORDS_PER_CELL: u32 = 8u;
+
+// A point's cell (its lowest corner), fixed-point weights per axis and where in the cell it
+// lies, as `VolumeGrid::splat_of` finds them; `inside` false outside the grid.
+struct Splat {
+    base: vec3<u32>,
+    fixed: vec3<i32>,
+    fraction: vec3<f32>,
+    inside: bool,
+}
+
+fn splat_of(p: vec3<f32>) -> Splat {
+    var splat: Splat;
+    let g = (p - volume.origin.xyz) * volume.origin.w;
+    let last = vec3<f32>(volume.dims.xyz - vec3<u32>(1u));
+    // Compared as floats, so that a point far outside (or not finite) never becomes an
+    // index.
+    splat.inside = all(g >= vec3<f32>(0.0)) && all(g < last);
+    if !splat.inside {
+        return splat;
+    }
+    let base = floor(g);
+    splat.base = vec3<u32>(base);
+    splat.fraction = g - base;
+    splat.fixed = clamp(vec3<i32>(floor(splat.fraction * f32(WEIGHT_ONE) + 0.5)), vec3<i32>(0), vec3<i32>(WEIGHT_ONE));
+    return splat;
+}
+
+// The cell of `corner` (bits x, y, z) of `splat`, and its integer weight.
+fn corner_cell(splat: Splat, corner: u32) -> u32 {
+    let at = splat.base + vec3<u32>(corner & 1u, (corner >> 1u) & 1u, (corner >> 2u) & 1u);
+    return at.x + volume.dims.x * (at.y + volume.dims.y * at.z);
+}
+
+fn corner_weight(splat: Splat, corner: u32) -> i32 {
+    let bits = vec3<bool>((corner & 1u) == 1u, ((corner >> 1u) & 1u) == 1u, ((corner >> 2u) & 1u) == 1u);
+    let w = select(vec3<i32>(WEIGHT_ONE) - splat.fixed, splat.fixed, bits);
+    return w.x * w.y * w.z;
+}
+
+// A velocity component in the sums' fixed point (`fixed_velocity` on the CPU).
+fn fixed_velocity(v: f32) -> i32 {
+    // Not finite (NaN fails every comparison): 0, as on the CPU.
+    if !(abs(v) <= 3.0e38) {
+        return 0;
+    }
+    return i32(clamp(floor(v * VELOCITY_SCALE + 0.5), -MAX_FIXED_VELOCITY, MAX_FIXED_VELOCITY));
+}
+
+// Adds `value`, sign-extended, to the 64-bit sum at word `at`: the low word's carry goes
+// to the high word with the sign.
+fn add_wide(at: u32, value: i32) {
+    let low = bitcast<u32>(value);
+    let old = atomicAdd(&sums[at], low);
+    let high = select(0u, 0xffffffffu, value < 0) + select(0u, 1u, old + low < old);
+    if high != 0u {
+        atomicAdd(&sums[at + 1u], high);
+    }
+}
+
+// The 64-bit integer (low, high) as the nearest float, near enough (two roundings).
+fn wide_f32(low: u32, high: u32) -> f32 {
+    return f32(bitcast<i32>(high)) * 4294967296.0 + f32(low);
+}
+
+fn loaded(at: u32) -> vec2<u32> {
+    return vec2<u32>(atomicLoad(&sums[at]), atomicLoad(&sums[at + 1u]));
+}
+
+// The head-local position of slot `i`, and whether it splats (not a root, not padding).
+fn local_position(i: u32) -> vec4<f32> {
+    let particle = slot_particle(i, volume.counts.y);
+    if particle.x >= volume.counts.x || particle.y == 0u {
+        return vec4<f32>(0.0);
+    }
+    let x = positions[i].xyz - volume.translation.xyz;
+    let local = volume.inverse[0].xyz * x.x + volume.inverse[1].xyz * x.y + volume.inverse[2].xyz * x.z;
+    return vec4<f32>(local, 1.0);
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn splat_particles(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = invocation(id, groups);
+    if i >= slot_count(volume.counts.x, volume.counts.y) {
+        return;
+    }
+    let local = local_position(i);
+    if local.w == 0.0 {
+        return;
+    }
+    let splat = splat_of(local.xyz);
+    if !splat.inside {
+        return;
+    }
+    let v = motion[i].xyz;
+    let fixed = vec3<i32>(fixed_velocity(v.x), fixed_velocity(v.y), fixed_velocity(v.z));
+    for (var corner = 0u; corner < 8u; corner++) {
+        let at = corner_cell(splat, corner) * WORDS_PER_CELL;
+        let w = corner_weight(splat, corner);
+        add_wide(at, w);
+        add_wide(at + 2u, w * fixed.x);
+        add_wide(at + 4u, w * fixed.y);
+        add_wide(at + 6u, w * fixed.z);
+    }
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn resolve_cells(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let c = invocation(id, groups);
+    if c >= volume.counts.z {
+        return;
+    }
+    let at = c * WORDS_PER_CELL;
+    let mass = loaded(at);
+    let rest = vec2<u32>(rest_mass[2u * c], rest_mass[2u * c + 1u]);
+    // mass − rest in 64 bits, then as a float.
+    let low = mass.x - rest.x;
+    let high = mass.y - rest.y - select(0u, 1u, mass.x < rest.x);
+    let excess = wide_f32(low, high) / PARTICLE_MASS_UNITS / volume.feedback.y;
+    let m = wide_f32(mass.x, mass.y);
+    var mean = vec3<f32>(0.0);
+    if m > 0.0 {
+        let scale = 1.0 / (m * VELOCITY_SCALE);
+        let px = loaded(at + 2u);
+        let py = loaded(at + 4u);
+        let pz = loaded(at + 6u);
+        mean = vec3<f32>(wide_f32(px.x, px.y), wide_f32(py.x, py.y), wide_f32(pz.x, pz.y)) * scale;
+    }
+    cells[2u * c] = vec4<f32>(mean, excess);
+    cells[2u * c + 1u] = vec4<f32>(m, 0.0, 0.0, 0.0);
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn feed_back(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = invocation(id, groups);
+    if i >= slot_count(volume.counts.x, volume.counts.y) {
+        return;
+    }
+    let local = local_position(i);
+    if local.w == 0.0 {
+        return;
+    }
+    let splat = splat_of(local.xyz);
+    if !splat.inside {
+        return;
+    }
+    // `VolumeGrid::sample`: the mean velocity over the cells that hold hair, and the
+    // trilinear interpolant's gradient of the excess.
+    let f = splat.fraction;
+    var velocity = vec3<f32>(0.0);
+    var weight = 0.0;
+    var gradient = vec3<f32>(0.0);
+    for (var corner = 0u; corner < 8u; corner++) {
+        let c = corner_cell(splat, corner);
+        let cell = cells[2u * c];
+        if cells[2u * c + 1u].x > 0.0 {
+            let w = f32(corner_weight(splat, corner)) / PARTICLE_MASS_UNITS;
+            velocity += cell.xyz * w;
+            weight += w;
+        }
+        let bits = vec3<bool>((corner & 1u) == 1u, ((corner >> 1u) & 1u) == 1u, ((corner >> 2u) & 1u) == 1u);
+        let along = select(vec3<f32>(1.0) - f, f, bits);
+        let slope = select(vec3<f32>(-1.0), vec3<f32>(1.0), bits);
+        gradient += vec3<f32>(slope.x * along.y * along.z, along.x * slope.y * along.z, along.x * along.y * slope.z) * cell.w;
+    }
+    if weight > 0.0 {
+        velocity /= weight;
+    }
+    gradient *= volume.origin.w;
+    let world_gradient = volume.rotation[0].xyz * gradient.x + volume.rotation[1].xyz * gradient.y
+        + volume.rotation[2].xyz * gradient.z;
+    let j = slot_particle(i, volume.counts.y).y;
+    let v = motion[i];
+    let next = v.xyz + (velocity - v.xyz) * shares[j] + world_gradient * volume.feedback.x;
+    motion[i] = vec4<f32>(next, v.w);
+}

@@ -1,0 +1,85 @@
+//! Hair with volume (`SimParams::volume`) on the GPU against the CPU: the grid's integer
+//! sums bit for bit, and the strands they push.
+
+use super::*;
+use hair_sim::solver::VolumeGrid;
+
+fn with_volume(collision: bool) -> SimParams {
+    SimParams { collision, volume: Volume { enabled: true, ..Volume::default() }, ..SimParams::default() }
+}
+
+/// The head sways and bobs without turning: head-local positions are then the world's less
+/// a translation, one correctly rounded subtraction on both sides, so both splat the same
+/// points (a rotation's sums of products may round differently where the GPU fuses them).
+fn swaying(time: f32) -> Pose {
+    Pose::new(Quat::IDENTITY, Vec3::new(0.08 * (7.0 * time).sin(), 0.04 * (11.0 * time).sin(), 0.0))
+}
+
+/// The GPU's atomics add the particles in whatever order its threads run; the sums are
+/// integers, so they must be the CPU's to the bit: at the first step, the rest pose's own
+/// (the density excess exactly zero), and at later steps the CPU's splat of the positions
+/// and velocities the GPU stepped from.
+#[test]
+fn the_grids_integer_sums_are_the_cpus_bit_for_bit() {
+    let Some(gpu) = gpu() else { return };
+    let (_, collider, rest) = groom(256);
+    let params = with_volume(true);
+    let mut strands = GpuStrands::new(&gpu, &rest, swaying(0.0), Some(&collider)).expect("GPU strands");
+    let mut grid = VolumeGrid::new(&rest, params.volume.resolution);
+    let mut compared = 0;
+    for k in 0..40 {
+        let before = (strands.positions().expect("positions"), strands.velocities().expect("velocities"));
+        strands.step(&input_at(k, swaying, &collider, &params)).expect("GPU step");
+        if k % 13 != 0 {
+            continue;
+        }
+        let (mass, momentum) = strands.volume_sums().expect("volume on").expect("read back");
+        grid.splat(&rest, &before.0, Some(&before.1), swaying(k as f32 * DT));
+        if k == 0 {
+            assert_eq!(mass, grid.rest_mass(), "the first step is at the rest density");
+        }
+        let moving = momentum.iter().filter(|m| **m != [0; 3]).count();
+        eprintln!("step {k}: {} cells hold hair, {moving} of them moving", mass.iter().filter(|&&m| m > 0).count());
+        assert!(k == 0 || moving > 100, "step {k}: the swaying hair moves the grid ({moving} cells)");
+        assert_eq!(mass, grid.mass(), "step {k}: mass sums");
+        assert_eq!(momentum, grid.momentum(), "step {k}: momentum sums");
+        compared += 1;
+    }
+    assert_eq!(compared, 4);
+}
+
+/// With volume on, the GPU follows the CPU as far as the CPU follows itself nudged by
+/// 0.1 µm, with and without collision, and stays out of the head. (The grid couples every
+/// strand to its neighbours, and a splat weight is a step function of position: rounding
+/// that moves a particle across a weight's step changes the push on all the hair around
+/// it, so the two part by more than without volume, and so do the CPU's own twins.)
+#[test]
+fn with_volume_the_gpu_follows_the_cpu() {
+    let Some(gpu) = gpu() else { return };
+    let (_, collider, rest) = groom(256);
+    let n = rest.particles_per_strand;
+    let steps = 60;
+    for collision in [false, true] {
+        let params = with_volume(collision);
+        let mut twins = Twins::new(&rest, head_pose(0.0));
+        let [(cpu, _), (on_gpu, _)] =
+            run_both_reporting(&gpu, &rest, &collider, &params, &[], steps, head_pose, Some(&mut twins));
+        let (mean, max) = apart(&cpu, &on_gpu);
+        let spread = twins.spread(&cpu);
+        let deepest = deepest_in_head(&on_gpu, n, &collider, head_pose(steps as f32 * DT));
+        eprintln!(
+            "volume, collision {collision}, after {steps} steps: mean {:.4} mm, max {:.2} mm apart (the CPU \
+             nudged: {:.4} mm, {:.2} mm); deepest {:.3} mm",
+            mean * 1e3,
+            max * 1e3,
+            spread.0 * 1e3,
+            spread.1 * 1e3,
+            deepest * 1e3
+        );
+        assert!(on_gpu.iter().all(|p| p.is_finite()));
+        assert_follows((mean, max), spread);
+        if collision {
+            assert!(deepest <= 5e-4, "{deepest} m inside the head");
+        }
+    }
+}
