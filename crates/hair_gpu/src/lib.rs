@@ -77,8 +77,8 @@ pub use readback::{PositionsCopy, ReportCopy};
 pub use shadow::{GpuOpacityMap, MAP_FLOATS, OpacityMapPasses, SHADOW_SHADER};
 pub use sort::{DrawOrderPasses, GpuDrawOrder, SORT_SHADER};
 use uniform::{GridInfo, StepUniform, bits, pack_patch};
-use volume::{GpuVolume, VolumePasses};
 pub use volume::VolumeSums;
+use volume::{GpuVolume, VolumePasses};
 pub use wgpu;
 
 /// The solver's WGSL source: `layout.wgsl`, then the step shader's sections in `step/` (common

@@ -54,12 +54,29 @@ pub struct VolumeGrid {
     splats: Vec<Option<Splat>>,
 }
 
-/// A point's eight cells, their fixed-point weights, and where in its cell it lies.
-#[derive(Clone, Debug)]
+/// Where a point splats: its cell (the lowest of the eight around it), its fixed-point
+/// weight toward the next cell along each axis, and where in its cell it lies. Kept small:
+/// there is one per particle, written by the splat and read by the feedback.
+#[derive(Clone, Copy, Debug)]
 struct Splat {
-    cells: [usize; 8],
-    weights: [i64; 8],
+    base: u32,
+    fixed: [u8; 3],
     fraction: Vec3,
+}
+
+impl Splat {
+    /// The eight cells around the point (corner bits x, y, z) and their integer weights,
+    /// in a grid of `dims` cells.
+    #[inline]
+    fn corners(&self, dims: [usize; 3]) -> impl Iterator<Item = (usize, i64)> {
+        let (base, fixed) = (self.base as usize, self.fixed.map(i64::from));
+        (0..8).map(move |corner: usize| {
+            let (a, b, c) = (corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
+            let axis = |bit: usize, f: i64| if bit == 1 { f } else { WEIGHT_ONE - f };
+            let cell = base + a + dims[0] * (b + dims[1] * c);
+            (cell, axis(a, fixed[0]) * axis(b, fixed[1]) * axis(c, fixed[2]))
+        })
+    }
 }
 
 impl VolumeGrid {
@@ -149,23 +166,17 @@ impl VolumeGrid {
         if !(within(g.x, dx) && within(g.y, dy) && within(g.z, dz)) {
             return None;
         }
-        let base = g.floor();
-        let [i, j, k] = base.to_array().map(|b| b as usize);
+        // Non-negative here, so truncation is the floor (without SSE4.1, `floor` is a
+        // library call).
+        let [i, j, k] = g.to_array().map(|g| g as usize);
         if i + 1 >= dx || j + 1 >= dy || k + 1 >= dz {
             return None;
         }
-        let fraction = g - base;
-        // Rounded as the GPU rounds (`floor(x + 0.5)`): the product is exact, the sum
-        // correctly rounded on both.
-        let fixed = fraction.to_array().map(|f| ((f * WEIGHT_ONE as f32 + 0.5).floor() as i64).clamp(0, WEIGHT_ONE));
-        let mut splat = Splat { cells: [0; 8], weights: [0; 8], fraction };
-        for corner in 0..8 {
-            let (a, b, c) = (corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
-            let axis = |bit: usize, f: i64| if bit == 1 { f } else { WEIGHT_ONE - f };
-            splat.cells[corner] = (i + a) + dx * ((j + b) + dy * (k + c));
-            splat.weights[corner] = axis(a, fixed[0]) * axis(b, fixed[1]) * axis(c, fixed[2]);
-        }
-        Some(splat)
+        let fraction = g - Vec3::new(i as f32, j as f32, k as f32);
+        // Rounded as the GPU rounds (`floor(x + 0.5)`, truncation of a non-negative value):
+        // the product is exact, the sum correctly rounded on both.
+        let fixed = fraction.to_array().map(|f| ((f * WEIGHT_ONE as f32 + 0.5) as i64).clamp(0, WEIGHT_ONE) as u8);
+        Some(Splat { base: (i + dx * (j + dy * k)) as u32, fixed, fraction })
     }
 
     /// Clears the grid and splats the particles at `positions` (their velocities
@@ -184,7 +195,7 @@ impl VolumeGrid {
         for (i, splat) in splats.iter().enumerate() {
             let Some(splat) = splat else { continue };
             let v = velocities.map_or([0; 3], |v| v[i].to_array().map(fixed_velocity));
-            for (&c, &w) in splat.cells.iter().zip(&splat.weights) {
+            for (c, w) in splat.corners(self.dims) {
                 self.mass[c] += w;
                 for (sum, v) in self.momentum[c].iter_mut().zip(v) {
                     *sum += w * v;
@@ -211,10 +222,9 @@ impl VolumeGrid {
     fn sample(&self, splat: &Splat) -> (Vec3, Vec3) {
         let f = splat.fraction;
         let (mut velocity, mut weight, mut gradient) = (Vec3::ZERO, 0.0f32, Vec3::ZERO);
-        for corner in 0..8 {
-            let c = splat.cells[corner];
+        for (corner, (c, w)) in splat.corners(self.dims).enumerate() {
             if self.mass[c] > 0 {
-                let w = splat.weights[corner] as f32 / PARTICLE_MASS_UNITS as f32;
+                let w = w as f32 / PARTICLE_MASS_UNITS as f32;
                 velocity += self.mean_velocity[c] * w;
                 weight += w;
             }
@@ -240,7 +250,11 @@ pub fn fixed_velocity(v: f32) -> i64 {
     if !v.is_finite() {
         return 0;
     }
-    ((v * (1u32 << VELOCITY_BITS) as f32 + 0.5).floor() as i64).clamp(-MAX_FIXED_VELOCITY, MAX_FIXED_VELOCITY)
+    let x = v * (1u32 << VELOCITY_BITS) as f32 + 0.5;
+    // The floor without a library call: truncation, one less below zero where it cut.
+    let t = x as i64;
+    let floor = if (t as f32) > x { t - 1 } else { t };
+    floor.clamp(-MAX_FIXED_VELOCITY, MAX_FIXED_VELOCITY)
 }
 
 /// The volume's effect on one step of `dt` seconds: splats `positions` and `velocities`

@@ -69,3 +69,24 @@ fn friction_moves_a_particle_toward_the_hair_around_it_and_the_push_away_from_a_
     apply(&mut grid, &rest, &crowded, &mut velocities, Pose::IDENTITY, &pushed, 1.0 / 60.0);
     assert!(velocities[7].x > 0.0 && velocities[2].x < 0.0, "pushed apart: {} and {}", velocities[7], velocities[2]);
 }
+
+#[test]
+fn velocities_round_as_the_gpu_rounds_them() {
+    let unit = 1.0 / (1u32 << VELOCITY_BITS) as f32;
+    for (v, fixed) in [
+        (0.0, 0),
+        (0.49 * unit, 0),
+        (0.5 * unit, 1),
+        (-0.5 * unit, 0),
+        (-0.51 * unit, -1),
+        (-1.5 * unit, -1),
+        (-2.0 * unit, -2),
+        (1e9, MAX_FIXED_VELOCITY),
+        (-1e9, -MAX_FIXED_VELOCITY),
+        (f32::NAN, 0),
+        (f32::NEG_INFINITY, 0),
+    ] {
+        let floor = (v * (1u32 << VELOCITY_BITS) as f32 + 0.5).floor();
+        assert_eq!(fixed_velocity(v), fixed, "{v} m/s (floor(x + 0.5) = {floor})");
+    }
+}
