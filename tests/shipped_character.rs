@@ -5,14 +5,13 @@
 //! joint `GlobalTransform`s × inverse bind matrices, blended by the mesh's own weights.
 
 mod common;
+#[path = "common/glb.rs"]
+mod glb;
 
-use bevy::animation::AnimationPlugin;
-use bevy::gltf::GltfPlugin;
 use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
-use bevy::mesh::{Indices, MeshPlugin, VertexAttributeValues};
+use bevy::mesh::{Indices, VertexAttributeValues};
 use bevy::prelude::*;
-use bevy::time::TimeUpdateStrategy;
-use bevy::world_serialization::{WorldAssetRoot, WorldSerializationPlugin};
+use bevy::world_serialization::WorldAssetRoot;
 use bevy_hair::hair_sim::math::Vec3 as SimVec3;
 use bevy_hair::hair_sim::mesh::{HeadMesh, InsideTest};
 use bevy_hair::prelude::*;
@@ -79,47 +78,9 @@ impl Skin {
     }
 }
 
-/// README's "The code", which `the_readme_code_grows_hair_on_a_painted_glb_head` runs and
-/// `the_readme_shows_the_code_this_file_runs` checks word for word.
-mod readme {
-    #![allow(dead_code)] // its `main` opens a window: the test runs `setup`
-    include!("common/readme_code.rs");
-
-    /// Schedules README's `setup`, private to this module.
-    pub(super) fn add_setup(app: &mut App) {
-        app.add_systems(Startup, setup);
-    }
-}
-
-/// A headless app that loads glTF files and grows hair, its time advancing by `frame` per
-/// update.
-fn gltf_app(frame: Duration) -> App {
-    gltf_app_in(frame, AssetPlugin::default())
-}
-
-/// [`gltf_app`] with its assets from `assets`.
-fn gltf_app_in(frame: Duration, assets: AssetPlugin) -> App {
-    let mut app = App::new();
-    app.add_plugins((
-        MinimalPlugins,
-        TransformPlugin,
-        assets,
-        MeshPlugin,
-        AnimationPlugin,
-        WorldSerializationPlugin,
-        GltfPlugin::default(),
-        HairPlugin::default(),
-    ));
-    app.insert_resource(TimeUpdateStrategy::ManualDuration(frame));
-    // `App::run` would do this; the glTF loader is registered in `GltfPlugin::finish`.
-    app.finish();
-    app.cleanup();
-    app
-}
-
 #[test]
 fn hair_on_the_shipped_character_follows_its_clip() {
-    let mut app = gltf_app(Duration::from_secs_f64(1.0 / FPS));
+    let mut app = glb::gltf_app(Duration::from_secs_f64(1.0 / FPS));
     let (scene, clip) = {
         let assets = app.world().resource::<AssetServer>();
         (
@@ -253,7 +214,7 @@ fn hair_on_the_shipped_character_follows_its_clip() {
 fn hair_on_the_still_shipped_head_is_still() {
     let back = Vec3::new(0.0, 0.0, -1.5);
     for (comb, substeps) in [(Vec3::ZERO, 2), (back, 2), (back, 8)] {
-        let mut app = gltf_app(common::FRAME);
+        let mut app = glb::gltf_app(common::FRAME);
         let mesh = app
             .world()
             .resource::<AssetServer>()
@@ -315,61 +276,17 @@ fn the_readme_shows_the_code_this_file_runs() {
 
 /// README's code as a user runs it, on a `.glb` head painted as the README says (the
 /// shipped head, copied as `my_head.glb`): hair grows on the paint and stays out of the
-/// head. Each root is checked against the loaded mesh itself: it lies on a triangle with a
-/// painted corner (mean colour below one half), within 0.1 mm of its plane.
+/// head ([`glb::readme_code_on`]).
 #[test]
 fn the_readme_code_grows_hair_on_a_painted_glb_head() {
-    let dir = std::env::temp_dir().join(format!("bevy_hair_readme_{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    std::fs::copy(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/head.glb"), dir.join("my_head.glb")).unwrap();
-    let assets = AssetPlugin { file_path: dir.to_string_lossy().into_owned(), ..default() };
-    let mut app = gltf_app_in(common::FRAME, assets);
-    app.init_asset::<StandardMaterial>();
-    readme::add_setup(&mut app);
-    app.update();
-    let head = app.world_mut().query_filtered::<Entity, With<HairGroom>>().single(app.world()).unwrap();
-    wait_until_ready(&mut app, head);
-    for _ in 0..60 {
-        app.update();
-    }
-
-    let world = app.world();
-    let mesh = world.resource::<Assets<Mesh>>().get(&world.get::<Mesh3d>(head).unwrap().0).unwrap();
-    let Some(VertexAttributeValues::Float32x3(positions)) = mesh.attribute(Mesh::ATTRIBUTE_POSITION) else {
-        panic!("float positions")
-    };
-    let Some(VertexAttributeValues::Float32x4(colours)) = mesh.attribute(Mesh::ATTRIBUTE_COLOR) else {
-        panic!("float vertex colours")
-    };
-    let painted: Vec<bool> = colours.iter().map(|c| (c[0] + c[1] + c[2]) / 3.0 < 0.5).collect();
-    let corners: Vec<[usize; 3]> = match mesh.indices().unwrap() {
-        Indices::U16(i) => i.chunks_exact(3).map(|t| [t[0] as usize, t[1] as usize, t[2] as usize]).collect(),
-        Indices::U32(i) => i.chunks_exact(3).map(|t| [t[0] as usize, t[1] as usize, t[2] as usize]).collect(),
-    };
-    let on_paint = |root: Vec3| {
-        corners.iter().any(|t| {
-            let [a, b, c] = t.map(|v| Vec3::from_array(positions[v]));
-            let normal = (b - a).cross(c - a);
-            let area = normal.length();
-            if area < 1e-12 || (root - a).dot(normal / area).abs() > 1e-4 {
-                return false;
-            }
-            // Barycentric weights: each the share of the area facing a corner.
-            let weights = [(b - root).cross(c - root), (c - root).cross(a - root), (a - root).cross(b - root)]
-                .map(|w| w.dot(normal) / (area * area));
-            weights.iter().all(|&w| w >= -1e-4) && t.iter().any(|&v| painted[v])
-        })
-    };
-    let roots_and_tips = common::roots_and_tips(&app, head);
-    let off_paint = roots_and_tips.iter().filter(|(root, _)| !on_paint(*root)).count();
-    let deepest = common::max_penetration(&app, head);
+    let grown = glb::readme_code_on(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/head.glb"));
     println!(
-        "README's code: {} strands, {off_paint} roots off the paint, deepest particle {:.3} mm inside",
-        roots_and_tips.len(),
-        deepest.max(0.0) * 1e3
+        "README's code: {} strands, {} roots off the paint, deepest particle {:.3} mm inside",
+        grown.strands,
+        grown.off_paint,
+        grown.deepest.max(0.0) * 1e3
     );
-    assert!(!roots_and_tips.is_empty(), "no hair grew");
-    assert_eq!(off_paint, 0, "roots off the painted scalp");
-    assert!(deepest <= 1e-4, "a particle is {} mm inside the head", deepest * 1e3);
-    std::fs::remove_dir_all(&dir).ok();
+    assert!(grown.strands > 0, "no hair grew");
+    assert_eq!(grown.off_paint, 0, "roots off the painted scalp");
+    assert!(grown.deepest <= 1e-4, "a particle is {} mm inside the head", grown.deepest * 1e3);
 }
