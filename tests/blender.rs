@@ -169,3 +169,20 @@ fn blender_reproduces_the_committed_files() {
     assert_eq!(verdicts(BLENDER_ASSETS), verdicts(&made), "which paint variants Blender exports right");
     std::fs::remove_dir_all(&out).ok();
 }
+
+/// The add-on refuses what it cannot export, with a message that says why: no object, a
+/// mesh without hair, an object that is neither a mesh nor hair curves, hair curves without
+/// curves, a strand of fewer than 2 or more than 65,536 points, and through its menu entry
+/// (`tools/blender/test_refusals.py`, run in Blender).
+#[test]
+fn the_add_on_refuses_what_it_cannot_export() {
+    let Some(mut blender) = blender() else { return };
+    let script = concat!(env!("CARGO_MANIFEST_DIR"), "/tools/blender/test_refusals.py");
+    let run = blender.args(["-b", "--factory-startup", "--python-exit-code", "1", "--python", script]).output();
+    let run = run.expect("blender runs");
+    let said = String::from_utf8_lossy(&run.stdout);
+    let refusals: Vec<&str> = said.lines().filter(|l| l.starts_with("refused")).collect();
+    println!("{}", refusals.join("\n"));
+    assert!(run.status.success() && said.contains("all refusals OK"), "the refusals' check failed:\n{said}");
+    assert_eq!(refusals.len(), 6, "every refusal said why");
+}

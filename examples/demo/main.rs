@@ -5,8 +5,8 @@
 //! ```text
 //! cargo run --release --example demo
 //! cargo run --example demo -- [--preset NAME] [--lights KIND] [--shading MODEL] [--self-shadow X]
-//!     [--antialias MODE] [--solver cpu|gpu] [--camera Y,P,D] [--screenshot FILE [--frames N] [--no-panel]
-//!     [--size WxH] [--offscreen]]
+//!     [--antialias MODE] [--solver cpu|gpu] [--camera Y,P,D] [--head FILE.glb] [--groom FILE.hair]
+//!     [--screenshot FILE [--frames N] [--no-panel] [--size WxH] [--offscreen]]
 //! ```
 //!
 //! Mouse: drag to orbit, wheel to zoom; in "drag the head" mode the left button moves the
@@ -39,8 +39,8 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 const USAGE: &str = "usage: demo [--preset NAME] [--lights KIND] [--shading MODEL] [--self-shadow X] [--antialias MODE]
-            [--solver cpu|gpu] [--camera Y,P,D] [--screenshot FILE [--frames N] [--no-panel] [--size WxH]
-            [--offscreen]]
+            [--solver cpu|gpu] [--camera Y,P,D] [--head FILE.glb] [--groom FILE.hair]
+            [--screenshot FILE [--frames N] [--no-panel] [--size WxH] [--offscreen]]
   --preset NAME      start with this hairstyle: Shoulder (default), Short, Long, Curly, Windy, Reference
   --lights KIND      studio (default: key, fill and rim lights), lamps (a point and a spot light),
                      above (one light from above), behind (one light from behind)
@@ -50,6 +50,9 @@ const USAGE: &str = "usage: demo [--preset NAME] [--lights KIND] [--shading MODE
                      whole groom is that thin), coverage (MSAA alpha-to-coverage), blended, off
   --solver cpu|gpu   step the hair on the CPU (default) or with the GPU solver (drawn from the GPU)
   --camera Y,P,D     start the orbit camera at yaw Y and pitch P (radians), D metres away
+  --head FILE.glb    your head instead of the character: a .glb under assets/ whose first
+                     primitive has its scalp painted black in its vertex colours
+  --groom FILE.hair  guides from a .hair file under assets/ (the Blender add-on's) instead of grown
   --screenshot FILE  render N frames once the hair is grown, save the last as FILE (PNG), check it, exit
   --frames N         frames of animation before the screenshot (default 60)
   --no-panel         hide the egui panel
@@ -89,6 +92,8 @@ fn parse_args() -> Result<Options, String> {
     while let Some(arg) = args.next() {
         match arg.as_str() {
             "--screenshot" => options.screenshot = Some(args.next().ok_or("--screenshot needs a file name")?.into()),
+            "--head" => options.stage.head = Some(args.next().ok_or("--head needs a .glb file under assets/")?),
+            "--groom" => options.stage.groom = Some(args.next().ok_or("--groom needs a .hair file under assets/")?),
             "--frames" => options.frames = parse_frames(&args.next().ok_or("--frames needs a number")?)?,
             "--no-panel" => options.panel = false,
             "--offscreen" => options.offscreen = true,

@@ -77,7 +77,7 @@ pub const BACKENDS: [(HairBackend, &str); 2] = [(HairBackend::Cpu, "cpu"), (Hair
 
 /// How the stage is set up from the command line: the lights, and changes to the preset's
 /// look (`None`: the preset's own).
-#[derive(Resource, Clone, Copy, Debug, Default)]
+#[derive(Resource, Clone, Debug, Default)]
 pub struct Stage {
     /// `--lights`.
     pub lights: Lights,
@@ -94,6 +94,12 @@ pub struct Stage {
     /// `--offscreen`: the camera draws into an image of this size ([`OffscreenTarget`])
     /// instead of the window.
     pub offscreen: Option<UVec2>,
+    /// `--head`: a `.glb` file under the asset folder whose first primitive is the head
+    /// (its scalp painted in its vertex colours), instead of the shipped character.
+    pub head: Option<String>,
+    /// `--groom`: a `.hair` file under the asset folder for the guides
+    /// (`HairGroom::guides_from`), instead of growing them.
+    pub groom: Option<String>,
 }
 
 /// The image the camera draws into with `--offscreen`.
@@ -132,10 +138,24 @@ pub fn setup(
     stage: Res<Stage>,
 ) {
     settings.0 = presets::named(start.0).params;
-    // The glTF scene, as a game would spawn a character. When it is in the world, its
-    // skinned mesh gets the groom (`dress_the_head`); `motion.rs` plays its clip.
-    let scene = asset_server.load(GltfAssetLabel::Scene(0).from_asset(HEAD_GLB));
-    commands.spawn((Character, Name::new("character"), WorldAssetRoot(scene))).observe(dress_the_head);
+    match &stage.head {
+        // A user's head, loaded as README's code loads it, under a character root the
+        // mouse turns (it has no clip to play), its origin where the camera looks.
+        Some(path) => {
+            let head = asset_server.load(GltfAssetLabel::Primitive { mesh: 0, primitive: 0 }.from_asset(path.clone()));
+            let dressed = dressing(&asset_server, &mut materials, &start, &stage);
+            let at = Transform::from_translation(FOCUS);
+            commands
+                .spawn((Character, Name::new("character"), at, Visibility::default()))
+                .with_child((Mesh3d(head), dressed));
+        }
+        // The glTF scene, as a game would spawn a character. When it is in the world, its
+        // skinned mesh gets the groom (`dress_the_head`); `motion.rs` plays its clip.
+        None => {
+            let scene = asset_server.load(GltfAssetLabel::Scene(0).from_asset(HEAD_GLB));
+            commands.spawn((Character, Name::new("character"), WorldAssetRoot(scene))).observe(dress_the_head);
+        }
+    }
 
     spawn_lights(&mut commands, stage.lights);
 
@@ -249,29 +269,41 @@ fn spawn_lights(commands: &mut Commands, lights: Lights) {
 /// The character's file: a skinned head with a painted scalp and its animation clip.
 pub const HEAD_GLB: &str = "head.glb";
 
-/// Once the character's scene is spawned, gives its skinned mesh the groom and the look of
-/// the starting preset, and a skin material that shows the painted vertex colours (COLOR_0
-/// paints the skin and, black, the scalp) as painted.
+/// Once the character's scene is spawned, dresses its skinned mesh as the demo's head
+/// ([`dressing`]).
 fn dress_the_head(
     ready: On<WorldInstanceReady>,
     mut commands: Commands,
     children: Query<&Children>,
     meshes: Query<(), (With<Mesh3d>, With<SkinnedMesh>)>,
-    mut materials: ResMut<Assets<StandardMaterial>>,
-    start: Res<StartingPreset>,
-    stage: Res<Stage>,
+    (asset_server, mut materials): (Res<AssetServer>, ResMut<Assets<StandardMaterial>>),
+    (start, stage): (Res<StartingPreset>, Res<Stage>),
 ) {
     let Some(mesh) = children.iter_descendants(ready.entity).find(|&e| meshes.contains(e)) else {
         error!("{HEAD_GLB} has no skinned mesh to grow hair on");
         return;
     };
+    commands.entity(mesh).insert(dressing(&asset_server, &mut materials, &start, &stage));
+}
+
+/// What makes a mesh the demo's head: the groom (its guides from `--groom` if given) and
+/// the look of the starting preset (with the command line's shading, self-shadow and
+/// anti-aliasing), the backend, and a skin material that shows the painted vertex colours
+/// (COLOR_0 paints the skin and, black, the scalp) as painted.
+fn dressing(
+    asset_server: &AssetServer,
+    materials: &mut Assets<StandardMaterial>,
+    start: &StartingPreset,
+    stage: &Stage,
+) -> impl Bundle {
     let start = presets::named(start.0);
     let mut look = start.look;
     look.shading = stage.shading.unwrap_or(look.shading);
     look.self_shadow = stage.self_shadow.unwrap_or(look.self_shadow);
     look.antialias = stage.antialias.unwrap_or(look.antialias);
+    let groom = HairGroom { guides_from: stage.groom.clone().map(|path| asset_server.load(path)), ..start.groom };
     let skin = materials.add(StandardMaterial { base_color: Color::WHITE, perceptual_roughness: 0.55, ..default() });
-    commands.entity(mesh).insert((Head, MeshMaterial3d(skin), start.groom, look, stage.backend));
+    (Head, MeshMaterial3d(skin), groom, look, stage.backend)
 }
 
 /// Left drag (or right drag, which also works while the left button drags the head) orbits,

@@ -44,6 +44,7 @@ impl Plugin for ScreenshotPlugin {
                 captured: Arc::default(),
                 with_hair: None,
                 roots: Vec::new(),
+                root_count: 0,
                 frame_ms: Vec::new(),
                 frame_began: None,
                 blended: false,
@@ -72,8 +73,10 @@ struct Shot {
     /// Where the screenshot observer puts the image it receives.
     captured: Arc<Mutex<Option<Image>>>,
     with_hair: Option<Image>,
-    /// Pixels of the scalp roots that face the camera, at the moment time stopped.
+    /// Pixels of the scalp roots that face the camera, at the moment time stopped, and
+    /// how many roots the groom has.
     roots: Vec<UVec2>,
+    root_count: usize,
     /// Wall time between the frames played, milliseconds, and when the last one began.
     frame_ms: Vec<f64>,
     frame_began: Option<Instant>,
@@ -154,6 +157,7 @@ fn drive(
             time.pause();
             let (camera, camera_transform) = *camera;
             shot.roots = facing_root_pixels(state, camera, camera_transform);
+            shot.root_count = state.roots().len();
             shot.blended = drawings.iter().any(HairDrawing::blended);
             shot.capture(&mut commands, offscreen.as_deref());
             shot.stage = Stage::CapturingHair;
@@ -176,7 +180,8 @@ fn drive(
             let mut frame_ms = std::mem::take(&mut shot.frame_ms);
             frame_ms.sort_by(f64::total_cmp);
             let median_ms = frame_ms.get(frame_ms.len() / 2).copied().unwrap_or(f64::NAN);
-            match check_and_save(&with_hair, &bare, &shot.roots, &shot.path, median_ms, shot.blended) {
+            let roots = (shot.roots.as_slice(), shot.root_count);
+            match check_and_save(&with_hair, &bare, roots, &shot.path, median_ms, shot.blended) {
                 Ok(summary) => {
                     info!("screenshot: {summary}");
                     println!("{summary}");
@@ -227,13 +232,14 @@ fn facing_root_pixels(state: &HairState, camera: &Camera, camera_transform: &Glo
         .collect()
 }
 
-/// Compares the two frames at the root pixels, saves the one with hair, and says what it found
+/// Compares the two frames at the root pixels (those facing the camera, of the groom's
+/// `root_count`), saves the one with hair, and says what it found
 /// (with `frame_ms`, the median wall time of the frames played, and whether the hair was
 /// `blended`).
 fn check_and_save(
     with_hair: &Image,
     bare: &Image,
-    roots: &[UVec2],
+    (roots, root_count): (&[UVec2], usize),
     path: &PathBuf,
     frame_ms: f64,
     blended: bool,
@@ -249,7 +255,8 @@ fn check_and_save(
         (0..3).any(|c| a[c].abs_diff(b[c]) >= MIN_DIFFERENCE)
     };
     let inside: Vec<UVec2> = roots.iter().copied().filter(|p| p.x < width && p.y < height).collect();
-    if inside.len() < 50 {
+    // Enough to judge by: 50, or a quarter of a small groom's roots (a `--groom` file).
+    if inside.len() < 50.min(root_count / 4) {
         return Err(format!("only {} scalp roots face the camera inside the window", inside.len()));
     }
     let covered = inside.iter().filter(|p| differs(p.x, p.y)).count();
