@@ -98,6 +98,20 @@ pub enum HairErrorKind {
     /// it: it steps on the CPU.
     #[error("the GPU solver cannot step this groom ({0}); it steps on the CPU")]
     GpuFallback(String),
+    /// The painted scalp is many separate patches, none of them most of the paint: often
+    /// colours an exporter scrambled. The groom grows on the paint as it is.
+    #[error(
+        "the painted scalp is {patches} separate patches, the largest {:.0}% of the paint: if one scalp was painted, \
+         the exporter may have scrambled its colours (Blender 3.4's glTF exporter does on the Face Corner domain: \
+         paint on the Vertex domain)",
+        largest_share * 100.0
+    )]
+    ScatteredScalp {
+        /// How many patches (painted triangles joined where they share a corner).
+        patches: usize,
+        /// The largest patch's share of the painted area.
+        largest_share: f32,
+    },
     /// Fields of the groom's `HairLod` that had to be replaced (the groom runs with the
     /// replacements).
     #[error("invalid level-of-detail settings: {0}")]

@@ -17,7 +17,8 @@ use bevy::prelude::*;
 use bevy::tasks::{AsyncComputeTaskPool, Task, block_on, futures_lite::future};
 use hair_sim::collide::{BAKE_TRIANGLE_BUDGET, DEFAULT_GRID_RESOLUTION, HeadCollider};
 use hair_sim::groom::{
-    GuideParams, grow_guides, guides_from_strands, sample_roots, sample_roots_at_vertices, sample_roots_poisson, settle,
+    GuideParams, grow_guides, guides_from_strands, painted_patches, sample_roots, sample_roots_at_vertices,
+    sample_roots_poisson, settle,
 };
 use hair_sim::math::{Pose, Vec3 as SimVec3};
 use hair_sim::mesh::HeadMesh;
@@ -210,6 +211,21 @@ pub(crate) fn start_growth(
     }
 }
 
+/// A painted scalp in more than this many patches, the largest holding less than
+/// [`SCATTERED_SHARE`] of the paint, is reported ([`HairErrorKind::ScatteredScalp`]): one
+/// scalp with sideburns or a beard is a few patches, one large.
+const SCATTERED_PATCHES: usize = 4;
+/// See [`SCATTERED_PATCHES`].
+const SCATTERED_SHARE: f32 = 0.5;
+
+/// The report for a scalp painted in scattered patches (`patches`, largest first), if it is.
+fn scattered_scalp(patches: &[f32]) -> Option<HairErrorKind> {
+    let total: f32 = patches.iter().sum();
+    let largest_share = patches.first().map_or(1.0, |largest| largest / total.max(f32::MIN_POSITIVE));
+    (patches.len() > SCATTERED_PATCHES && largest_share < SCATTERED_SHARE)
+        .then_some(HairErrorKind::ScatteredScalp { patches: patches.len(), largest_share })
+}
+
 /// Rejects descriptions that cannot grow anything, with a reason a user understands.
 fn check_groom(groom: &HairGroom) -> Result<(), HairErrorKind> {
     let bad = |field: &'static str, message: String| Err(HairErrorKind::Groom { field, message });
@@ -254,6 +270,7 @@ fn grow(
     detail: bool,
 ) -> Result<Grown, HairErrorKind> {
     let comb = to_sim(groom.comb);
+    let scalp_patches = painted_patches(&head, &weights.triangles);
     let (roots, guides) = match model {
         Some(strands) => {
             // The head mesh here is scaled by the entity's scale: so is the model.
@@ -289,7 +306,7 @@ fn grow(
         // A head with levels of detail: their search here, not when the level first changes.
         strands.prepare_detail();
     }
-    Ok(Grown { strands, collider: Arc::new(collider), head: Arc::new(head), roots, scale, groom })
+    Ok(Grown { strands, collider: Arc::new(collider), head: Arc::new(head), roots, scale, groom, scalp_patches })
 }
 
 /// Collects finished growth tasks: the groom starts simulating, or reports why not.
@@ -308,6 +325,10 @@ pub(crate) fn finish_growth(
         let result = result.and_then(|grown| Ok((grown, head_frame(transform, task.joint.as_ref(), &joints)?)));
         match result {
             Ok((grown, frame)) => {
+                if let Some(kind) = scattered_scalp(&grown.scalp_patches) {
+                    warn!("hair on {entity}: {kind}");
+                    errors.write(HairError { entity, kind });
+                }
                 *status = GroomStatus::Ready {
                     guides: grown.strands.strand_count(),
                     particles_per_strand: grown.strands.particles_per_strand(),

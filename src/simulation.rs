@@ -36,6 +36,8 @@ pub(crate) struct Grown {
     pub roots: Vec<hair_sim::groom::RootBinding>,
     pub scale: Vec3,
     pub groom: HairGroom,
+    /// The painted scalp's patches, largest first (`hair_sim::groom::painted_patches`).
+    pub scalp_patches: Vec<f32>,
 }
 
 /// Fewest simulated strands worth a task of their own.
@@ -115,7 +117,7 @@ pub struct HairState {
 
 impl HairState {
     pub(crate) fn new(grown: Grown, pose: Pose, joint: Option<ScalpJoint>) -> Self {
-        let Grown { mut strands, collider, head, roots, scale, groom } = grown;
+        let Grown { mut strands, collider, head, roots, scale, groom, .. } = grown;
         // A scalp skinned to its joint alone moves rigidly with it: nothing to skin per frame.
         let root_skin =
             joint.as_ref().filter(|j| j.share < 1.0).map(|j| j.root_skin(&head, scale, &roots)).unwrap_or_default();

@@ -70,8 +70,23 @@ fn heads_painted_in_blender_grow_hair_on_their_paint() {
             deepest.max(0.0) * 1e3
         );
         assert!(grown.strands > 100, "{variant}: {} strands grew", grown.strands);
+        assert!(grown.reports.is_empty(), "{variant}: {:?}", grown.reports);
         assert_eq!(grown.off_paint, 0, "{variant}: roots off the painted scalp");
         assert!(deepest <= 1e-4, "{variant}: a particle {} mm inside the head", deepest * 1e3);
+    }
+}
+
+/// Blender 3.4's glTF exporter scrambles colours on the face-corner domain: the head's
+/// paint arrives as scattered patches, and the plugin says so (and what to do) instead of
+/// growing on them silently.
+#[test]
+fn paint_blender_scrambled_is_reported() {
+    for variant in ["head_corner_float.glb", "head_corner_byte.glb"] {
+        let grown = glb::readme_code_on(&format!("{BLENDER_ASSETS}/{variant}"));
+        println!("{variant}: {} strands, {} roots off the paint; {:?}", grown.strands, grown.off_paint, grown.reports);
+        let scattered: Vec<&String> = grown.reports.iter().filter(|r| r.contains("separate patches")).collect();
+        assert_eq!(scattered.len(), 1, "{variant}: {:?}", grown.reports);
+        assert!(scattered[0].contains("Vertex domain"), "{}", scattered[0]);
     }
 }
 

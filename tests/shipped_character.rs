@@ -287,6 +287,7 @@ fn the_readme_code_grows_hair_on_a_painted_glb_head() {
         grown.deepest.max(0.0) * 1e3
     );
     assert!(grown.strands > 0, "no hair grew");
+    assert!(grown.reports.is_empty(), "{:?}", grown.reports);
     assert_eq!(grown.off_paint, 0, "roots off the painted scalp");
     assert!(grown.deepest <= 1e-4, "a particle is {} mm inside the head", grown.deepest * 1e3);
 }

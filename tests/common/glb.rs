@@ -61,6 +61,16 @@ pub struct ReadmeRun {
     pub off_paint: usize,
     /// The deepest particle inside the head, metres (negative: all outside).
     pub deepest: f32,
+    /// What the plugin reported (`HairError`s), in words.
+    pub reports: Vec<String>,
+}
+
+/// Every `HairError` reported so far, in words.
+#[derive(Resource, Default)]
+struct Reports(Vec<String>);
+
+fn collect_reports(mut errors: MessageReader<HairError>, mut reports: ResMut<Reports>) {
+    reports.0.extend(errors.read().map(|e| e.kind.to_string()));
 }
 
 /// README's code as a user runs it, on the `.glb` file `path` copied as `my_head.glb`
@@ -74,6 +84,7 @@ pub fn readme_code_on(path: &str) -> ReadmeRun {
     let mut app = gltf_app_in(common::FRAME, assets);
     app.init_asset::<StandardMaterial>();
     readme::add_setup(&mut app);
+    app.init_resource::<Reports>().add_systems(Last, collect_reports);
     app.update();
     let head = app.world_mut().query_filtered::<Entity, With<HairGroom>>().single(app.world()).unwrap();
     common::wait_until_ready(&mut app, head);
@@ -84,7 +95,8 @@ pub fn readme_code_on(path: &str) -> ReadmeRun {
     let strands = common::roots_and_tips(&app, head).len();
     let off_paint = roots_off_paint(&app, head);
     let deepest = common::max_penetration(&app, head);
-    ReadmeRun { app, head, strands, off_paint, deepest }
+    let reports = app.world().resource::<Reports>().0.clone();
+    ReadmeRun { app, head, strands, off_paint, deepest, reports }
 }
 
 /// How many of `head`'s roots are not on the paint, checked against the loaded mesh

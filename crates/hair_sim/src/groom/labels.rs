@@ -1,5 +1,6 @@
 //! Scalp labels: which vertices may grow hair, and how densely.
 
+use crate::math::Vec3;
 use crate::mesh::HeadMesh;
 
 /// The reference's labels from vertex colours: 1 where the paint is darker than
@@ -23,10 +24,43 @@ pub fn triangle_weights(mesh: &HeadMesh, vertex_weights: &[f32]) -> Vec<f32> {
     mesh.triangles.iter().map(|t| t.iter().map(|&i| weight(i)).fold(1.0, f32::min)).collect()
 }
 
+/// The painted patches of a head: its triangles with a weight above 0 joined where they
+/// share a corner, as their areas (m²), largest first. Corners are compared by position, so
+/// the two sides of a seam whose vertices the mesh splits (a UV sphere's, say) join. A
+/// scalp painted as one region is one patch; paint an exporter scrambled (Blender 3.4's glTF
+/// exporter does on the face-corner domain) is many small ones.
+pub fn painted_patches(mesh: &HeadMesh, triangle_weights: &[f32]) -> Vec<f32> {
+    fn root(parent: &mut [usize], mut t: usize) -> usize {
+        while parent[t] != t {
+            parent[t] = parent[parent[t]];
+            t = parent[t];
+        }
+        t
+    }
+    let painted = |t: usize| triangle_weights.get(t).is_some_and(|&w| w > 0.0);
+    let mut parent: Vec<usize> = (0..mesh.triangles.len()).collect();
+    let mut first_at: std::collections::HashMap<[u32; 3], usize> = std::collections::HashMap::new();
+    for (t, corners) in mesh.triangles.iter().enumerate().filter(|&(t, _)| painted(t)) {
+        for &v in corners {
+            let Some(p) = mesh.positions.get(v as usize) else { continue };
+            let other = *first_at.entry(p.to_array().map(f32::to_bits)).or_insert(t);
+            let (a, b) = (root(&mut parent, t), root(&mut parent, other));
+            parent[a] = b;
+        }
+    }
+    let mut areas: std::collections::HashMap<usize, f32> = std::collections::HashMap::new();
+    for (t, corners) in mesh.triangles.iter().enumerate().filter(|&(t, _)| painted(t)) {
+        let [a, b, c] = corners.map(|v| mesh.positions.get(v as usize).copied().unwrap_or(Vec3::ZERO));
+        *areas.entry(root(&mut parent, t)).or_default() += 0.5 * (b - a).cross(c - a).length();
+    }
+    let mut areas: Vec<f32> = areas.into_values().collect();
+    areas.sort_by(|a, b| b.total_cmp(a));
+    areas
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::math::Vec3;
 
     #[test]
     fn dark_paint_is_scalp() {
@@ -44,5 +78,26 @@ mod tests {
         assert_eq!(triangle_weights(&mesh, &[1.0, 1.0, 1.0, 0.0]), [1.0, 0.0]);
         assert_eq!(triangle_weights(&mesh, &[0.5, f32::NAN, 1.0, 1.0]), [0.0, 0.0]);
         assert_eq!(triangle_weights(&mesh, &[0.5, 0.7, 2.0, 1.0]), [0.5, 0.7]);
+    }
+
+    #[test]
+    fn painted_triangles_join_into_patches_across_split_seams() {
+        // A strip of four unit squares along x (two triangles each); the second square's
+        // vertices are split from the first's (a seam: equal positions, other indices).
+        let mut positions = Vec::new();
+        let mut triangles = Vec::new();
+        for square in 0..4u32 {
+            let at = positions.len() as u32;
+            let x = square as f32;
+            positions.extend([Vec3::new(x, 0.0, 0.0), Vec3::new(x + 1.0, 0.0, 0.0), Vec3::new(x, 1.0, 0.0)]);
+            positions.push(Vec3::new(x + 1.0, 1.0, 0.0));
+            triangles.extend([[at, at + 1, at + 2], [at + 1, at + 3, at + 2]]);
+        }
+        let mesh = HeadMesh::from_triangles(positions, triangles).unwrap();
+        // Squares 0 and 1 painted (joined across the seam), square 3 painted apart.
+        let weights = [1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 1.0, 0.5];
+        let patches = painted_patches(&mesh, &weights);
+        assert_eq!(patches, [2.0, 1.0]);
+        assert!(painted_patches(&mesh, &[0.0; 8]).is_empty());
     }
 }

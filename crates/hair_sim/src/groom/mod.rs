@@ -21,7 +21,7 @@ pub use curve::{
     CurvePoint, bezier_controls, evaluate, frame_at, tessellate, transport_frames, transport_frames_of_strands,
 };
 pub use hair_file::{HairFile, HairFileError};
-pub use labels::{labels_from_colors, triangle_weights};
+pub use labels::{labels_from_colors, painted_patches, triangle_weights};
 pub use poisson::sample_roots_poisson;
 pub use rng::SplitMix64;
 pub use vertex_roots::sample_roots_at_vertices;
