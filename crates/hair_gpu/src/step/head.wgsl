@@ -174,11 +174,29 @@ fn with_friction(position: vec3<f32>, normal: vec3<f32>, origin: vec3<f32>) -> v
 
 // Where a collider pushes a point (if `hit`), along which normal, and how deep the point
 // was in the collider's shell; world space, or head-local where said.
+// The least depth, as a share of the thickness, at which a contact looked up again from
+// where the first pushed to counts as a second face of a crease (hair_sim's `CREASE_DEPTH`).
+const CREASE_DEPTH: f32 = 1e-3;
+
 struct Contact {
     hit: bool,
     position: vec3<f32>,
     normal: vec3<f32>,
     depth: f32,
+}
+
+// Where the shells of two contacts meet: on both offset planes, the nearest such point to
+// the first, with the mean normal and the first depth; two faces nearly parallel meet
+// nowhere near: the second contact (hair_sim's `between_shells`).
+fn between_shells(first: Contact, second: Contact) -> Contact {
+    let c = dot(first.normal, second.normal);
+    let sine_squared = 1.0 - c * c;
+    if !(sine_squared > 1e-4) {
+        return Contact(true, second.position, second.normal, first.depth);
+    }
+    let beta = dot(second.position - first.position, second.normal) / sine_squared;
+    let position = first.position + (second.normal - first.normal * c) * beta;
+    return Contact(true, position, normalize_or(first.normal + second.normal, second.normal), first.depth);
 }
 
 // The head's contact for head-local `p` (head-local), by the response asked for: out along

@@ -119,26 +119,44 @@ fn collide_particle(i: u32, k: u32) {
     var x = positions[i].xyz;
     motion[3u * slots() + i] = vec4<f32>(x, 0.0);
     if step.grid_dims.w == 1u {
-        // Friction slides back along the tangent plane, which in a hollow dips under the
-        // surface: out again from there (a second query), unless the slide is too short to
-        // reach the surface (a quarter of the shell, as on the CPU).
+        // In a crease the push out of one face can leave the particle within the shell of
+        // the other: the contact is looked up again from where it pushed to, and where it
+        // is still that deep the particle goes where the two shells meet (hair_sim's
+        // `crease_contact`). Then friction slides back along the tangent plane, which in a
+        // hollow dips under the surface: out again from there (one more query), unless the
+        // slide is too short to reach the surface (a quarter of the shell, as on the CPU).
+        // One query in one loop for all of them: every call is inlined.
+        let thickness = step.limits.y;
         var query = local_point(now, x);
-        for (var again = 0u; again < 2u; again++) {
+        var settled: Contact;
+        var sliding = false;
+        for (var q = 0u; q < 3u; q++) {
             let contact = head_contact(query);
-            if !contact.hit {
+            if sliding {
+                if contact.hit {
+                    x = world_point(now, contact.position);
+                }
                 break;
             }
-            if again == 1u {
-                x = world_point(now, contact.position);
-                break;
+            if !settled.hit {
+                if !contact.hit {
+                    break;
+                }
+                settled = contact;
+                query = contact.position;
+                continue;
             }
-            touch(contact.depth);
-            let held = with_friction(contact.position, contact.normal, local_point(before, start(i)));
+            if contact.hit && contact.depth > CREASE_DEPTH * thickness {
+                settled = between_shells(settled, contact);
+            }
+            touch(settled.depth);
+            let held = with_friction(settled.position, settled.normal, local_point(before, start(i)));
             x = world_point(now, held);
-            if !(length(held - contact.position) > 0.25 * step.limits.y) {
+            if !(length(held - settled.position) > 0.25 * thickness) {
                 break;
             }
             query = held;
+            sliding = true;
         }
         // The skin that moved against the head's frame, as it is now.
         let local = local_point(now, x);

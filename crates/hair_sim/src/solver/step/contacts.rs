@@ -43,7 +43,7 @@ pub(super) fn collide<S: Simd>(
         for l in 0..g.lanes {
             let hints = &mut state.hints[g.strands[l] * n..][..n];
             for (j, hint) in hints.iter_mut().enumerate().skip(1) {
-                match head_contact(collider, g.local[j].lane(l), thickness, c.shared.ray_from, hint) {
+                match crease_contact(collider, g.local[j].lane(l), thickness, c.shared.ray_from, hint) {
                     Resolution::Contact(contact) => {
                         g.pushed[j].set_lane(l, contact.position);
                         g.normals[j].set_lane(l, contact.normal);
@@ -141,6 +141,52 @@ pub(super) fn head_contact(
         Some(from) => collider.resolve_measuring_along_ray(x, thickness, hint, from),
         None => collider.resolve_measuring(x, thickness, hint),
     }
+}
+
+/// The least depth, as a share of the thickness, at which [`crease_contact`] takes a second
+/// face into account: the query answers points on the shell with depths of a few ulps.
+pub(super) const CREASE_DEPTH: f32 = 1e-3;
+
+/// The head's contact for a head-local point, as [`head_contact`], looked up again from
+/// where it pushes to: in a crease (behind an ear, under the jaw) the push out of one face
+/// can leave the particle inside the shell of the other, and a particle left there is
+/// pushed out again next step and pulled back in by its segment, over and over. Where the
+/// second query finds it within another face's shell, it goes where the two shells meet
+/// (on both offset planes, the nearest such point to the first push), with the mean of the
+/// two normals. The depth is the first query's: how far the particle had gone in.
+#[inline(always)]
+pub(super) fn crease_contact(
+    collider: &HeadCollider,
+    x: Vec3,
+    thickness: f32,
+    ray_from: Option<Vec3>,
+    hint: &mut ContactHint,
+) -> Resolution {
+    let first = head_contact(collider, x, thickness, ray_from, hint);
+    let Resolution::Contact(contact) = first else { return first };
+    match head_contact(collider, contact.position, thickness, ray_from, hint) {
+        Resolution::Contact(second) if second.depth > CREASE_DEPTH * thickness => {
+            Resolution::Contact(between_shells(contact, second))
+        }
+        _ => first,
+    }
+}
+
+/// Where the shells of two contacts meet: the point `first.position + α n₁ + β n₂` on both
+/// offset planes (through each contact's position, along its normal), with the mean normal
+/// and the first depth. Two faces nearly parallel meet nowhere near: the second contact.
+#[inline(always)]
+pub(super) fn between_shells(first: Contact, second: Contact) -> Contact {
+    let (n1, n2) = (first.normal, second.normal);
+    let c = n1.dot(n2);
+    let sine_squared = 1.0 - c * c;
+    // Written to take NaN as parallel too.
+    if sine_squared.is_nan() || sine_squared <= 1e-4 {
+        return Contact { depth: first.depth, ..second };
+    }
+    let beta = (second.position - first.position).dot(n2) / sine_squared;
+    let position = first.position + (n2 - n1 * c) * beta;
+    Contact { position, normal: (n1 + n2).normalize_or(n2), depth: first.depth }
 }
 
 /// Collision leaves a particle on (or beyond) its shell, `thickness` above the surface,

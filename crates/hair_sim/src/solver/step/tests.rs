@@ -1,6 +1,8 @@
-use super::contacts::with_friction;
+use super::contacts::{self, with_friction};
 use super::shape::{bend, clamp_lengths, follow_the_leader};
 use super::*;
+use crate::collide::{ContactHint, HeadCollider, Resolution};
+use crate::mesh::HeadMesh;
 use crate::solver::Strands;
 
 /// A group holding one strand at `xs`, with rest shape `rest_positions`.
@@ -131,4 +133,76 @@ fn friction_takes_back_tangential_slide_only() {
     assert_eq!(with_friction(contact, start, 0.0), contact.position);
     let full = with_friction(contact, start, 1.0);
     assert!((full - Vec3::new(0.0, 0.0, 0.0)).length() < 1e-6, "{full:?}");
+}
+
+/// A closed block, 4 cm wide, whose top is a valley along z: two faces rising steeply
+/// (2 in 1) from y = 5 cm at x = 0 to y = 9 cm at x = ±2 cm.
+fn valley() -> HeadCollider {
+    let positions = vec![
+        Vec3::new(-0.02, -0.1, -0.1),
+        Vec3::new(0.02, -0.1, -0.1),
+        Vec3::new(0.02, -0.1, 0.1),
+        Vec3::new(-0.02, -0.1, 0.1),
+        Vec3::new(-0.02, 0.09, -0.1),
+        Vec3::new(0.0, 0.05, -0.1),
+        Vec3::new(0.02, 0.09, -0.1),
+        Vec3::new(-0.02, 0.09, 0.1),
+        Vec3::new(0.0, 0.05, 0.1),
+        Vec3::new(0.02, 0.09, 0.1),
+    ];
+    let triangles = vec![
+        [0, 1, 2],
+        [0, 2, 3], // bottom
+        [4, 7, 8],
+        [4, 8, 5],
+        [5, 8, 9],
+        [5, 9, 6], // the valley's two faces
+        [0, 5, 1],
+        [0, 4, 5],
+        [1, 5, 6], // back
+        [3, 2, 8],
+        [3, 8, 7],
+        [2, 9, 8], // front
+        [0, 3, 7],
+        [0, 7, 4],
+        [1, 6, 9],
+        [1, 9, 2], // sides
+    ];
+    let (mesh, _) = HeadMesh::repaired(positions, triangles).expect("a block");
+    HeadCollider::new(&mesh, 32).expect("closed")
+}
+
+/// The distance of `p` above the valley's nearer face, measured on the planes themselves.
+fn above_valley(p: Vec3) -> f32 {
+    // Each face's plane: y = 0.05 ∓ 2 x, unit normals (±2, 1) / √5.
+    let left = (p.y - 0.05 + 2.0 * p.x) / 5f32.sqrt();
+    let right = (p.y - 0.05 - 2.0 * p.x) / 5f32.sqrt();
+    left.min(right)
+}
+
+#[test]
+fn a_contact_in_a_crease_leaves_the_particle_outside_both_shells() {
+    let collider = valley();
+    let thickness = 0.003;
+    let mut worst_single = 0.0f32;
+    for k in 0..20 {
+        // Just above the valley's floor, off to one side or the other.
+        let p = Vec3::new(-0.001 + 0.0001 * k as f32, 0.0515, 0.0);
+        let mut hint = ContactHint::NONE;
+        let Resolution::Contact(single) = contacts::head_contact(&collider, p, thickness, None, &mut hint) else {
+            panic!("{p} is in the shell")
+        };
+        let mut hint = ContactHint::NONE;
+        let Resolution::Contact(settled) = contacts::crease_contact(&collider, p, thickness, None, &mut hint) else {
+            panic!("{p} is in the shell")
+        };
+        worst_single = worst_single.max(thickness - above_valley(single.position));
+        // On (or outside) both shells, to a micrometre; the depth as measured.
+        let left = thickness - above_valley(settled.position);
+        assert!(left <= 1e-6, "{p}: {left} m inside the shell");
+        assert_eq!(settled.depth, single.depth, "the depth is how far it had gone in");
+    }
+    // One projection alone leaves it well inside the other face's shell.
+    println!("one projection leaves a particle in the crease up to {:.3} mm inside the shell", worst_single * 1e3);
+    assert!(worst_single > 0.5e-3, "one projection left it {worst_single} m inside");
 }
