@@ -112,28 +112,22 @@ fn loaded(at: u32) -> vec2<u32> {
     return vec2<u32>(atomicLoad(&sums[at]), atomicLoad(&sums[at + 1u]));
 }
 
-// The head-local position of slot `i`, and whether it splats (not a root, not padding).
-fn local_position(i: u32) -> vec4<f32> {
+// Where the particle of slot `i` splats: `inside` false for padding, a root (pinned, not
+// counted) or a particle outside the grid. Head-local by the head's pose at the step's start.
+fn particle_splat(i: u32) -> Splat {
+    var none: Splat;
     let particle = slot_particle(i, volume.counts.y);
-    if particle.x >= volume.counts.x || particle.y == 0u {
-        return vec4<f32>(0.0);
+    if i >= slot_count(volume.counts.x, volume.counts.y) || particle.x >= volume.counts.x || particle.y == 0u {
+        return none;
     }
     let x = positions[i].xyz - volume.translation.xyz;
-    let local = volume.inverse[0].xyz * x.x + volume.inverse[1].xyz * x.y + volume.inverse[2].xyz * x.z;
-    return vec4<f32>(local, 1.0);
+    return splat_of(volume.inverse[0].xyz * x.x + volume.inverse[1].xyz * x.y + volume.inverse[2].xyz * x.z);
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn splat_particles(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = invocation(id, groups);
-    if i >= slot_count(volume.counts.x, volume.counts.y) {
-        return;
-    }
-    let local = local_position(i);
-    if local.w == 0.0 {
-        return;
-    }
-    let splat = splat_of(local.xyz);
+    let splat = particle_splat(i);
     if !splat.inside {
         return;
     }
@@ -178,14 +172,7 @@ fn resolve_cells(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_work
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn feed_back(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = invocation(id, groups);
-    if i >= slot_count(volume.counts.x, volume.counts.y) {
-        return;
-    }
-    let local = local_position(i);
-    if local.w == 0.0 {
-        return;
-    }
-    let splat = splat_of(local.xyz);
+    let splat = particle_splat(i);
     if !splat.inside {
         return;
     }
