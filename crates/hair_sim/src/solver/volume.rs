@@ -14,6 +14,7 @@
 use super::RestShape;
 use super::params::Volume;
 use crate::math::{Pose, Vec3};
+use glam::{Mat3A, Vec3A};
 
 /// Fractional bits of a trilinear weight per axis: a particle's eight weights are
 /// products of three, summing to exactly `1 << (3 · WEIGHT_BITS)`.
@@ -45,13 +46,20 @@ pub struct VolumeGrid {
     /// The mean rest mass over the cells the rest pose reaches, what the push compares
     /// a density excess with.
     rest_scale: f32,
-    /// Per cell, worked out once a step from the sums: the hair's mean velocity (zero in
-    /// an empty cell), and its density excess over the rest pose's as a share of
-    /// `rest_scale`.
-    mean_velocity: Vec<Vec3>,
-    excess: Vec<f32>,
+    /// Per cell, worked out once a step from the sums, for the feedback to read together.
+    values: Vec<CellValue>,
     /// Each particle's splat, kept from the sums for the feedback.
     splats: Vec<Option<Splat>>,
+}
+
+/// What the feedback reads of a cell: the hair's mean velocity (zero in an empty cell),
+/// whether it holds hair, and its density excess over the rest pose's as a share of the
+/// grid's `rest_scale`.
+#[derive(Clone, Copy, Debug, Default)]
+struct CellValue {
+    mean_velocity: Vec3,
+    occupied: bool,
+    excess: f32,
 }
 
 /// Where a point splats: its cell (the lowest of the eight around it), its fixed-point
@@ -103,8 +111,7 @@ impl VolumeGrid {
             momentum: vec![[0; 3]; cells],
             rest_mass: vec![0; cells],
             rest_scale: 1.0,
-            mean_velocity: vec![Vec3::ZERO; cells],
-            excess: vec![0.0; cells],
+            values: vec![CellValue::default(); cells],
             splats: Vec::new(),
         };
         grid.splat(rest, &rest.positions, None, Pose::IDENTITY);
@@ -188,9 +195,11 @@ impl VolumeGrid {
         let n = rest.particles_per_strand.max(1);
         let mut splats = std::mem::take(&mut self.splats);
         splats.clear();
+        // Head-local as a matrix, once (as the GPU's splat does), not a quaternion per particle.
+        let (inverse, translation) = (Mat3A::from_quat(pose.rotation).transpose(), Vec3A::from(pose.translation));
         splats.extend(positions.iter().enumerate().map(|(i, &x)| {
             // Roots are pinned: they neither count nor move.
-            (i % n != 0).then(|| self.splat_of(pose.inverse_transform_point(x))).flatten()
+            (i % n != 0).then(|| self.splat_of((inverse * (Vec3A::from(x) - translation)).into())).flatten()
         }));
         for (i, splat) in splats.iter().enumerate() {
             let Some(splat) = splat else { continue };
@@ -206,13 +215,14 @@ impl VolumeGrid {
         // Each cell's mean and excess, once, for every particle that reads it.
         let units = PARTICLE_MASS_UNITS as f32;
         for (c, ((&m, &r), momentum)) in self.mass.iter().zip(&self.rest_mass).zip(&self.momentum).enumerate() {
-            self.excess[c] = (m - r) as f32 / units / self.rest_scale;
-            self.mean_velocity[c] = if m > 0 {
+            let mean_velocity = if m > 0 {
                 let scale = 1.0 / (m as f64 * f64::from(1u32 << VELOCITY_BITS));
                 Vec3::from_array(momentum.map(|s| (s as f64 * scale) as f32))
             } else {
                 Vec3::ZERO
             };
+            let excess = (m - r) as f32 / units / self.rest_scale;
+            self.values[c] = CellValue { mean_velocity, occupied: m > 0, excess };
         }
     }
 
@@ -223,9 +233,10 @@ impl VolumeGrid {
         let f = splat.fraction;
         let (mut velocity, mut weight, mut gradient) = (Vec3::ZERO, 0.0f32, Vec3::ZERO);
         for (corner, (c, w)) in splat.corners(self.dims).enumerate() {
-            if self.mass[c] > 0 {
+            let cell = self.values[c];
+            if cell.occupied {
                 let w = w as f32 / PARTICLE_MASS_UNITS as f32;
-                velocity += self.mean_velocity[c] * w;
+                velocity += cell.mean_velocity * w;
                 weight += w;
             }
             // The trilinear interpolant's derivative along each axis.
@@ -236,7 +247,7 @@ impl VolumeGrid {
                 slope(0) * along(1, f.y) * along(2, f.z),
                 along(0, f.x) * slope(1) * along(2, f.z),
                 along(0, f.x) * along(1, f.y) * slope(2),
-            ) * self.excess[c];
+            ) * cell.excess;
         }
         let velocity = if weight > 0.0 { velocity / weight } else { Vec3::ZERO };
         (velocity, gradient * self.inverse_cell)
