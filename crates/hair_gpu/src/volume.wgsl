@@ -37,8 +37,8 @@ struct Volume {
 // Per particle index, root to tip, the share of the difference to the mean taken.
 @group(0) @binding(6) var<storage, read> shares: array<f32>;
 
-// hair_sim's `WEIGHT_BITS` (as a weight of one), `PARTICLE_MASS_UNITS`, `VELOCITY_BITS` (as a scale) and
-// `MAX_FIXED_VELOCITY` (a test checks).
+// hair_sim's `WEIGHT_BITS` (as a weight of one), `PARTICLE_MASS_UNITS`, `VELOCITY_BITS`
+// (as a scale) and `MAX_FIXED_VELOCITY` (a test checks).
 const WEIGHT_ONE: i32 = 32;
 const PARTICLE_MASS_UNITS: f32 = 32768.0;
 const VELOCITY_SCALE: f32 = 2048.0;

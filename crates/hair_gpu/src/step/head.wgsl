@@ -172,12 +172,12 @@ fn with_friction(position: vec3<f32>, normal: vec3<f32>, origin: vec3<f32>) -> v
     return position - tangential * step.limits.z;
 }
 
-// Where a collider pushes a point (if `hit`), along which normal, and how deep the point
-// was in the collider's shell; world space, or head-local where said.
 // The least depth, as a share of the thickness, at which a contact looked up again from
 // where the first pushed to counts as a second face of a crease (hair_sim's `CREASE_DEPTH`).
 const CREASE_DEPTH: f32 = 1e-3;
 
+// Where a collider pushes a point (if `hit`), along which normal, and how deep the point
+// was in the collider's shell; world space, or head-local where said.
 struct Contact {
     hit: bool,
     position: vec3<f32>,

@@ -132,11 +132,6 @@ impl VolumeGrid {
         self.origin
     }
 
-    /// The side of a cell, metres.
-    pub fn cell(&self) -> f32 {
-        self.cell
-    }
-
     /// Cells per metre: what a head-local offset from [`Self::origin`] is multiplied by.
     pub fn inverse_cell(&self) -> f32 {
         self.inverse_cell
