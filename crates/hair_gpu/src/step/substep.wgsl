@@ -300,8 +300,24 @@ fn set_velocity(i: u32, x: vec3<f32>, next: vec3<f32>, inverse_step: f32) {
     if !finite(next) {
         v = next;
     }
-    motion[i] = vec4<f32>(clamp_length_max(v, step.limits.x), 0.0);
+    let stored = clamp_length_max(v, step.limits.x);
+    motion[i] = vec4<f32>(stored, 0.0);
+    if step.flags.x == 1u && step.spring_flags.x == 1u {
+        restart_memory_if_shoved(i, x, stored);
+    }
 }
+
+// Where collision shoved particle `i` to `x`, the spring model's memory of it starts over
+// there, with velocity `v`, in part below FORGETTING_SHOVE (hair_sim's
+// `restart_memory_if_shoved`): BDF2 would bring a remembered shove back as speed.
+fn restart_memory_if_shoved(i: u32, x: vec3<f32>, v: vec3<f32>) {
+    let restart = min(length(x - shaped(i)) * (1.0 / FORGETTING_SHOVE), 1.0);
+    springs[i] = vec4<f32>(springs_previous_position(i) + (x - springs_previous_position(i)) * restart, 0.0);
+    springs[slots() + i] = vec4<f32>(springs_previous_velocity(i) + (v - springs_previous_velocity(i)) * restart, 0.0);
+}
+
+// The shove, m, from which `restart_memory_if_shoved` forgets the substep before entirely.
+const FORGETTING_SHOVE: f32 = 1e-6;
 
 // The velocity `moved` of particle `i` ending at `x`, less what collision's shove added along
 // its own direction, relative to the head's surface there (hair_sim's `without_rebound`).

@@ -647,6 +647,9 @@ fn substep<S: Simd>(
         }
         let next_correction = if j + 1 < n { g.ftl_correction[j + 1] } else { V3::zero() };
         g.velocities[j] = ftl_brake(moved, next_correction, ftl_velocity).clamp_length_max(max_speed);
+        if p.collision && p.length_mode == LengthMode::Springs {
+            restart_memory_if_shoved(g, j);
+        }
     }
 }
 
@@ -674,6 +677,27 @@ fn without_rebound<S: Simd>(
     let leaving = (moved - surface).dot(shove);
     moved - shove * (leaving - leaving_before).max(Wide::zero())
 }
+
+/// Where collision shoved particle `j`, the spring model's memory of it starts over from
+/// where it ended, as if it had been there the substep before too.
+///
+/// BDF2 extrapolates from the last two substeps' positions (`x + (x − x_before) / 3`), so
+/// a remembered shove comes back as half its length again over the next substeps, which
+/// [`without_rebound`] cannot see: on an ear's rim a strand on springs was thrown off by
+/// its own contacts every step and swung by centimetres at rest. Shoves shorter than
+/// [`FORGETTING_SHOVE`] restart it in part, so that rounding does not decide.
+#[inline(always)]
+fn restart_memory_if_shoved<S: Simd>(g: &mut GroupState<S>, j: usize) {
+    let shove = (g.positions[j] - g.shaped[j]).length();
+    let restart = (shove * Wide::splat(1.0 / FORGETTING_SHOVE)).min(Wide::one());
+    let (x, v) = (g.previous_positions[j], g.previous_velocities[j]);
+    g.previous_positions[j] = x + (g.positions[j] - x) * restart;
+    g.previous_velocities[j] = v + (g.velocities[j] - v) * restart;
+}
+
+/// The shove, m, from which [`restart_memory_if_shoved`] forgets the substep before
+/// entirely: far above rounding, far below a contact's push against gravity in a substep.
+const FORGETTING_SHOVE: f32 = 1e-6;
 
 /// Follow-The-Leader's velocity correction as a brake: the velocity `moved` a particle's
 /// positions give, slowed by Müller's term `−ftl_velocity · next_correction` (its child's
