@@ -250,8 +250,8 @@ impl Phases {
 }
 
 /// Bytes per slot in `motion`: velocity, substep start, FTL correction, position before
-/// collision and sleep anchor (the step shader's `PLANES`).
-const MOTION_BYTES: u64 = 5 * 16;
+/// collision, sleep anchor and step start (the step shader's `PLANES`).
+const MOTION_BYTES: u64 = 6 * 16;
 /// Bytes per strand of the step report after the particles in `motion` (the step shader's
 /// `Tally`, added up).
 const REPORT_BYTES: u64 = 2 * 16;
@@ -747,7 +747,7 @@ impl GpuStrands {
                 u32::from(p.length_mode == LengthMode::Springs),
                 u32::from(self.springs_remembered),
                 u32::from(p.segment_collision),
-                0,
+                u32::from(input.head_from == input.head_to),
             ],
             ray_from: c.ray_from.map_or([0.0; 4], |r| [r.x, r.y, r.z, 1.0]),
             offset: [0.0; 4],

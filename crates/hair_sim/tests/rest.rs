@@ -10,20 +10,41 @@ use hair_sim::prelude::*;
 
 const DT: f32 = 1.0 / 60.0;
 
-/// `strands` guides × 16 particles, 25 cm, on the scalp `weights` of `head`, combed by
-/// `comb` and settled under `params` as the plugin settles a groom (180 steps), with the
-/// head's collider.
+/// How a test groom grows: 25 cm guides, combed by `comb`.
+#[derive(Clone, Copy)]
+enum Recipe {
+    /// 16 particles, roots sampled uniformly (seed 7).
+    Test,
+    /// As the plugin grows its default `HairGroom`: 11 particles, lengths varied by 20 %,
+    /// roots spaced by Poisson-disc sampling (seed 1).
+    PluginDefault,
+}
+
+/// `strands` guides grown by `recipe` on the scalp `weights` of `head`, combed by `comb`
+/// and settled under `params` as the plugin settles a groom (180 steps), with the head's
+/// collider.
 fn settled_groom(
     head: &HeadMesh,
     weights: &[f32],
     strands: usize,
+    recipe: Recipe,
     comb: Vec3,
     params: &SimParams,
 ) -> (HeadCollider, RestShape) {
     let collider = HeadCollider::new(head, DEFAULT_GRID_RESOLUTION).expect("a head");
-    let roots = sample_roots(head, weights, strands, 7).expect("scalp");
-    let grow = GuideParams { segments: 15, length: 0.25, comb, ..GuideParams::default() };
-    let rest = RestShape::new(grow_guides(head, &roots, &grow, 7).expect("roots"), 16).expect("guides");
+    let (roots, grow, seed) = match recipe {
+        Recipe::Test => {
+            let grow = GuideParams { segments: 15, length: 0.25, comb, ..GuideParams::default() };
+            (sample_roots(head, weights, strands, 7), grow, 7)
+        }
+        Recipe::PluginDefault => {
+            let grow =
+                GuideParams { segments: 10, length: 0.25, length_variation: 0.2, comb, ..GuideParams::default() };
+            (hair_sim::groom::sample_roots_poisson(head, weights, strands, 1), grow, 1)
+        }
+    };
+    let guides = grow_guides(head, &roots.expect("scalp"), &grow, seed).expect("roots");
+    let rest = RestShape::new(guides, grow.segments + 1).expect("guides");
     let rest = settle(rest, Some(&collider), params, 180, comb).expect("settle");
     (collider, rest)
 }
@@ -31,15 +52,15 @@ fn settled_groom(
 /// A groom on the procedural head ([`settled_groom`]), uncombed.
 fn procedural_groom(strands: usize, params: &SimParams) -> (HeadCollider, RestShape) {
     let head = test_head(4);
-    settled_groom(&head, &test_scalp(&head), strands, Vec3::ZERO, params)
+    settled_groom(&head, &test_scalp(&head), strands, Recipe::Test, Vec3::ZERO, params)
 }
 
 /// A groom on the shipped head, as its converter reads it, on its painted scalp.
-fn shipped_groom(strands: usize, comb: Vec3, params: &SimParams) -> (HeadCollider, RestShape) {
+fn shipped_groom(strands: usize, recipe: Recipe, comb: Vec3, params: &SimParams) -> (HeadCollider, RestShape) {
     let asset = head_asset::read_committed().expect("assets/head.glb is committed and parses");
     let head = asset.head_mesh();
     let labels: Vec<f32> = asset.scalp_vertices().iter().map(|&s| f32::from(u8::from(s))).collect();
-    settled_groom(&head, &triangle_weights(&head, &labels), strands, comb, params)
+    settled_groom(&head, &triangle_weights(&head, &labels), strands, recipe, comb, params)
 }
 
 /// How still hair is under a still head: over the watched steps, the largest move of any
@@ -105,30 +126,33 @@ fn print(name: &str, r: &StillReport) {
     );
 }
 
-/// A settled groom of 512 guides under a still head, then watched for 1 s: on the
-/// procedural and the shipped head (combed back too), inextensible and on springs, at 1, 2
+/// A settled groom under a still head, then watched for 1 s: 512 test guides on the
+/// procedural and the shipped head (combed back too), and the plugin's default groom of
+/// 600 guides on the shipped head, combed and not; inextensible and on springs, at 1, 2
 /// and 8 substeps, friction on and off. The groom is settled as inextensible hair (a
 /// groom settled on springs would take their stretch into its rest lengths), so the soft
 /// default springs (20 N/m) first sag by up to their 10 % and are watched after 8 s; the
 /// inextensible after 4 s.
 ///
-/// Everywhere the stored speeds average under 0.01 m/s. Nearly every strand falls asleep
-/// and holds still; the few that do not cycle where a segment rests on an ear's rim or the
-/// jaw's edge (`docs/simulation.md`, hair at rest): none of the inextensible hair on the
-/// procedural head or the shipped head uncombed, at most 1 % of the strands anywhere.
+/// Everywhere the stored speeds average under 0.01 m/s, and every strand of the test
+/// guides falls asleep and holds still exactly. Of the plugin's groom at most one strand
+/// of the 600 still moves (`docs/simulation.md`, hair at rest).
 #[test]
 fn hair_under_a_still_head_is_still() {
     let settled = SimParams::default();
+    let back = Vec3::new(0.0, 0.0, -1.5);
     let grooms = [
-        ("procedural head", procedural_groom(512, &settled)),
-        ("shipped head", shipped_groom(512, Vec3::ZERO, &settled)),
-        ("shipped head, combed back", shipped_groom(512, Vec3::new(0.0, 0.0, -1.5), &settled)),
+        ("procedural head", 512, procedural_groom(512, &settled)),
+        ("shipped head", 512, shipped_groom(512, Recipe::Test, Vec3::ZERO, &settled)),
+        ("shipped head, combed back", 512, shipped_groom(512, Recipe::Test, back, &settled)),
+        ("plugin's groom", 600, shipped_groom(600, Recipe::PluginDefault, Vec3::ZERO, &settled)),
+        ("plugin's groom, combed back", 600, shipped_groom(600, Recipe::PluginDefault, back, &settled)),
     ];
     let models =
         [("inextensible", settled, 240), ("springs", SimParams { length_mode: LengthMode::Springs, ..settled }, 480)];
-    let mut worst_moving = 0;
+    let (mut moving_cases, mut plugin_moving) = (0, 0);
     for (model, base, still_steps) in models {
-        for (name, (collider, rest)) in &grooms {
+        for (name, strands, (collider, rest)) in &grooms {
             for substeps in [1, 2, 8] {
                 for friction in [base.friction, 0.0] {
                     let params = SimParams { substeps, friction, ..base };
@@ -136,17 +160,20 @@ fn hair_under_a_still_head_is_still() {
                     let case = format!("{name}, {model}, {substeps} substeps, friction {friction}");
                     print(&case, &report);
                     assert!(report.mean_speed < 0.01, "{case}: hair at rest keeps {report:?}");
-                    let exact = model == "inextensible" && *name != "shipped head, combed back";
-                    if exact {
+                    if report.moving_strands > 0 {
+                        moving_cases += 1;
+                    }
+                    if *strands == 600 {
+                        plugin_moving += report.moving_strands;
+                    } else {
                         assert!(report.max_move <= 1e-5 && report.alternations == 0, "{case}: {report:?}");
                     }
-                    worst_moving = worst_moving.max(report.moving_strands);
                 }
             }
         }
     }
-    println!("at most {worst_moving} of 512 strands still moving");
-    assert!(worst_moving <= 5, "{worst_moving} strands still moving");
+    println!("{moving_cases} of 60 cases with a strand still moving; of the plugin's groom, {plugin_moving} in all");
+    assert!(plugin_moving <= 1, "{plugin_moving} strands of the plugin's groom still moving");
 }
 
 /// One strand of `n` particles, 25 cm, from the origin along +X (horizontal).

@@ -49,7 +49,8 @@ struct Step {
     // The spring model: stiffness, damping, 1 / particle mass, length tolerance.
     springs: vec4<f32>,
     // The spring model on (1/0); whether the strands remember the step before (1/0);
-    // whole-segment collision on (1/0).
+    // whole-segment collision on (1/0); the head keeps its pose through the step (1/0:
+    // segments rest on an ear's rim, `rest_on_rim`).
     spring_flags: vec4<u32>,
     // Where the centre-ray response pushes from (head-local), and 1 in w for that
     // response (0: along the surface normal).
@@ -79,11 +80,11 @@ struct Step {
 // `slots()` slots for each value.
 @group(0) @binding(2) var<storage, read_write> positions: array<vec4<f32>>;
 // `PLANES` planes: velocity, position at the substep's start, FTL correction, position
-// before collision, sleep anchor (the last two's root slots hold the strand's sleep watch).
-// Then per strand two vec4: what its steps did since the report was last taken (`Tally`,
-// added up).
+// before collision, sleep anchor (the last two's root slots hold the strand's sleep watch),
+// position at the step's start. Then per strand two vec4: what its steps did since the
+// report was last taken (`Tally`, added up).
 @group(0) @binding(3) var<storage, read_write> motion: array<vec4<f32>>;
-const PLANES: u32 = 5u;
+const PLANES: u32 = 6u;
 // Two planes: head-local rest position with the rest length of the segment ending there
 // in w, and the rest direction in the parent segment's frame.
 @group(0) @binding(4) var<storage, read> rest: array<vec4<f32>>;
@@ -192,6 +193,7 @@ fn watching(first: u32) -> bool { return motion[3u * slots() + first].w == 1.0; 
 // watch has run, seconds.
 fn anchor(i: u32) -> vec3<f32> { return motion[4u * slots() + i].xyz; }
 fn quiet(first: u32) -> f32 { return motion[4u * slots() + first].w; }
+fn step_start(i: u32) -> vec3<f32> { return motion[5u * slots() + i].xyz; }
 fn rest_position(i: u32) -> vec3<f32> { return rest[i].xyz; }
 fn rest_length(i: u32) -> f32 { return rest[i].w; }
 fn rest_direction(i: u32) -> vec3<f32> { return rest[slots() + i].xyz; }

@@ -129,9 +129,12 @@ fn keep_segments_outside(first: u32, n: u32, now: Pose) {
         if lowest > rise_under(0.5 * (local_parent + local_child), span) {
             continue;
         }
-        let local_turned = turn_out_of(local_parent, local_child, span);
+        var local_turned = turn_out_of(local_parent, local_child, span);
         if all(local_turned == local_child) {
             continue;
+        }
+        if step.spring_flags.w == 1u {
+            local_turned = rest_on_rim(i, local_parent, local_turned, span);
         }
         // Only the turn's direction comes back from head-local space (hair_sim's
         // `keep_segments_outside`).

@@ -192,6 +192,23 @@ fn crosses(a: vec3<f32>, b: vec3<f32>) -> bool {
     return crossed_stretch(a, head_surface(a).distance, b).z == 1.0;
 }
 
+// Where the segment ending in slot `i`, turned out of the head to `turned` (head-local,
+// `span` from `parent`), goes instead: back to the direction it had at the step's start if
+// that crosses nothing and lies within RIM_REST_REACH of the turn (hair_sim's
+// `rest_on_rim`: a segment draped over an ear's rim rests there).
+fn rest_on_rim(i: u32, parent: vec3<f32>, turned: vec3<f32>, span: f32) -> vec3<f32> {
+    let start_pose = pose(0u);
+    let direction = local_point(start_pose, step_start(i)) - local_point(start_pose, step_start(i - LANES));
+    let rested = parent + normalize_or(direction, vec3<f32>(0.0, 1.0, 0.0)) * span;
+    if distance(rested, turned) < RIM_REST_REACH && !crosses(parent, rested) {
+        return rested;
+    }
+    return turned;
+}
+
+// hair_sim's `RIM_REST_REACH`, m.
+const RIM_REST_REACH: f32 = 1e-2;
+
 // How many times a segment turns before collision simply wins (hair_sim's `MAX_TURNS`).
 const MAX_TURNS: u32 = 4u;
 // How far outside the surface a turn lifts the middle of the crossed stretch, m (hair_sim's

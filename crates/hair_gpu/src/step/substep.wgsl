@@ -38,6 +38,9 @@ fn move_strand(strand: u32, first: u32, n: u32, k: u32) {
         let x = positions[i].xyz;
         motion[slots() + i] = vec4<f32>(x, 0.0);
         motion[2u * slots() + i] = vec4<f32>(0.0);
+        if k == 1u {
+            motion[5u * slots() + i] = vec4<f32>(x, 0.0);
+        }
         if integrate && j > 0u {
             let v = velocity(i) * step.motion.x + acceleration(i, wind) * h;
             positions[i] = vec4<f32>(x + clamp_length_max(v * h, step.motion.y), 0.0);

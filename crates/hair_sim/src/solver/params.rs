@@ -244,6 +244,10 @@ pub struct SimParams {
     /// changes ([`Stillness`]). 0 never sleeps: for measuring where hair comes to rest
     /// more finely than this distance.
     ///
+    /// The default is as wide as the default collision shell: a strand pressed into a
+    /// crease or draped over an ear's rim can step between places a millimetre or two apart
+    /// without ever settling, and a narrower distance left it buzzing there for good.
+    ///
     /// [`Stillness`]: super::Stillness
     pub sleep_distance: f32,
     /// Seconds a strand must stay within [`Self::sleep_distance`] to fall asleep.
@@ -280,7 +284,7 @@ impl Default for SimParams {
             segment_collision: true,
             friction: 0.3,
             max_speed: 15.0,
-            sleep_distance: 1e-3,
+            sleep_distance: 3e-3,
             sleep_time: 0.5,
             teleport_distance: 0.5,
             simd: SimdPath::Auto,

@@ -210,6 +210,8 @@ struct GroupState<S: Simd> {
     velocities: Vec<V3<S>>,
     /// Positions at the start of the substep.
     start: Vec<V3<S>>,
+    /// Positions at the start of the step.
+    step_start: Vec<V3<S>>,
     /// Where each particle would be with no velocity this substep, and the time its
     /// velocity acts over: the integrator's `x = base + step · v`. Explicit Euler has
     /// `base = start`, `step = h`; BDF2 blends in the substep before ([`implicit_springs`]).
@@ -277,6 +279,7 @@ impl<S: Simd> GroupState<S> {
             positions: vec![V3::zero(); n],
             velocities: vec![V3::zero(); n],
             start: vec![V3::zero(); n],
+            step_start: vec![V3::zero(); n],
             base: vec![V3::zero(); n],
             step: Wide::zero(),
             accel: vec![V3::zero(); n],
@@ -532,8 +535,10 @@ fn step_group<S: Simd>(
     input: &StepInput,
     report: &mut StepReport,
 ) {
+    g.step_start.copy_from_slice(&g.positions);
     for s in 1..c.shared.poses.len() {
         let poses = SubstepPoses {
+            step_start: &c.matrices[0],
             before: &c.matrices[s - 1],
             before_lanes: &c.lane_poses[s - 1],
             now: &c.lane_poses[s],
@@ -548,6 +553,8 @@ fn step_group<S: Simd>(
 
 /// The head at the start and end of a substep.
 struct SubstepPoses<'a, S: Simd> {
+    /// At the start of the step (where a segment resting on an ear's rim lay).
+    step_start: &'a PoseMatrix,
     /// For one particle at a time (friction against the moving skin).
     before: &'a PoseMatrix,
     /// The same, for whole lanes at once (friction against the head).

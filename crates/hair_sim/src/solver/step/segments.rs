@@ -2,7 +2,7 @@
 //! GPU twin: `hair_gpu`'s `step/segments.wgsl`.
 
 use super::final_length::{MAX_TURNS, contact_at, place_outside, set_final};
-use super::{GroupState, SubstepPoses};
+use super::{GroupState, PoseMatrix, SubstepPoses};
 use crate::collide::{ContactHint, HeadCollider};
 use crate::math::Vec3;
 use crate::solver::lanes::{Mask, Simd, V3, Wide};
@@ -36,6 +36,7 @@ pub(super) fn keep_segments_outside<S: Simd>(
     report: &mut StepReport,
 ) {
     let Some(collider) = input.collider else { return };
+    let head_still = input.head_from == input.head_to;
     let n = g.positions.len();
     let real_lanes = g.real_lanes();
     // Lanes whose particles from here on were moved by a turn: their clearance is unknown.
@@ -70,6 +71,12 @@ pub(super) fn keep_segments_outside<S: Simd>(
             if local_turned == local_child {
                 continue;
             }
+            let local_turned = if head_still {
+                let lay = (g.step_start[j - 1].lane(l), g.step_start[j].lane(l));
+                rest_on_rim(collider, poses.step_start, lay, local_parent, local_turned, length)
+            } else {
+                local_turned
+            };
             // Only the turn's direction comes back from head-local space, where a mesh far
             // from its own origin leaves coordinates of many metres: the particle is placed
             // at the segment's length from its parent in the solver's space.
@@ -103,6 +110,38 @@ pub(super) fn keep_segments_outside<S: Simd>(
         }
     }
 }
+
+/// Where a segment turned out of the head to `turned` (head-local, `length` from `parent`)
+/// goes instead: back to the direction it had at the step's start (`lay`, its two ends in
+/// the solver's space under the head's pose then, `step_start`), if that crosses nothing
+/// and lies within [`RIM_REST_REACH`] of the turn; else `turned`.
+///
+/// A segment draped over an ear's rim rests there, as static friction holds it. Turned
+/// anew each step, it cycled under a still head: gravity brings it back through the rim,
+/// and the turn, which lifts the middle of the crossed stretch onto the surface, lands a
+/// few millimetres from the last one (the nearest face of a thin part changes with the
+/// smallest move).
+pub(super) fn rest_on_rim(
+    collider: &HeadCollider,
+    step_start: &PoseMatrix,
+    lay: (Vec3, Vec3),
+    parent: Vec3,
+    turned: Vec3,
+    length: f32,
+) -> Vec3 {
+    let direction = step_start.local_point(lay.1) - step_start.local_point(lay.0);
+    let rested = parent + direction.normalize_or(Vec3::Y) * length;
+    if rested.distance(turned) < RIM_REST_REACH && collider.segment_crossing(parent, rested).is_none() {
+        rested
+    } else {
+        turned
+    }
+}
+
+/// How far from where a segment lay the turn out of a thin part may put its end for the
+/// segment to go back there instead ([`rest_on_rim`]), m: more than gravity moves it in a
+/// step at rest, less than a head turning at speed does.
+pub(super) const RIM_REST_REACH: f32 = 1e-2;
 
 /// Where to put `child` (head-local, `length` from `parent`) so that the segment between
 /// them no longer runs through the head: turned about the parent until the middle of the
