@@ -125,7 +125,7 @@ fn keep_segments_outside(first: u32, n: u32, now: Pose) {
         let local_child = local_point(now, child);
         let span = distance(parent, child);
         // Both ends clear more than the surface can rise between them (the skull): out.
-        let lowest = min(head_surface(local_parent).distance, head_surface(local_child).distance);
+        let lowest = min(sure_clearance(local_parent), sure_clearance(local_child));
         if lowest > rise_under(0.5 * (local_parent + local_child), span) {
             continue;
         }

@@ -23,9 +23,12 @@ fn head_surface(p: vec3<f32>) -> Surface {
 // (deep inside, or a cell with too many candidates) too, by a walk of the BVH as the CPU
 // walks its own; otherwise the grid's gradient answers there. A particle's own
 // contact asks for it (`head_contact`: a particle deep inside after a hitch goes out where
-// the CPU's goes); the turns, traces and placements keep the grid there (with every
-// triangle in them too, near-root hair stayed millimetres inside a skinned head blended
-// into its neck, which `tests/characters.rs` checks; why is not understood).
+// the CPU's goes), and so does a segment's trace where it asks whether it is inside beyond
+// a triangle it hit (`first_inside`: a thin part, an ear's rim, lies between the grid's
+// samples, and read from the grid segments stayed through it); the turns and placements
+// keep the grid there (with every triangle in them too, near-root hair stayed millimetres
+// inside a skinned head blended into its neck, which `tests/characters.rs` checks; why is
+// not understood).
 fn head_surface_from(p: vec3<f32>, deep: bool) -> Surface {
     let g = (p - step.centre.xyz - step.grid_origin.xyz) * step.grid_origin.w;
     let upper = vec3<f32>(step.grid_dims.xyz - vec3<u32>(1u));

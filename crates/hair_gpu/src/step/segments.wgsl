@@ -12,7 +12,7 @@ const MIN_TRACE_STEP: f32 = 1e-6;
 // is within half its length of an end); it is not traced.
 fn crossed_stretch(a: vec3<f32>, a_distance: f32, b: vec3<f32>) -> vec3<f32> {
     let span = length(b - a);
-    if !(span > 0.0) || min(a_distance, head_surface(b).distance) > 0.5 * span {
+    if !(span > 0.0) || min(a_distance, sure_clearance(b)) > 0.5 * span {
         return vec3<f32>(0.0);
     }
     // From `a` to `b`, then (where it goes in) back from `b`: one call site for both ways
@@ -110,7 +110,8 @@ fn ray_on_triangle(origin: vec3<f32>, direction: vec3<f32>, a: vec3<f32>, b: vec
 // The fraction of the way from head-local `start_at` to `to` (`span` apart) at which the segment
 // first goes inside the head, or 2 where it stays out. With the BVH, from one triangle the
 // segment hits to the next until it is inside just beyond one (`MIN_TRACE_STEP`), by the
-// exact query: a segment that only touches the surface, or grazes an edge, stays out.
+// exact query, by the BVH where a cell has no list: a segment that only touches the
+// surface, or grazes an edge, stays out.
 // Without it, sphere tracing: each step the distance to the surface (less the grid's error,
 // where the grid answers), which cannot step over any part of the surface, and at least
 // `MIN_TRACE_STEP`; the crossing refined by bisection. A walk not done in 1,024 steps (a
@@ -141,7 +142,7 @@ fn first_inside(start_at: vec3<f32>, to: vec3<f32>, span: f32) -> f32 {
             t = min(hit + MIN_TRACE_STEP, span);
         }
         let at = select(t, 0.5 * (outside + inside), bisecting);
-        let surface = head_surface(start_at + direction * at);
+        let surface = head_surface_from(start_at + direction * at, by_hits);
         if by_hits {
             // The start inside (t = 0), or the far side of a hit.
             if surface.distance < 0.0 {
@@ -187,9 +188,16 @@ fn rise_under(middle: vec3<f32>, segment: f32) -> f32 {
     return convex * segment * segment / 8.0 + head_f32(at + 1u);
 }
 
+// How far head-local `p` surely is from the surface: the distance, less the grid's error
+// where the grid answers (a thin part, an ear's rim, can lie between its samples).
+fn sure_clearance(p: vec3<f32>) -> f32 {
+    let surface = head_surface(p);
+    return surface.distance - select(0.0, step.near_bounds.x, surface.approximate);
+}
+
 // Whether the segment between head-local `a` and `b` runs through the head.
 fn crosses(a: vec3<f32>, b: vec3<f32>) -> bool {
-    return crossed_stretch(a, head_surface(a).distance, b).z == 1.0;
+    return crossed_stretch(a, sure_clearance(a), b).z == 1.0;
 }
 
 // Where the segment ending in slot `i`, turned out of the head to `turned` (head-local,
@@ -226,7 +234,7 @@ const SPHERE_DIRECTIONS: u32 = 96u;
 // parent instead, as little as bisection finds enough. `child` where it crosses nothing.
 // hair_sim's `turn_out_of`.
 fn turn_out_of(parent: vec3<f32>, child: vec3<f32>, segment: f32) -> vec3<f32> {
-    let parent_distance = head_surface(parent).distance;
+    let parent_distance = sure_clearance(parent);
     var turned = child;
     // MAX_TURNS turns, each segment tested, the last turned one too.
     for (var turn = 0u; turn <= MAX_TURNS; turn++) {
