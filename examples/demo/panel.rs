@@ -11,6 +11,7 @@ use bevy::diagnostic::{DiagnosticPath, DiagnosticsStore, FrameTimeDiagnosticsPlu
 use bevy::prelude::*;
 use bevy_egui::{EguiContexts, EguiPrimaryContextPass, egui};
 use bevy_hair::prelude::*;
+use hair_sim::solver::MAX_PRESSURE_ITERATIONS;
 use std::ops::RangeInclusive;
 
 pub fn plugin(app: &mut App) {
@@ -235,6 +236,8 @@ fn simulation_section(ui: &mut egui::Ui, p: &mut SimParams) {
         slider(ui, &mut p.volume.friction_root, 0.0..=1.0, "friction between strands, root");
         slider(ui, &mut p.volume.friction_tip, 0.0..=1.0, "friction between strands, tip");
         slider(ui, &mut p.volume.density_push, 0.0..=50.0, "push out of dense hair (m/s²)");
+        slider(ui, &mut p.volume.pressure_iterations, 0..=MAX_PRESSURE_ITERATIONS, "pressure sweeps (0: off)");
+        slider(ui, &mut p.volume.pressure, 0.0..=1.0, "pressure applied");
     });
     // The same positions on every path; only the step time (in the diagnostics) changes.
     ui.horizontal(|ui| {

@@ -32,11 +32,12 @@ struct VolumeUniform {
     translation: [f32; 4],
     rotation: [[f32; 4]; 3],
     feedback: [f32; 4],
+    solve: [f32; 4],
 }
 
-/// The volume shader's three passes (`splat_particles`, `resolve_cells`, `feed_back`) on
-/// one layout: compiled with the strands, so that a step that first asks for volume does
-/// not wait for a compiler.
+/// The volume shader's passes (`splat_particles`, `resolve_cells`, `relax_red`,
+/// `relax_black`, `feed_back`) on one layout: compiled with the strands, so that a step
+/// that first asks for volume does not wait for a compiler.
 pub(crate) struct VolumePasses {
     layout: SharedLayout,
     pipelines: Vec<wgpu::ComputePipeline>,
@@ -52,13 +53,14 @@ impl VolumePasses {
             (storage(false), false),
             (storage(true), false),
             (storage(true), false),
+            (storage(false), false),
         ];
         let (layout, pipelines) = SharedLayout::compile(
             device,
             "hair_gpu volume",
             VOLUME_SHADER,
             &bindings,
-            ["splat_particles", "resolve_cells", "feed_back"],
+            ["splat_particles", "resolve_cells", "relax_red", "relax_black", "feed_back"],
         );
         VolumePasses { layout, pipelines }
     }
@@ -73,6 +75,8 @@ pub(crate) struct GpuVolume {
     /// The cells' integer sums (the shader's `sums`), copied back by the tests.
     pub sums: wgpu::Buffer,
     shares: wgpu::Buffer,
+    /// Each cell's pressure, kept between steps.
+    pressure: wgpu::Buffer,
     group: wgpu::BindGroup,
     /// Buffers made for it (kept alive with the bind group).
     _cells: wgpu::Buffer,
@@ -103,6 +107,8 @@ impl GpuVolume {
         let sums = buffer("hair_gpu volume sums", cells * WORDS_PER_CELL * 4, copy);
         let cell_values = buffer("hair_gpu volume cells", cells * 32, wgpu::BufferUsages::empty());
         let shares = buffer("hair_gpu volume shares", rest.particles_per_strand * 4, wgpu::BufferUsages::COPY_DST);
+        // Zeroed at creation, as the CPU grid's.
+        let pressure = buffer("hair_gpu volume pressure", cells * 4, wgpu::BufferUsages::COPY_DST);
         // Each rest mass as its two words, low then high.
         let words: Vec<u32> = grid.rest_mass().iter().flat_map(|&m| [m as u32, (m >> 32) as u32]).collect();
         let rest_mass = crate::storage_buffer(
@@ -120,11 +126,21 @@ impl GpuVolume {
         let group = passes.layout.bind(
             device,
             "hair_gpu volume",
-            [&uniform, positions, motion, &sums, &cell_values, &rest_mass, &shares]
+            [&uniform, positions, motion, &sums, &cell_values, &rest_mass, &shares, &pressure]
                 .map(|b| b.as_entire_binding())
                 .to_vec(),
         );
-        GpuVolume { resolution, grid, uniform, sums, shares, group, _cells: cell_values, _rest_mass: rest_mass }
+        GpuVolume {
+            resolution,
+            grid,
+            uniform,
+            sums,
+            shares,
+            pressure,
+            group,
+            _cells: cell_values,
+            _rest_mass: rest_mass,
+        }
     }
 
     /// Records the volume's effect on one step of `dt` seconds under `volume`'s settings,
@@ -153,14 +169,23 @@ impl GpuVolume {
             inverse: columns(rotation.transpose()),
             translation: [t.x, t.y, t.z, 0.0],
             rotation: columns(rotation),
-            feedback: [feedback.push, self.grid.rest_scale(), 0.0, 0.0],
+            feedback: [feedback.push, self.grid.rest_scale(), volume.pressure, self.grid.cell() * self.grid.cell()],
+            solve: [1.0 / dt.max(1e-6), 0.0, 0.0, 0.0],
         };
         recorder.upload(&self.uniform, bytemuck::bytes_of(&uniform));
         recorder.upload(&self.shares, bytemuck::cast_slice(&feedback.shares));
         recorder.encoder().clear_buffer(&self.sums, 0, None);
-        let [splat, resolve, feed_back] = [&passes.pipelines[0], &passes.pipelines[1], &passes.pipelines[2]];
+        let [splat, resolve, red, black, feed_back] = std::array::from_fn(|k| &passes.pipelines[k]);
         recorder.dispatch("hair_gpu volume splat", splat, (&self.group, &[]), slots);
         recorder.dispatch("hair_gpu volume cells", resolve, (&self.group, &[]), cells);
+        if volume.pressure_iterations == 0 {
+            // Off: nothing left over from when it was on (`VolumeGrid::solve_pressure`).
+            recorder.encoder().clear_buffer(&self.pressure, 0, None);
+        }
+        for _ in 0..volume.pressure_iterations {
+            recorder.dispatch("hair_gpu volume pressure, red", red, (&self.group, &[]), cells);
+            recorder.dispatch("hair_gpu volume pressure, black", black, (&self.group, &[]), cells);
+        }
         recorder.dispatch("hair_gpu volume feedback", feed_back, (&self.group, &[]), slots);
     }
 
@@ -196,6 +221,7 @@ mod tests {
         assert_eq!(constant("VELOCITY_SCALE"), f64::from(1u32 << VELOCITY_BITS));
         assert_eq!(constant("MAX_FIXED_VELOCITY"), MAX_FIXED_VELOCITY as f64);
         assert_eq!(constant("WORDS_PER_CELL"), WORDS_PER_CELL as f64);
+        assert_eq!(constant("PRESSURE_SLACK"), f64::from(hair_sim::solver::PRESSURE_SLACK));
         assert_eq!(std::mem::size_of::<VolumeUniform>(), crate::pass::validated_struct_size(VOLUME_SHADER, "Volume"));
     }
 

@@ -1,8 +1,9 @@
 // Hair with volume: hair_sim's `VolumeGrid` (`solver/volume.rs`) on the GPU, once a step
 // before its substeps. Every particle splats its mass and momentum into the eight cells
 // around it with integer atomics (`splat_particles`); each cell's mean velocity and density
-// excess are worked out once (`resolve_cells`); each particle's velocity then moves toward
-// the mean around it and down the excess (`feed_back`). The splat is the CPU's, integer for
+// excess are worked out once (`resolve_cells`); the pressure is relaxed in red and black
+// sweeps (`relax_red`, `relax_black`); each particle's velocity then moves toward the mean
+// around it, down the excess and down the pressure (`feed_back`). The splat is the CPU's, integer for
 // integer: a particle adds at most 2^31 to a cell's sum, and the sums are 64-bit, held as
 // two words (low, high), so they are the same in any order.
 // `layout.wgsl` is prepended: where each particle's values live.
@@ -20,8 +21,11 @@ struct Volume {
     translation: vec4<f32>,
     rotation: array<vec4<f32>, 3>,
     // The push per unit of gradient (`Feedback::push`), the mean rest mass per cell as a
-    // share of one particle (`rest_scale`).
+    // share of one particle (`rest_scale`), the share of the pressure's velocity change
+    // applied (`Volume::pressure`), the cell's side squared.
     feedback: vec4<f32>,
+    // 1 / the step's length (the pressure's source is an overflow per second).
+    solve: vec4<f32>,
 }
 
 @group(0) @binding(0) var<uniform> volume: Volume;
@@ -36,6 +40,8 @@ struct Volume {
 @group(0) @binding(5) var<storage, read> rest_mass: array<u32>;
 // Per particle index, root to tip, the share of the difference to the mean taken.
 @group(0) @binding(6) var<storage, read> shares: array<f32>;
+// Per cell, the pressure, kept between steps as the next one's start.
+@group(0) @binding(7) var<storage, read_write> pressure: array<f32>;
 
 // hair_sim's `WEIGHT_BITS` (as a weight of one), `PARTICLE_MASS_UNITS`, `VELOCITY_BITS`
 // (as a scale) and `MAX_FIXED_VELOCITY` (a test checks).
@@ -44,6 +50,8 @@ const PARTICLE_MASS_UNITS: f32 = 32768.0;
 const VELOCITY_SCALE: f32 = 2048.0;
 const MAX_FIXED_VELOCITY: f32 = 65535.0;
 const WORDS_PER_CELL: u32 = 8u;
+// hair_sim's `PRESSURE_SLACK`.
+const PRESSURE_SLACK: f32 = 0.05;
 
 // A point's cell (its lowest corner), fixed-point weights per axis and where in the cell it
 // lies, as `VolumeGrid::splat_of` finds them; `inside` false outside the grid.
@@ -165,8 +173,51 @@ fn resolve_cells(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_work
         let pz = loaded(at + 6u);
         mean = vec3<f32>(wide_f32(px.x, px.y), wide_f32(py.x, py.y), wide_f32(pz.x, pz.y)) * scale;
     }
+    // The density beyond the target, per second, as `VolumeGrid::splat` works it out.
+    let wanted = max(wide_f32(rest.x, rest.y) / PARTICLE_MASS_UNITS, volume.feedback.y * 0.5) * (1.0 + PRESSURE_SLACK);
+    let overflow = max((m / PARTICLE_MASS_UNITS - wanted) / wanted, 0.0);
     cells[2u * c] = vec4<f32>(mean, excess);
-    cells[2u * c + 1u] = vec4<f32>(m, 0.0, 0.0, 0.0);
+    cells[2u * c + 1u] = vec4<f32>(m, overflow, 0.0, 0.0);
+}
+
+// One Gauss–Seidel update of cell `c`'s pressure if it is of `colour` (its coordinates'
+// sum, odd or even), from its six neighbours, which are all of the other colour (hair_sim's
+// `VolumeGrid::relaxed`): 0 without hair, never below 0.
+fn relax(c: u32, colour: u32) {
+    if c >= volume.counts.z {
+        return;
+    }
+    let d = volume.dims.xyz;
+    let at = vec3<u32>(c % d.x, (c / d.x) % d.y, c / (d.x * d.y));
+    if (at.x + at.y + at.z + colour) % 2u != 0u {
+        return;
+    }
+    let cell = cells[2u * c + 1u];
+    if !(cell.x > 0.0) {
+        pressure[c] = 0.0;
+        return;
+    }
+    let sy = d.x;
+    let sz = d.x * d.y;
+    // In the CPU's order.
+    var around = 0.0;
+    around += select(0.0, pressure[c - 1u], at.x > 0u);
+    around += select(0.0, pressure[c + 1u], at.x + 1u < d.x);
+    around += select(0.0, pressure[c - sy], at.y > 0u);
+    around += select(0.0, pressure[c + sy], at.y + 1u < d.y);
+    around += select(0.0, pressure[c - sz], at.z > 0u);
+    around += select(0.0, pressure[c + sz], at.z + 1u < d.z);
+    pressure[c] = max((around + volume.feedback.w * cell.y * volume.solve.x) / 6.0, 0.0);
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn relax_red(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    relax(invocation(id, groups), 0u);
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn relax_black(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    relax(invocation(id, groups), 1u);
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
@@ -182,6 +233,7 @@ fn feed_back(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgrou
     var velocity = vec3<f32>(0.0);
     var weight = 0.0;
     var gradient = vec3<f32>(0.0);
+    var pressure_gradient = vec3<f32>(0.0);
     for (var corner = 0u; corner < 8u; corner++) {
         let c = corner_cell(splat, corner);
         let cell = cells[2u * c];
@@ -193,16 +245,17 @@ fn feed_back(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgrou
         let bits = vec3<bool>((corner & 1u) == 1u, ((corner >> 1u) & 1u) == 1u, ((corner >> 2u) & 1u) == 1u);
         let along = select(vec3<f32>(1.0) - f, f, bits);
         let slope = select(vec3<f32>(-1.0), vec3<f32>(1.0), bits);
-        gradient += vec3<f32>(slope.x * along.y * along.z, along.x * slope.y * along.z, along.x * along.y * slope.z) * cell.w;
+        let derivative = vec3<f32>(slope.x * along.y * along.z, along.x * slope.y * along.z, along.x * along.y * slope.z);
+        gradient += derivative * cell.w;
+        pressure_gradient += derivative * pressure[c];
     }
     if weight > 0.0 {
         velocity /= weight;
     }
-    gradient *= volume.origin.w;
-    let world_gradient = volume.rotation[0].xyz * gradient.x + volume.rotation[1].xyz * gradient.y
-        + volume.rotation[2].xyz * gradient.z;
+    let push = gradient * volume.origin.w * volume.feedback.x - pressure_gradient * volume.origin.w * volume.feedback.z;
+    let world_push = volume.rotation[0].xyz * push.x + volume.rotation[1].xyz * push.y + volume.rotation[2].xyz * push.z;
     let j = slot_particle(i, volume.counts.y).y;
     let v = motion[i];
-    let next = v.xyz + (velocity - v.xyz) * shares[j] + world_gradient * volume.feedback.x;
+    let next = v.xyz + (velocity - v.xyz) * shares[j] + world_push;
     motion[i] = vec4<f32>(next, v.w);
 }

@@ -107,13 +107,22 @@ fn strand_step(c: &mut Criterion) {
 }
 
 /// A settled 2,048 × 16 groom on a turning head, stepped on this thread with and without
-/// hair volume, and the volume's grid work alone (splat and feedback: `apply_volume`).
+/// hair volume (and without its pressure solve), and the volume's grid work alone (splat,
+/// pressure and feedback: `apply_volume`).
 fn volume(c: &mut Criterion) {
     let (collider, rest) = settled_groom(2048, 60);
     let mut group = c.benchmark_group("volume 2048x16");
     group.throughput(Throughput::Elements(2048 * 16));
     let on = SimParams { volume: Volume { enabled: true, ..Volume::default() }, ..SimParams::default() };
-    for (name, params) in [("step, volume off", SimParams::default()), ("step, volume on", on)] {
+    let without_pressure = SimParams {
+        volume: Volume { enabled: true, pressure_iterations: 0, ..Volume::default() },
+        ..SimParams::default()
+    };
+    for (name, params) in [
+        ("step, volume off", SimParams::default()),
+        ("step, volume on", on),
+        ("step, volume on without the pressure", without_pressure),
+    ] {
         let mut strands = Strands::new(rest.clone(), head_pose(0));
         let mut frame = 0u64;
         group.bench_function(name, |b| {

@@ -52,13 +52,15 @@ fn wild_params() -> impl Strategy<Value = SimParams> {
     ];
     let simd =
         prop_oneof![Just(SimdPath::Auto), Just(SimdPath::Baseline), Just(SimdPath::Avx2), Just(SimdPath::Avx512)];
-    let volume = (any::<bool>(), wild_count(), wild_f32(), wild_f32(), wild_f32()).prop_map(
-        |(enabled, resolution, friction_root, friction_tip, density_push)| Volume {
+    let volume = (any::<bool>(), wild_count(), wild_f32(), wild_f32(), wild_f32(), wild_count(), wild_f32()).prop_map(
+        |(enabled, resolution, friction_root, friction_tip, density_push, pressure_iterations, pressure)| Volume {
             enabled,
             resolution,
             friction_root,
             friction_tip,
             density_push,
+            pressure_iterations,
+            pressure,
         },
     );
     (
@@ -195,6 +197,7 @@ fn float_fields(p: &SimParams) -> Vec<f32> {
         p.volume.friction_root,
         p.volume.friction_tip,
         p.volume.density_push,
+        p.volume.pressure,
         gx,
         gy,
         gz,
@@ -327,7 +330,7 @@ proptest! {
         prop_assert_eq!(again, clean);
         prop_assert!(float_fields(&clean).iter().all(|v| v.is_finite()), "{:?}", clean);
         prop_assert!((1..=64).contains(&clean.substeps) && (1..=32).contains(&clean.iterations));
-        prop_assert!((4..=64).contains(&clean.volume.resolution));
+        prop_assert!((4..=64).contains(&clean.volume.resolution) && clean.volume.pressure_iterations <= 64);
         prop_assert!((0.0..=0.9).contains(&clean.length_tolerance));
         prop_assert!(clean.particle_mass > 0.0 && clean.max_speed > 0.0 && clean.teleport_distance > 0.0);
         // One issue per changed field, naming a value that really changed, to what it became.
@@ -338,7 +341,8 @@ proptest! {
         let changed = float_fields(&params).iter().zip(float_fields(&clean)).filter(|(a, b)| **a != *b).count()
             + usize::from(params.substeps != clean.substeps)
             + usize::from(params.iterations != clean.iterations)
-            + usize::from(params.volume.resolution != clean.volume.resolution);
+            + usize::from(params.volume.resolution != clean.volume.resolution)
+            + usize::from(params.volume.pressure_iterations != clean.volume.pressure_iterations);
         prop_assert_eq!(issues.len(), changed, "{:?}", issues);
     }
 

@@ -83,3 +83,43 @@ fn with_volume_the_gpu_follows_the_cpu() {
         }
     }
 }
+
+/// Half of a groom pressed into the other half's place and stepped once from the same
+/// state on both, with the pressure solve as the volume's only effect (no friction toward
+/// the mean, no push, no shape keeping, no collision): the velocities it leaves are the
+/// CPU's to rounding, and the pressure moved them (by more than a hundred times that).
+#[test]
+fn the_pressure_pushes_as_on_the_cpu() {
+    let Some(gpu) = gpu() else { return };
+    let (_, collider, rest) = groom(256);
+    let n = rest.particles_per_strand;
+    let pressed: Vec<Vec3> = rest
+        .positions
+        .iter()
+        .enumerate()
+        .map(|(i, &x)| if i % n == 0 { x } else { x - Vec3::X * (0.01 * x.x.signum()) })
+        .collect();
+    let pressure_only =
+        Volume { enabled: true, friction_root: 0.0, friction_tip: 0.0, density_push: 0.0, ..Volume::default() };
+    let base = SimParams { collision: false, global_stiffness_root: 0.0, local_stiffness: 0.0, ..SimParams::default() };
+    let step_both = |volume: Volume| {
+        let params = SimParams { volume, ..base };
+        let mut cpu = Strands::new(rest.clone(), Pose::IDENTITY);
+        cpu.set_positions(&pressed).expect("finite");
+        let mut on_gpu = GpuStrands::new(&gpu, &rest, Pose::IDENTITY, Some(&collider)).expect("GPU strands");
+        assert!(on_gpu.set_positions(&pressed));
+        let input = input_at(0, |_| Pose::IDENTITY, &collider, &params);
+        cpu.step(&input);
+        on_gpu.step(&input).expect("GPU step");
+        (cpu.velocities().to_vec(), on_gpu.velocities().expect("read back"))
+    };
+    let (cpu, on_gpu) = step_both(pressure_only);
+    let (cpu_off, _) = step_both(Volume::default());
+    let apart = cpu.iter().zip(&on_gpu).map(|(a, b)| a.distance(*b)).fold(0.0, f32::max);
+    let pushed = cpu.iter().zip(&cpu_off).map(|(a, b)| a.distance(*b)).fold(0.0, f32::max);
+    eprintln!(
+        "one step of pressure: velocities {apart:.1e} m/s apart, the pressure changed them by up to {pushed:.3} m/s"
+    );
+    assert!(pushed > 100.0 * apart.max(1e-6), "the pressure moved nothing measurable: {pushed} m/s");
+    assert!(apart < 1e-4, "{apart} m/s apart");
+}

@@ -19,13 +19,15 @@ use rest_lanes::RestLanes;
 
 pub use step::{MIN_STEP, StepConstants};
 pub use volume::{
-    Feedback, MAX_FIXED_VELOCITY, PARTICLE_MASS_UNITS, VELOCITY_BITS, VolumeGrid, WEIGHT_BITS, fixed_velocity,
+    Feedback, MAX_FIXED_VELOCITY, PARTICLE_MASS_UNITS, PRESSURE_SLACK, VELOCITY_BITS, VolumeGrid, WEIGHT_BITS,
+    fixed_velocity,
 };
 mod volume;
 mod wind;
 
 pub use params::{
-    CollisionResponse, LengthMode, ParamIssue, SimParams, SimdPath, Volume, Wind, stiffness_per_application,
+    CollisionResponse, LengthMode, MAX_PRESSURE_ITERATIONS, ParamIssue, SimParams, SimdPath, Volume, Wind,
+    stiffness_per_application,
 };
 use sleep::SleepWatch;
 pub use sleep::Stillness;

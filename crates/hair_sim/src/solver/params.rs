@@ -95,11 +95,31 @@ pub struct Volume {
     /// Acceleration, m/s², away from where the hair is denser than at rest, per cell of a
     /// density excess as large as the mean rest density.
     pub density_push: f32,
+    /// Sweeps of the pressure solve (0: none, up to 64): each a red and a black
+    /// Gauss–Seidel pass over the grid. The pressure takes away, in one step, the density
+    /// beyond what a cell held at rest or half the mean rest density, whichever is more
+    /// (and 5 % more), and never pulls hair together ("density less than", as Unity's
+    /// strand hair): what keeps a pile of hair from packing tighter than the groom. Left
+    /// between steps, so that a few sweeps a step converge over a few steps.
+    pub pressure_iterations: u32,
+    /// Share, 0..1, of the pressure's velocity change applied.
+    pub pressure: f32,
 }
+
+/// The most sweeps of the pressure solve a step runs ([`Volume::pressure_iterations`]).
+pub const MAX_PRESSURE_ITERATIONS: u32 = 64;
 
 impl Default for Volume {
     fn default() -> Self {
-        Volume { enabled: false, resolution: 32, friction_root: 0.05, friction_tip: 0.01, density_push: 2.0 }
+        Volume {
+            enabled: false,
+            resolution: 32,
+            friction_root: 0.05,
+            friction_tip: 0.01,
+            density_push: 2.0,
+            pressure_iterations: 8,
+            pressure: 1.0,
+        }
     }
 }
 
@@ -364,6 +384,7 @@ impl SimParams {
         fix("volume.friction_root", &mut p.volume.friction_root, volume.friction_root, 0.0, 1.0);
         fix("volume.friction_tip", &mut p.volume.friction_tip, volume.friction_tip, 0.0, 1.0);
         fix("volume.density_push", &mut p.volume.density_push, volume.density_push, 0.0, 1e3);
+        fix("volume.pressure", &mut p.volume.pressure, volume.pressure, 0.0, 1.0);
         if let CollisionResponse::CentreRay { offset: [x, y, z] } = &mut p.collision_response {
             for (field, v) in [
                 ("collision_response.offset.x", x),
@@ -403,6 +424,14 @@ impl SimParams {
                 used: resolution as f32,
             });
             p.volume.resolution = resolution;
+        }
+        if p.volume.pressure_iterations > MAX_PRESSURE_ITERATIONS {
+            issues.push(ParamIssue {
+                field: "volume.pressure_iterations",
+                given: p.volume.pressure_iterations as f32,
+                used: MAX_PRESSURE_ITERATIONS as f32,
+            });
+            p.volume.pressure_iterations = MAX_PRESSURE_ITERATIONS;
         }
         (p, issues)
     }

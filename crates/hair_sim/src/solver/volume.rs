@@ -3,7 +3,9 @@
 //! momentum into the grid's eight cells around it; each particle's velocity then moves
 //! toward the mean velocity of the hair around it (friction between strands) and away from
 //! where the hair is denser than in its rest pose (the density push), so strands that
-//! meet push each other apart instead of passing through.
+//! meet push each other apart instead of passing through. A pressure solve on the grid
+//! (Unity's strand hair, Bridson's fluids) takes away in one step the density beyond a
+//! cell's target, so that a pile of hair keeps its volume instead of packing into a layer.
 //!
 //! The splat is in fixed point, so the sums are exact integers in any order: every thread
 //! count, every SIMD path and the GPU (whose atomics add in any order) give the same grid.
@@ -48,6 +50,8 @@ pub struct VolumeGrid {
     rest_scale: f32,
     /// Per cell, worked out once a step from the sums, for the feedback to read together.
     values: Vec<CellValue>,
+    /// Per cell, the pressure solve's answer, kept between steps as the next one's start.
+    pressure: Vec<f32>,
     /// Each particle's splat, kept from the sums for the feedback.
     splats: Vec<Option<Splat>>,
 }
@@ -60,6 +64,9 @@ struct CellValue {
     mean_velocity: Vec3,
     occupied: bool,
     excess: f32,
+    /// The density beyond the cell's target to take away per second
+    /// ([`VolumeGrid::solve_pressure`]), as a share of the target.
+    overflow: f32,
 }
 
 /// Where a point splats: its cell (the lowest of the eight around it), its fixed-point
@@ -112,6 +119,7 @@ impl VolumeGrid {
             rest_mass: vec![0; cells],
             rest_scale: 1.0,
             values: vec![CellValue::default(); cells],
+            pressure: vec![0.0; cells],
             splats: Vec::new(),
         };
         grid.splat(rest, &rest.positions, None, Pose::IDENTITY);
@@ -130,6 +138,11 @@ impl VolumeGrid {
     /// The head-local corner of cell 0.
     pub fn origin(&self) -> Vec3 {
         self.origin
+    }
+
+    /// A cell's side, m.
+    pub fn cell(&self) -> f32 {
+        self.cell
     }
 
     /// Cells per metre: what a head-local offset from [`Self::origin`] is multiplied by.
@@ -217,16 +230,80 @@ impl VolumeGrid {
                 Vec3::ZERO
             };
             let excess = (m - r) as f32 / units / self.rest_scale;
-            self.values[c] = CellValue { mean_velocity, occupied: m > 0, excess };
+            // The target: what the cell held at rest, or half the mean rest density where
+            // that is more (a cell the rest pose barely reaches, or hair far from its rest
+            // pose, may fill up to it), with a little room, so that hair settling about
+            // its rest pose is left alone.
+            let target = (r as f32 / units).max(self.rest_scale * 0.5) * (1.0 + PRESSURE_SLACK);
+            let overflow = ((m as f32 / units - target) / target).max(0.0);
+            self.values[c] = CellValue { mean_velocity, occupied: m > 0, excess, overflow };
         }
     }
 
-    /// The mean velocity of the hair where `splat` lies, and the gradient (per metre, head
+    /// Each cell's pressure: `sweeps` red–black Gauss–Seidel sweeps of `−∇²p = overflow / dt`
+    /// from the last step's answer, 0 in cells without hair (the air does not push back) and
+    /// clamped at 0 (it only pushes apart). Its gradient, taken off a particle's velocity,
+    /// spreads the overflow out of the cell in the step of `dt` seconds.
+    pub fn solve_pressure(&mut self, sweeps: u32, dt: f32) {
+        if sweeps == 0 {
+            // Off: nothing left over from when it was on.
+            self.pressure.fill(0.0);
+            return;
+        }
+        let [dx, dy, dz] = self.dims;
+        let h2 = self.cell * self.cell;
+        let inverse_dt = 1.0 / dt.max(1e-6);
+        for _ in 0..sweeps {
+            for colour in 0..2 {
+                for k in 0..dz {
+                    for j in 0..dy {
+                        let first = (j + k + colour) % 2;
+                        for i in (first..dx).step_by(2) {
+                            let c = i + dx * (j + dy * k);
+                            self.pressure[c] = self.relaxed(c, [i, j, k], h2, inverse_dt);
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Cell `c`'s (at `at`) pressure from its six neighbours' (0 beyond the grid) and its
+    /// overflow, `h2` the cell's side squared: one Gauss–Seidel update.
+    #[inline]
+    fn relaxed(&self, c: usize, at: [usize; 3], h2: f32, inverse_dt: f32) -> f32 {
+        let value = self.values[c];
+        if !value.occupied {
+            return 0.0;
+        }
+        let [dx, dy, dz] = self.dims;
+        let [i, j, k] = at;
+        let p = |c: usize| self.pressure[c];
+        let (sx, sy) = (1, dx);
+        let sz = dx * dy;
+        // In a fixed order, as the GPU adds them.
+        let mut around = 0.0;
+        around += if i > 0 { p(c - sx) } else { 0.0 };
+        around += if i + 1 < dx { p(c + sx) } else { 0.0 };
+        around += if j > 0 { p(c - sy) } else { 0.0 };
+        around += if j + 1 < dy { p(c + sy) } else { 0.0 };
+        around += if k > 0 { p(c - sz) } else { 0.0 };
+        around += if k + 1 < dz { p(c + sz) } else { 0.0 };
+        ((around + h2 * value.overflow * inverse_dt) / 6.0).max(0.0)
+    }
+
+    /// Each cell's pressure ([`Self::solve_pressure`]).
+    pub fn pressure(&self) -> &[f32] {
+        &self.pressure
+    }
+
+    /// The mean velocity of the hair where `splat` lies, the gradient (per metre, head
     /// axes) of its density excess over the rest pose's, as a share of the mean rest
-    /// density.
-    fn sample(&self, splat: &Splat) -> (Vec3, Vec3) {
+    /// density, and the pressure's gradient (m/s, head axes).
+    fn sample(&self, splat: &Splat) -> (Vec3, Vec3, Vec3) {
         let f = splat.fraction;
         let (mut velocity, mut weight, mut gradient) = (Vec3::ZERO, 0.0f32, Vec3::ZERO);
+        let mut pressure_gradient = Vec3::ZERO;
         for (corner, (c, w)) in splat.corners(self.dims).enumerate() {
             let cell = self.values[c];
             if cell.occupied {
@@ -238,16 +315,22 @@ impl VolumeGrid {
             let bits = [corner & 1, (corner >> 1) & 1, (corner >> 2) & 1];
             let along = |axis: usize, t: f32| if bits[axis] == 1 { t } else { 1.0 - t };
             let slope = |axis: usize| if bits[axis] == 1 { 1.0 } else { -1.0 };
-            gradient += Vec3::new(
+            let derivative = Vec3::new(
                 slope(0) * along(1, f.y) * along(2, f.z),
                 along(0, f.x) * slope(1) * along(2, f.z),
                 along(0, f.x) * along(1, f.y) * slope(2),
-            ) * cell.excess;
+            );
+            gradient += derivative * cell.excess;
+            pressure_gradient += derivative * self.pressure[c];
         }
         let velocity = if weight > 0.0 { velocity / weight } else { Vec3::ZERO };
-        (velocity, gradient * self.inverse_cell)
+        (velocity, gradient * self.inverse_cell, pressure_gradient * self.inverse_cell)
     }
 }
+
+/// How far, as a share, a cell's density may exceed its target before the pressure
+/// pushes ([`VolumeGrid::solve_pressure`]).
+pub const PRESSURE_SLACK: f32 = 0.05;
 
 /// A velocity component in the momentum sums' fixed point, rounded as the GPU rounds
 /// (`floor(x + 0.5)` in `f32`: the product is exact, the sum correctly rounded on both),
@@ -266,8 +349,10 @@ pub fn fixed_velocity(v: f32) -> i64 {
 /// The volume's effect on one step of `dt` seconds: splats `positions` and `velocities`
 /// (head-local by `pose`, the head's pose at the step's start) into `grid`, then moves each
 /// particle's velocity toward the hair's mean velocity around it (`volume.friction_root`
-/// at the root to `friction_tip` at the tip, per 1/60 s) and down the density excess
-/// (`volume.density_push`, m/s² per unit of excess per cell). Roots are left alone.
+/// at the root to `friction_tip` at the tip, per 1/60 s), down the density excess
+/// (`volume.density_push`, m/s² per unit of excess per cell) and down the pressure
+/// (`volume.pressure` of its gradient, after `volume.pressure_iterations` sweeps). Roots
+/// are left alone.
 pub(super) fn apply(
     grid: &mut VolumeGrid,
     rest: &RestShape,
@@ -278,12 +363,14 @@ pub(super) fn apply(
     dt: f32,
 ) {
     grid.splat(rest, positions, Some(velocities), pose);
+    grid.solve_pressure(volume.pressure_iterations, dt);
     let n = rest.particles_per_strand.max(1);
     let feedback = Feedback::new(grid, volume, n, dt);
     for (i, (splat, v)) in grid.splats.iter().zip(velocities.iter_mut()).enumerate() {
         let Some(splat) = splat else { continue };
-        let (mean, gradient) = grid.sample(splat);
-        *v += (mean - *v) * feedback.shares[i % n] + pose.rotation * gradient * feedback.push;
+        let (mean, gradient, pressure_gradient) = grid.sample(splat);
+        let push = gradient * feedback.push - pressure_gradient * volume.pressure;
+        *v += (mean - *v) * feedback.shares[i % n] + pose.rotation * push;
     }
 }
 

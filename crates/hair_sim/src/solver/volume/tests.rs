@@ -36,7 +36,7 @@ fn a_uniform_velocity_round_trips() {
     let velocities = vec![u; rest.positions.len()];
     grid.splat(&rest, &rest.positions, Some(&velocities), Pose::IDENTITY);
     for (i, &x) in rest.positions.iter().enumerate().filter(|(i, _)| i % 5 != 0) {
-        let (mean, _) = grid.sample(&grid.splat_of(x).expect("inside the grid"));
+        let (mean, _, _) = grid.sample(&grid.splat_of(x).expect("inside the grid"));
         // Each component to half a unit of the fixed point.
         let half = 0.5 / (1u32 << VELOCITY_BITS) as f32;
         assert!((mean - u).abs().max_element() <= half, "particle {i}: {mean} for {u}");
