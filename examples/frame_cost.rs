@@ -27,22 +27,21 @@
 //!   `main_thread_ms_without_hair` (and `_p95`) the same span in the app without hair (the
 //!   plugin's systems with nothing to do, and whatever else the executor runs between them).
 
-use bevy::app::PluginsState;
 use bevy::camera::RenderTarget;
 use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::ecs::schedule::SingleThreadedExecutor;
-use bevy::log::LogPlugin;
 use bevy::prelude::*;
 use bevy::render::RenderPlugin;
 use bevy::render::render_resource::{TextureFormat, TextureUsages};
 use bevy::render::renderer::RenderAdapterInfo;
 use bevy::time::TimeUpdateStrategy;
-use bevy::window::ExitCondition;
-use bevy::winit::WinitPlugin;
 use bevy_hair::prelude::*;
 use bevy_hair::procedural_head_mesh;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
+
+#[path = "../tests/common/headless.rs"]
+mod headless;
 
 /// The main world's hair systems, measured from before the first to after the last:
 /// wall time and the thread's CPU time, milliseconds, summed since last taken.
@@ -204,26 +203,16 @@ fn step(app: &mut App, head: Entity, k: &mut usize) {
 /// groom on `backend` (or none), and the hair's spans measured.
 fn app_with_head(groom: Option<(HairGroom, HairBackend)>, width: u32, height: u32) -> (App, Entity) {
     let mut app = App::new();
-    app.add_plugins(
-        DefaultPlugins
-            .build()
-            .disable::<WinitPlugin>()
-            .disable::<LogPlugin>()
-            .set(WindowPlugin { primary_window: None, exit_condition: ExitCondition::DontExit, ..default() })
-            // Every frame measured draws everything: none skips a pipeline still compiling.
-            .set(RenderPlugin { synchronous_pipeline_compilation: true, ..default() }),
-    )
-    .add_plugins(HairPlugin::default())
-    .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(1.0 / 60.0)))
-    .init_resource::<MainSpan>();
+    // Every frame measured draws everything: none skips a pipeline still compiling.
+    app.add_plugins(headless::headless_plugins(RenderPlugin { synchronous_pipeline_compilation: true, ..default() }))
+        .add_plugins(HairPlugin::default())
+        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(1.0 / 60.0)))
+        .init_resource::<MainSpan>();
     // One thread for the main world's late systems, so the hair's spans are its own.
     app.edit_schedule(PostUpdate, |schedule| {
         schedule.set_executor(SingleThreadedExecutor::new());
     });
-    while app.plugins_state() == PluginsState::Adding {
-        bevy::tasks::tick_global_task_pools_on_main_thread();
-    }
-    app.finish();
+    headless::finish_plugins(&mut app);
     let span = app.world().resource::<MainSpan>().clone();
     let closing = span.clone();
     app.add_systems(PostUpdate, (move || span.open()).before(HairSystems::Grow));

@@ -10,6 +10,9 @@ use bevy_hair::prelude::*;
 use bevy_hair::procedural_head_mesh;
 use std::time::{Duration, Instant};
 
+mod headless;
+pub use headless::{finish_plugins, headless_plugins};
+
 /// One frame: a hair longer than 1/60 s, so every update runs exactly one 60 Hz step.
 pub const FRAME: Duration = Duration::from_nanos(16_666_667);
 
@@ -108,33 +111,14 @@ pub fn no_adapter() -> Option<String> {
         .map(|e| format!("no GPU adapter ({e}); install mesa-vulkan-drivers and libvulkan1 for lavapipe"))
 }
 
-/// Bevy's default plugins without a window or a logger, with `render` as the renderer.
-pub fn headless_plugins(render: bevy::render::RenderPlugin) -> bevy::app::PluginGroupBuilder {
-    use bevy::log::LogPlugin;
-    use bevy::window::ExitCondition;
-    use bevy::winit::WinitPlugin;
-    DefaultPlugins
-        .build()
-        .disable::<WinitPlugin>()
-        // Each test builds an app; only the first could install the global logger.
-        .disable::<LogPlugin>()
-        .set(WindowPlugin { primary_window: None, exit_condition: ExitCondition::DontExit, ..default() })
-        .set(render)
-}
-
 /// An app with Bevy's renderer (no window; pipelines compiled when first used, so that no
 /// frame is drawn without them) and the hair plugin, started as `App::run` starts one.
 pub fn rendering_app() -> App {
-    use bevy::app::PluginsState;
     use bevy::render::RenderPlugin;
     let mut app = App::new();
     app.add_plugins(headless_plugins(RenderPlugin { synchronous_pipeline_compilation: true, ..default() }))
         .add_plugins(HairPlugin::default());
-    // What `App::run` does before the first update: the renderer starts asynchronously.
-    while app.plugins_state() == PluginsState::Adding {
-        bevy::tasks::tick_global_task_pools_on_main_thread();
-    }
-    app.finish();
+    finish_plugins(&mut app);
     app.cleanup();
     app
 }

@@ -480,8 +480,8 @@ fn strands_fall_asleep_and_wake_as_on_the_cpu() {
 /// leaves none through the head (by the CPU's exact test), and lands every particle where
 /// the CPU puts it but in at most one strand (a contact that goes one way or the other on
 /// an ulp, `docs/simulation.md`). A GPU that kept the turn left those segments millimetres
-/// away; one whose trace read a thin part's inside from the distance grid left six
-/// segments through the rim.
+/// away; one whose trace read a thin part's inside from the distance grid left segments
+/// through the rim.
 #[test]
 fn a_segment_on_an_ears_rim_rests_as_on_the_cpu() {
     let Some(gpu) = gpu() else { return };

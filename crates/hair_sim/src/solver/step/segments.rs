@@ -24,8 +24,9 @@ pub(super) const SEGMENT_CLEARANCE: f32 = 1e-4;
 /// ([`HeadCollider::segment_crossing`]: by a sharp feature, against the triangles listed
 /// in reach; elsewhere, a ray through the BVH). Where it crosses, it turns about its
 /// parent until the middle of the crossed stretch is just outside the surface (a few
-/// turns at most), the strand below follows it as a leader, and the final pass places the rest
-/// outside from there ([`place_outside`]).
+/// turns at most), or under a still head back to where it lay ([`rest_on_rim`]); the strand
+/// below follows it as a leader, and the final pass places the rest outside from there
+/// ([`place_outside`]).
 #[inline(always)]
 pub(super) fn keep_segments_outside<S: Simd>(
     g: &mut GroupState<S>,
@@ -116,11 +117,12 @@ pub(super) fn keep_segments_outside<S: Simd>(
 /// the solver's space under the head's pose then, `step_start`), if that crosses nothing
 /// and lies within [`RIM_REST_REACH`] of the turn; else `turned`.
 ///
-/// A segment draped over an ear's rim rests there, as static friction holds it. Turned
-/// anew each step, it cycled under a still head: gravity brings it back through the rim,
-/// and the turn, which lifts the middle of the crossed stretch onto the surface, lands a
-/// few millimetres from the last one (the nearest face of a thin part changes with the
-/// smallest move).
+/// Asked only where the head kept its pose through the step: a segment draped over an
+/// ear's rim rests there, as static friction holds it. Turned anew each step, it cycled
+/// under a still head: gravity brings it back through the rim, and the turn, which lifts
+/// the middle of the crossed stretch onto the surface, lands a few millimetres from the
+/// last one (the nearest face of a thin part changes with the smallest move). Under a
+/// moving head the turn stands: resting where it lay stretched whipped hair past its bound.
 pub(super) fn rest_on_rim(
     collider: &HeadCollider,
     step_start: &PoseMatrix,
@@ -140,7 +142,7 @@ pub(super) fn rest_on_rim(
 
 /// How far from where a segment lay the turn out of a thin part may put its end for the
 /// segment to go back there instead ([`rest_on_rim`]), m: more than gravity moves it in a
-/// step at rest, less than a head turning at speed does.
+/// step at rest, less than a strand swinging past the rim does.
 pub(super) const RIM_REST_REACH: f32 = 1e-2;
 
 /// Where to put `child` (head-local, `length` from `parent`) so that the segment between
