@@ -517,11 +517,11 @@ fn turning(k: usize) -> Transform {
 #[test]
 fn a_gpu_groom_with_volume_steps_on_the_gpu() {
     let Some(mut app) = app_on_a_gpu() else { return };
-    // Without the pressure solve: its answer is kept from step to step, and the groom that
-    // first stepped on the CPU while its pipelines compiled hands over its particles but
-    // not that, after which the grid's coupling parts the two by millimetres in a few
-    // steps. hair_gpu's `against_cpu` checks the pressure (one step from one state: the
-    // CPU's velocities to the bit).
+    // Without the pressure solve: with it, hair under this turn is so sensitive that the
+    // CPU's own groom nudged by 0.1 µm parts from itself by millimetres in 30 steps, and
+    // no bound here could tell a fault from that. hair_gpu's `against_cpu` checks the
+    // pressure against the CPU's nudged twins, and one step from one state (after the
+    // CPU's pressure was handed over, as here at the take-over) to the bit.
     let volume = SimParams { volume: Volume { enabled: true, pressure_iterations: 0, ..default() }, ..default() };
     app.insert_resource(HairSettings(volume));
     let mut plain = common::app();

@@ -125,10 +125,13 @@ impl RenderGroom {
         let Some(strands) = self.made() else { return Ok(()) };
         match letter {
             GpuCommand::Start { .. } => {}
-            GpuCommand::TakeOver { positions, velocities, roots, pose } => {
+            GpuCommand::TakeOver { positions, velocities, roots, pose, volume } => {
                 strands.set_positions(&positions);
                 strands.set_velocities(&velocities);
                 strands.set_rest_roots(&roots);
+                if let Some(grid) = volume {
+                    strands.set_volume(&grid);
+                }
                 strands.publish(pose);
                 strands.publish(pose);
             }

@@ -48,7 +48,7 @@
 use bytemuck::Zeroable;
 use hair_sim::collide::HeadCollider;
 use hair_sim::math::{Pose, Vec3};
-use hair_sim::solver::{LengthMode, RestShape, StepConstants, StepInput, StepReport, Stillness};
+use hair_sim::solver::{LengthMode, RestShape, StepConstants, StepInput, StepReport, Stillness, VolumeGrid};
 use layout::Slots;
 use recorder::Recorder;
 pub use recorder::{Submission, submissions};
@@ -680,17 +680,31 @@ impl GpuStrands {
     /// Records the volume's effect on a step of `dt` ([`GpuVolume`]), the head at `pose` at
     /// its start, making the grid first where there is none at `volume`'s resolution.
     fn record_volume(&mut self, volume: &hair_sim::solver::Volume, pose: Pose, dt: f32) {
-        let n = self.particles_per_strand as usize;
-        if self.volume.as_ref().is_none_or(|v| v.resolution != volume.resolution) {
-            // The rest shape as uploaded: the CPU's grid is made from the same positions.
-            let rest = RestShape::new(self.rest_positions.clone(), n).expect("uploaded from a valid rest shape");
-            let (positions, motion) = (&self.positions, &self.motion);
-            let grid = GpuVolume::new(&self.device, &self.volume_passes, &rest, volume.resolution, positions, motion);
-            self.volume = Some(grid);
-        }
+        self.make_volume(volume.resolution);
         let grid = self.volume.as_ref().expect("made above");
         let counts = (self.strands, self.particles_per_strand, self.slots.count() as u32);
         grid.record(&self.volume_passes, recording(&mut self.recorder), volume, pose, dt, counts);
+    }
+
+    /// Makes the hair–hair grid at `resolution` where there is none at it.
+    fn make_volume(&mut self, resolution: u32) {
+        if self.volume.as_ref().is_none_or(|v| v.resolution != resolution) {
+            // The rest shape as uploaded: the CPU's grid is made from the same positions.
+            let n = self.particles_per_strand as usize;
+            let rest = RestShape::new(self.rest_positions.clone(), n).expect("uploaded from a valid rest shape");
+            let (positions, motion) = (&self.positions, &self.motion);
+            self.volume = Some(GpuVolume::new(&self.device, &self.volume_passes, &rest, resolution, positions, motion));
+        }
+    }
+
+    /// Carries on the CPU's hair–hair grid: its pressure, which the next step's sweeps
+    /// start from (`grid`: the grid of the CPU's strands of this rest shape,
+    /// [`hair_sim::solver::Strands::volume_grid`]). `false` where it is not a grid of these
+    /// strands (its cell count differs) or holds a value that is not finite.
+    pub fn set_volume(&mut self, grid: &VolumeGrid) -> bool {
+        self.make_volume(grid.resolution());
+        let volume = self.volume.as_ref().expect("made above");
+        volume.upload_pressure(recording(&mut self.recorder), grid.pressure())
     }
 
     /// The hair–hair grid's integer sums after the last step with volume on, as

@@ -189,6 +189,17 @@ impl GpuVolume {
         recorder.dispatch("hair_gpu volume feedback", feed_back, (&self.group, &[]), slots);
     }
 
+    /// Records `pressure` (one value per cell, as [`VolumeGrid::pressure`] holds it) as the
+    /// grid's pressure; `false` (and nothing recorded) where the count is not the grid's
+    /// or a value is not finite.
+    pub fn upload_pressure(&self, recorder: &mut Recorder, pressure: &[f32]) -> bool {
+        if pressure.len() != self.grid.rest_mass().len() || !pressure.iter().all(|p| p.is_finite()) {
+            return false;
+        }
+        recorder.upload(&self.pressure, bytemuck::cast_slice(pressure));
+        true
+    }
+
     /// The sums as [`VolumeGrid::mass`] and [`VolumeGrid::momentum`] hold them, from the
     /// words of [`Self::sums`].
     pub fn decode(words: &[u32]) -> VolumeSums {

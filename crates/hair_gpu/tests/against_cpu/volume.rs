@@ -123,3 +123,40 @@ fn the_pressure_pushes_as_on_the_cpu() {
     assert!(pushed > 100.0 * apart.max(1e-6), "the pressure moved nothing measurable: {pushed} m/s");
     assert!(apart < 1e-4, "{apart} m/s apart");
 }
+
+/// A groom stepped on the CPU with volume on under a swaying head, then handed to the GPU
+/// as the plugin hands one over (positions, velocities and the grid, whose pressure the
+/// next sweeps start from, `GpuStrands::set_volume`): one more step on both leaves the
+/// same velocities within 1 mm/s. Without the grid the GPU's sweeps start from zero and
+/// the velocities part by fifty times that at least.
+#[test]
+fn the_pressure_carries_over_to_the_gpu() {
+    let Some(gpu) = gpu() else { return };
+    let (_, collider, rest) = groom(256);
+    let params = with_volume(false);
+    let mut cpu = Strands::new(rest.clone(), swaying(0.0));
+    for k in 0..20 {
+        cpu.step(&input_at(k, swaying, &collider, &params));
+    }
+    let grid = cpu.volume_grid().expect("volume on").clone();
+    assert!(grid.pressure().iter().any(|&p| p > 0.0), "no pressure to carry over: the test tests nothing");
+    let handed_over = |with_grid: bool| {
+        let mut on_gpu = GpuStrands::new(&gpu, &rest, swaying(0.0), Some(&collider)).expect("GPU strands");
+        assert!(on_gpu.set_positions(cpu.positions()) && on_gpu.set_velocities(cpu.velocities()));
+        if with_grid {
+            assert!(on_gpu.set_volume(&grid));
+        }
+        on_gpu.step(&input_at(20, swaying, &collider, &params)).expect("GPU step");
+        on_gpu.velocities().expect("read back")
+    };
+    let (with_grid, without) = (handed_over(true), handed_over(false));
+    cpu.step(&input_at(20, swaying, &collider, &params));
+    let apart = |v: &[Vec3]| cpu.velocities().iter().zip(v).map(|(a, b)| a.distance(*b)).fold(0.0, f32::max);
+    let (apart_with, apart_without) = (apart(&with_grid), apart(&without));
+    eprintln!(
+        "one step after the hand-over: velocities {apart_with:.1e} m/s from the CPU's with the grid, \
+         {apart_without:.1e} m/s without"
+    );
+    assert!(apart_with < 1e-3, "{apart_with} m/s apart");
+    assert!(apart_without > 50.0 * apart_with.max(1e-6), "the pressure carried nothing: {apart_without} m/s");
+}

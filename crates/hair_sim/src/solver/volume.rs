@@ -34,6 +34,8 @@ pub const MAX_FIXED_VELOCITY: i64 = (1 << 16) - 1;
 /// The grid a groom's particles splat into, in head space over the groom's reach.
 #[derive(Clone, Debug)]
 pub struct VolumeGrid {
+    /// Cells along the longest side, as asked ([`Volume::resolution`]).
+    resolution: u32,
     origin: Vec3,
     /// Cells per metre.
     inverse_cell: f32,
@@ -110,6 +112,7 @@ impl VolumeGrid {
         let dims = ((max - min) / cell).to_array().map(|e| e.ceil() as usize + 1);
         let cells = dims[0] * dims[1] * dims[2];
         let mut grid = VolumeGrid {
+            resolution,
             origin: min,
             inverse_cell: 1.0 / cell,
             cell,
@@ -128,6 +131,11 @@ impl VolumeGrid {
         let mean = reached.iter().map(|&m| m as f64).sum::<f64>() / reached.len().max(1) as f64;
         grid.rest_scale = (mean / PARTICLE_MASS_UNITS as f64).max(1e-6) as f32;
         grid
+    }
+
+    /// The resolution it was made at ([`Volume::resolution`]).
+    pub fn resolution(&self) -> u32 {
+        self.resolution
     }
 
     /// Cells along each axis (x fastest in the cell arrays).
