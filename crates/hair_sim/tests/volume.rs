@@ -319,3 +319,48 @@ fn a_lock_swept_into_another_pushes_it_aside() {
     assert!(inside_off > 0.7 && passed_off < 1e-3, "without volume: {inside_off}, {passed_off}");
     assert!(inside_on <= 0.25 && passed_on >= 0.02, "with volume: {inside_on}, {passed_on}");
 }
+
+/// How far the hair stands off the scalp: per strand, the largest reach of its particles
+/// along the scalp's normal at its root, median over the strands.
+fn median_thickness(positions: &[Vec3], normals: &[Vec3], n: usize) -> f32 {
+    let mut reach: Vec<f32> = positions
+        .chunks_exact(n)
+        .zip(normals)
+        .map(|(strand, &normal)| strand.iter().map(|&x| (x - strand[0]).dot(normal)).fold(0.0, f32::max))
+        .collect();
+    reach.sort_by(f32::total_cmp);
+    reach[reach.len() / 2]
+}
+
+/// The groom's thickness (its median reach along the scalp's normal) on the shipped head,
+/// 1,024 × 16, settled as the plugin settles (180 steps) under the same settings it then
+/// runs 2 s under, over the thickness as grown (straight out along the normal). With volume
+/// off settling lays the hair into a helmet, under a tenth of it; with volume on (the rest
+/// density then the grown pose's while it settles) the pressure keeps over half of it.
+#[test]
+fn the_thickness_of_a_groom_settled_with_and_without_volume() {
+    let asset = head_asset::read_committed().expect("assets/head.glb is committed and parses");
+    let head = asset.head_mesh();
+    let labels: Vec<f32> = asset.scalp_vertices().iter().map(|&s| f32::from(u8::from(s))).collect();
+    let weights = hair_sim::groom::triangle_weights(&head, &labels);
+    let collider = HeadCollider::new(&head, DEFAULT_GRID_RESOLUTION).expect("the shipped head");
+    let roots = sample_roots(&head, &weights, 1024, 7).expect("scalp");
+    let normals: Vec<Vec3> = roots.iter().map(|r| head.normal_at(r.triangle as usize, r.barycentric)).collect();
+    let grow = GuideParams { segments: 15, length: 0.25, ..GuideParams::default() };
+    let grown = RestShape::new(grow_guides(&head, &roots, &grow, 7).expect("roots"), 16).expect("guides");
+    let groomed = median_thickness(&grown.positions, &normals, 16);
+    let thickness = |params: &SimParams| {
+        let rest = settle(grown.clone(), Some(&collider), params, 180, Vec3::ZERO).expect("settle");
+        let mut strands = Strands::new(rest, Pose::IDENTITY);
+        for k in 0..120 {
+            strands.step(&step_input(k, Pose::IDENTITY, Pose::IDENTITY, Some(&collider), params));
+        }
+        median_thickness(strands.positions(), &normals, 16) / groomed
+    };
+    let (off, on) = (thickness(&SimParams::default()), thickness(&with_volume()));
+    println!(
+        "thickness over groomed ({:.1} mm): {off:.2} with volume off, {on:.2} with volume on while settling and after",
+        groomed * 1e3
+    );
+    assert!(off < 0.1 && on > 0.5, "off {off}, on {on}");
+}
