@@ -137,8 +137,8 @@ impl GpuSolver {
             let n = strands.particles_per_strand().max(1);
             let roots = strands.rest().positions.iter().step_by(n).copied().collect();
             let (positions, velocities) = (strands.positions().to_vec(), strands.velocities().to_vec());
-            let volume = strands.volume_grid().map(|grid| Box::new(grid.clone()));
-            link.outbox.push(GpuCommand::TakeOver { positions, velocities, roots, pose, volume });
+            let pressure = strands.volume_grid().map(|grid| (grid.resolution(), grid.pressure().to_vec()));
+            link.outbox.push(GpuCommand::TakeOver { positions, velocities, roots, pose, pressure });
             link.running = true;
         }
         let mut changed = false;

@@ -125,12 +125,12 @@ impl RenderGroom {
         let Some(strands) = self.made() else { return Ok(()) };
         match letter {
             GpuCommand::Start { .. } => {}
-            GpuCommand::TakeOver { positions, velocities, roots, pose, volume } => {
+            GpuCommand::TakeOver { positions, velocities, roots, pose, pressure } => {
                 strands.set_positions(&positions);
                 strands.set_velocities(&velocities);
                 strands.set_rest_roots(&roots);
-                if let Some(grid) = volume {
-                    strands.set_volume(&grid);
+                if let Some((resolution, pressure)) = pressure {
+                    strands.set_volume_pressure(resolution, &pressure);
                 }
                 strands.publish(pose);
                 strands.publish(pose);

@@ -48,7 +48,7 @@
 use bytemuck::Zeroable;
 use hair_sim::collide::HeadCollider;
 use hair_sim::math::{Pose, Vec3};
-use hair_sim::solver::{LengthMode, RestShape, StepConstants, StepInput, StepReport, Stillness, VolumeGrid};
+use hair_sim::solver::{LengthMode, RestShape, StepConstants, StepInput, StepReport, Stillness};
 use layout::Slots;
 use recorder::Recorder;
 pub use recorder::{Submission, submissions};
@@ -697,14 +697,14 @@ impl GpuStrands {
         }
     }
 
-    /// Carries on the CPU's hair–hair grid: its pressure, which the next step's sweeps
-    /// start from (`grid`: the grid of the CPU's strands of this rest shape,
-    /// [`hair_sim::solver::Strands::volume_grid`]). `false` where it is not a grid of these
-    /// strands (its cell count differs) or holds a value that is not finite.
-    pub fn set_volume(&mut self, grid: &VolumeGrid) -> bool {
-        self.make_volume(grid.resolution());
+    /// Carries on the CPU's hair–hair grid at `resolution`: its `pressure`, which the next
+    /// step's sweeps start from (as [`hair_sim::solver::VolumeGrid::pressure`] holds it for the CPU's strands
+    /// of this rest shape, [`hair_sim::solver::Strands::volume_grid`]). `false` where it is
+    /// not a grid of these strands (its cell count differs) or a value is not finite.
+    pub fn set_volume_pressure(&mut self, resolution: u32, pressure: &[f32]) -> bool {
+        self.make_volume(resolution);
         let volume = self.volume.as_ref().expect("made above");
-        volume.upload_pressure(recording(&mut self.recorder), grid.pressure())
+        volume.upload_pressure(recording(&mut self.recorder), pressure)
     }
 
     /// The hair–hair grid's integer sums after the last step with volume on, as

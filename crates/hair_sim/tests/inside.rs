@@ -307,11 +307,9 @@ proptest! {
 fn shipped() -> &'static (Groom, InsideTest) {
     static SHIPPED: OnceLock<(Groom, InsideTest)> = OnceLock::new();
     SHIPPED.get_or_init(|| {
-        let asset = head_asset::read_committed().expect("assets/head.glb is committed and parses");
-        let head = asset.head_mesh();
-        let labels: Vec<f32> = asset.scalp_vertices().iter().map(|&s| f32::from(u8::from(s))).collect();
+        let (head, weights) = common::shipped_head();
         let collider = HeadCollider::new(&head, DEFAULT_GRID_RESOLUTION).expect("the shipped head");
-        let roots = sample_roots(&head, &hair_sim::groom::triangle_weights(&head, &labels), 512, 7).expect("scalp");
+        let roots = sample_roots(&head, &weights, 512, 7).expect("scalp");
         let grow = GuideParams { segments: 15, length: 0.25, ..GuideParams::default() };
         let rest = RestShape::new(grow_guides(&head, &roots, &grow, 7).expect("roots"), 16).expect("guides");
         let rest = settle(rest, Some(&collider), &SimParams::default(), 180, Vec3::ZERO).expect("settle");

@@ -5,7 +5,6 @@
 mod common;
 
 use common::step_input;
-use hair_sim::groom::triangle_weights;
 use hair_sim::prelude::*;
 
 const DT: f32 = 1.0 / 60.0;
@@ -57,10 +56,8 @@ fn procedural_groom(strands: usize, params: &SimParams) -> (HeadCollider, RestSh
 
 /// A groom on the shipped head, as its converter reads it, on its painted scalp.
 fn shipped_groom(strands: usize, recipe: Recipe, comb: Vec3, params: &SimParams) -> (HeadCollider, RestShape) {
-    let asset = head_asset::read_committed().expect("assets/head.glb is committed and parses");
-    let head = asset.head_mesh();
-    let labels: Vec<f32> = asset.scalp_vertices().iter().map(|&s| f32::from(u8::from(s))).collect();
-    settled_groom(&head, &triangle_weights(&head, &labels), strands, recipe, comb, params)
+    let (head, weights) = common::shipped_head();
+    settled_groom(&head, &weights, strands, recipe, comb, params)
 }
 
 /// How still hair is under a still head: over the watched steps, the largest move of any

@@ -183,6 +183,17 @@ fn a_bundle_on_a_floor_keeps_its_volume() {
     }
 }
 
+/// 1,024 guides × 16, 25 cm, grown (not settled) on the shipped head's painted scalp: the
+/// head, its collider, the roots and the guides.
+fn grown_on_the_shipped_head() -> (HeadMesh, HeadCollider, Vec<RootBinding>, RestShape) {
+    let (head, weights) = common::shipped_head();
+    let collider = HeadCollider::new(&head, DEFAULT_GRID_RESOLUTION).expect("the shipped head");
+    let roots = sample_roots(&head, &weights, 1024, 7).expect("scalp");
+    let grow = GuideParams { segments: 15, length: 0.25, ..GuideParams::default() };
+    let grown = RestShape::new(grow_guides(&head, &roots, &grow, 7).expect("roots"), 16).expect("guides");
+    (head, collider, roots, grown)
+}
+
 /// 1,024 guides × 16 on the shipped head, settled, then 2 s still, a 1 s shake (yaw ±0.8
 /// rad at 12 rad/s) and 2 s still, under `params`. Returns the largest ρ/ρ_rest and its 99th
 /// percentile, counted independently of the grid: particles (roots left out) in head-local
@@ -224,15 +235,8 @@ fn density_after_a_shake(rest: &RestShape, collider: &HeadCollider, params: &Sim
 /// the smallest change to the model, as the grid couples every strand to its neighbours).
 #[test]
 fn after_a_shake_the_volume_spreads_piled_hair() {
-    let asset = head_asset::read_committed().expect("assets/head.glb is committed and parses");
-    let head = asset.head_mesh();
-    let labels: Vec<f32> = asset.scalp_vertices().iter().map(|&s| f32::from(u8::from(s))).collect();
-    let weights = hair_sim::groom::triangle_weights(&head, &labels);
-    let collider = HeadCollider::new(&head, DEFAULT_GRID_RESOLUTION).expect("the shipped head");
-    let roots = sample_roots(&head, &weights, 1024, 7).expect("scalp");
-    let grow = GuideParams { segments: 15, length: 0.25, ..GuideParams::default() };
-    let rest = RestShape::new(grow_guides(&head, &roots, &grow, 7).expect("roots"), 16).expect("guides");
-    let rest = settle(rest, Some(&collider), &SimParams::default(), 180, Vec3::ZERO).expect("settle");
+    let (_, collider, _, grown) = grown_on_the_shipped_head();
+    let rest = settle(grown, Some(&collider), &SimParams::default(), 180, Vec3::ZERO).expect("settle");
     let off = density_after_a_shake(&rest, &collider, &SimParams::default());
     let push = density_after_a_shake(
         &rest,
@@ -339,15 +343,8 @@ fn median_thickness(positions: &[Vec3], normals: &[Vec3], n: usize) -> f32 {
 /// density then the grown pose's while it settles) the pressure keeps over half of it.
 #[test]
 fn the_thickness_of_a_groom_settled_with_and_without_volume() {
-    let asset = head_asset::read_committed().expect("assets/head.glb is committed and parses");
-    let head = asset.head_mesh();
-    let labels: Vec<f32> = asset.scalp_vertices().iter().map(|&s| f32::from(u8::from(s))).collect();
-    let weights = hair_sim::groom::triangle_weights(&head, &labels);
-    let collider = HeadCollider::new(&head, DEFAULT_GRID_RESOLUTION).expect("the shipped head");
-    let roots = sample_roots(&head, &weights, 1024, 7).expect("scalp");
+    let (head, collider, roots, grown) = grown_on_the_shipped_head();
     let normals: Vec<Vec3> = roots.iter().map(|r| head.normal_at(r.triangle as usize, r.barycentric)).collect();
-    let grow = GuideParams { segments: 15, length: 0.25, ..GuideParams::default() };
-    let grown = RestShape::new(grow_guides(&head, &roots, &grow, 7).expect("roots"), 16).expect("guides");
     let groomed = median_thickness(&grown.positions, &normals, 16);
     let thickness = |params: &SimParams| {
         let rest = settle(grown.clone(), Some(&collider), params, 180, Vec3::ZERO).expect("settle");

@@ -125,10 +125,10 @@ fn the_pressure_pushes_as_on_the_cpu() {
 }
 
 /// A groom stepped on the CPU with volume on under a swaying head, then handed to the GPU
-/// as the plugin hands one over (positions, velocities and the grid, whose pressure the
-/// next sweeps start from, `GpuStrands::set_volume`): one more step on both leaves the
-/// same velocities within 1 mm/s. Without the grid the GPU's sweeps start from zero and
-/// the velocities part by fifty times that at least.
+/// as the plugin hands one over (positions, velocities and the grid's pressure, which the
+/// next sweeps start from, `GpuStrands::set_volume_pressure`): one more step on both
+/// leaves the same velocities within 1 mm/s. Without the pressure the GPU's sweeps start
+/// from zero and the velocities part by fifty times that at least.
 #[test]
 fn the_pressure_carries_over_to_the_gpu() {
     let Some(gpu) = gpu() else { return };
@@ -144,7 +144,7 @@ fn the_pressure_carries_over_to_the_gpu() {
         let mut on_gpu = GpuStrands::new(&gpu, &rest, swaying(0.0), Some(&collider)).expect("GPU strands");
         assert!(on_gpu.set_positions(cpu.positions()) && on_gpu.set_velocities(cpu.velocities()));
         if with_grid {
-            assert!(on_gpu.set_volume(&grid));
+            assert!(on_gpu.set_volume_pressure(grid.resolution(), grid.pressure()));
         }
         on_gpu.step(&input_at(20, swaying, &collider, &params)).expect("GPU step");
         on_gpu.velocities().expect("read back")

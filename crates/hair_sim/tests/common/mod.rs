@@ -4,6 +4,16 @@
 use hair_sim::prelude::*;
 use proptest::prelude::*;
 
+/// The shipped head as its converter reads `assets/head.glb`, and the weights per triangle
+/// of its painted scalp (for `sample_roots`).
+pub fn shipped_head() -> (HeadMesh, Vec<f32>) {
+    let asset = head_asset::read_committed().expect("assets/head.glb is committed and parses");
+    let head = asset.head_mesh();
+    let labels: Vec<f32> = asset.scalp_vertices().iter().map(|&s| f32::from(u8::from(s))).collect();
+    let weights = hair_sim::groom::triangle_weights(&head, &labels);
+    (head, weights)
+}
+
 /// A groom on the procedural head, with the collider it was grown against.
 pub struct Groom {
     pub head: HeadMesh,
