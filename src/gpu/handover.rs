@@ -7,7 +7,7 @@ use crate::HairState;
 use crate::diagnostics::HairDiagnostics;
 use bevy::diagnostic::Diagnostics;
 use bevy::prelude::*;
-use bevy::render::render_resource::Buffer;
+use bevy::render::storage::ShaderBuffer;
 use bevy::tasks::{ComputeTaskPool, TaskPool};
 use hair_sim::collide::HeadCollider;
 use hair_sim::math::{Pose, Vec3 as SimVec3};
@@ -233,13 +233,13 @@ impl GpuSolver {
     /// the blended order of what it draws, where asked for.
     pub fn draw(
         &mut self,
-        target: &Buffer,
+        target: AssetId<ShaderBuffer>,
         root_u: &Arc<[SimVec3]>,
         (overstep, pose): (f32, Pose),
         (shadows, order): (Option<ShadowMaps>, Option<SortedOrder>),
     ) {
         if let Some(link) = self.link.as_mut().filter(|l| l.running) {
-            let (target, root_u) = (target.clone(), Arc::clone(root_u));
+            let root_u = Arc::clone(root_u);
             link.outbox.push(GpuCommand::Draw { target, root_u, overstep, pose, shadows, order });
         }
     }

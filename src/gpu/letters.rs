@@ -2,7 +2,6 @@
 //! ([`GpuCommand`]) and what the render world posts back ([`Inbox`]).
 
 use bevy::asset::AssetId;
-use bevy::render::render_resource::Buffer;
 use bevy::render::storage::ShaderBuffer;
 use hair_sim::collide::{ExtraCollider, HeadCollider, SurfacePatch};
 use hair_sim::math::{Pose, Vec3 as SimVec3};
@@ -39,7 +38,7 @@ pub(crate) enum GpuCommand {
     /// The frame's drawing into `target` ([`hair_gpu::GpuDrawing`]), then the opacity maps
     /// of what it drew, if asked for.
     Draw {
-        target: Buffer,
+        target: AssetId<ShaderBuffer>,
         root_u: Arc<[SimVec3]>,
         overstep: f32,
         pose: Pose,

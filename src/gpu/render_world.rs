@@ -57,6 +57,30 @@ struct RenderGrooms {
     letters: Vec<(u64, GpuCommand)>,
     /// The keys the main world still holds.
     live: HashSet<u64>,
+    /// Extraction ran and the render graph has not run since: Bevy renders
+    /// nothing while its renderer is in error (a lost device, a validation error), and
+    /// makes a new device if it recovers.
+    unrecorded: bool,
+}
+
+impl RenderGrooms {
+    /// The renderer stopped: every groom goes back to the CPU with `why`, and what was
+    /// made on the device goes (a recovered renderer has a new one).
+    fn stop(&mut self, why: &str) {
+        let starting = self.letters.drain(..).filter_map(|(_, letter)| match letter {
+            GpuCommand::Start { inbox, .. } => Some(inbox),
+            _ => None,
+        });
+        let inboxes: Vec<_> = starting.chain(self.grooms.drain().map(|(_, groom)| groom.inbox)).collect();
+        if !inboxes.is_empty() {
+            warn!("hair: {why}; {} GPU grooms step on the CPU", inboxes.len());
+        }
+        for inbox in inboxes {
+            inbox.lock().unwrap_or_else(PoisonError::into_inner).failed = Some(why.to_owned());
+        }
+        self.context = None;
+        self.passes = None;
+    }
 }
 
 /// A groom's strands in the render world.
@@ -120,7 +144,13 @@ impl RenderGroom {
 
     /// Records `letter` (the strands and `passes` are made: the main world writes nothing
     /// else before they are); `Err` says why the GPU cannot step the groom.
-    fn record(&mut self, letter: GpuCommand, passes: Option<&GpuPasses>) -> Result<(), GpuError> {
+    /// `buffers` holds the drawings' buffers.
+    fn record(
+        &mut self,
+        letter: GpuCommand,
+        passes: Option<&GpuPasses>,
+        buffers: &RenderAssets<GpuShaderBuffer>,
+    ) -> Result<(), GpuError> {
         let collider = Arc::clone(&self.collider);
         let Some(strands) = self.made() else { return Ok(()) };
         match letter {
@@ -149,6 +179,8 @@ impl RenderGroom {
             }
             GpuCommand::Draw { target, root_u, overstep, pose, shadows, order } => {
                 let (Strands::Made(strands), Some(passes)) = (&self.strands, passes) else { return Ok(()) };
+                // (Made this frame, a buffer is prepared by now: `PrepareAssets` came first.)
+                let Some(target) = buffers.get(target).map(|b| b.buffer.clone()) else { return Ok(()) };
                 if self.drawing.as_ref().is_none_or(|(id, _)| *id != target.id()) {
                     let drawing = GpuDrawing::with_passes(strands, &passes.drawing, &root_u, &target)?;
                     self.drawing = Some((target.id(), drawing));
@@ -174,6 +206,9 @@ fn extract_letters(
 ) {
     let started = Instant::now();
     let grooms = &mut *grooms;
+    if grooms.unrecorded {
+        grooms.stop("the renderer stopped (a render error or a lost device)");
+    }
     grooms.live.clear();
     let states = states.get_or_insert_with(|| main_world.query::<&mut HairState>());
     for mut state in states.iter_mut(&mut main_world) {
@@ -181,6 +216,7 @@ fn extract_letters(
         grooms.live.insert(key);
         grooms.letters.extend(letters.into_iter().map(|letter| (key, letter)));
     }
+    grooms.unrecorded = true;
     times.add(RenderTime::Extract, started);
 }
 
@@ -197,7 +233,8 @@ fn record_grooms(
     times: Res<RenderTimes>,
 ) {
     let started = Instant::now();
-    let RenderGrooms { context: gpu, passes, grooms, letters, live } = &mut *grooms;
+    let RenderGrooms { context: gpu, passes, grooms, letters, live, unrecorded } = &mut *grooms;
+    *unrecorded = false;
     grooms.retain(|key, _| live.contains(key));
     // Only a groom handed over, which waited for the passes, gets letters besides its start.
     let made = passes.as_mut().and_then(Passes::made).map(Arc::clone);
@@ -243,7 +280,7 @@ fn record_grooms(
             continue;
         }
         let Some(groom) = grooms.get_mut(&key) else { continue };
-        if let Err(e) = groom.record(letter, made.as_deref()) {
+        if let Err(e) = groom.record(letter, made.as_deref(), &shader_buffers) {
             groom.inbox().failed = Some(e.to_string());
             grooms.remove(&key);
         }

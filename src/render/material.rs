@@ -8,9 +8,7 @@ use bevy::asset::{AssetPath, embedded_path};
 use bevy::mesh::MeshVertexBufferLayoutRef;
 use bevy::pbr::{MaterialPipeline, MaterialPipelineKey};
 use bevy::prelude::*;
-use bevy::render::render_resource::{
-    AsBindGroup, Buffer, RenderPipelineDescriptor, ShaderType, SpecializedMeshPipelineError,
-};
+use bevy::render::render_resource::{AsBindGroup, RenderPipelineDescriptor, ShaderType, SpecializedMeshPipelineError};
 use bevy::render::storage::ShaderBuffer;
 use bevy::shader::ShaderRef;
 
@@ -36,8 +34,8 @@ pub struct HairMaterial {
     /// Guide particle positions (one `vec4` each, strand-major), then each particle's
     /// transport frame vector `u` (same order, `w` = 0): written every frame from the CPU,
     /// or on the GPU for a groom the GPU steps (`hair_gpu::GpuDrawing`).
-    #[storage(2, read_only, buffer)]
-    pub particles: Buffer,
+    #[storage(2, read_only)]
+    pub particles: Handle<ShaderBuffer>,
 }
 
 /// The uniform block of `strand.wgsl` (`bevy_hair::strand::HairUniform`), field for field.

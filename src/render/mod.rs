@@ -37,7 +37,6 @@ use bevy::camera::visibility::{NoAutoAabb, RenderLayers, VisibilitySystems};
 use bevy::diagnostic::Diagnostics;
 use bevy::light::NotShadowCaster;
 use bevy::prelude::*;
-use bevy::render::render_resource::{Buffer, BufferDescriptor, BufferUsages};
 use bevy::render::renderer::RenderDevice;
 use bevy::render::storage::ShaderBuffer;
 use bevy::shader::load_shader_library;
@@ -148,7 +147,7 @@ pub struct HairDrawing {
     /// draw order, opacity maps).
     pub guides: Handle<ShaderBuffer>,
     /// The guide particles and their frames ([`HairMaterial::particles`]).
-    pub particles: Buffer,
+    pub particles: Handle<ShaderBuffer>,
     /// The strand material.
     pub material: Handle<HairMaterial>,
     /// The mesh layout drawn.
@@ -248,6 +247,7 @@ fn sync_drawing(
 ) {
     // Without a render device (an app rendering nothing) nothing is drawn.
     let Some(device) = device else { return };
+    let renewed = device.is_changed();
     // Room for an opacity map per shadow-casting light: the buffer is rebuilt when their
     // number changes.
     let casting = lights.0.len();
@@ -269,10 +269,12 @@ fn sync_drawing(
         };
         let layout = layout_of(&state, groom, look);
         let opacity_maps = if look.self_shadow > 0.0 { casting } else { 0 };
+        // A new render device (Bevy recovered its renderer) gets new buffers and materials.
         if let Some((_, (drawing, true, _))) = existing
             && drawing.layout == layout
             && drawing.opacity_maps == opacity_maps
             && !state.is_added()
+            && !renewed
         {
             continue;
         }
@@ -288,12 +290,9 @@ fn sync_drawing(
             .collect();
         let bytes = (guide_buffer_len(&layout) + opacity_maps_len(opacity_maps)) * size_of::<Vec4>();
         let guides = buffers.add(ShaderBuffer::with_size(bytes, default()));
-        let particles = device.create_buffer(&BufferDescriptor {
-            label: Some("bevy_hair particles"),
-            size: (particles_len(&layout) * size_of::<Vec4>()) as u64,
-            usage: BufferUsages::STORAGE | BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        // Written in the render world (by the CPU's writes or the GPU's drawing pass): the
+        // main world holds no data for it.
+        let particles = buffers.add(ShaderBuffer::with_size(particles_len(&layout) * size_of::<Vec4>(), default()));
         let material = materials.add(HairMaterial {
             guides: guides.clone(),
             uniform: uniform(&layout, groom, look, false),
@@ -413,7 +412,7 @@ struct WrittenGuides {
     buffer: Handle<ShaderBuffer>,
     data: Vec<Vec4>,
     /// The particles and their frames, unless the GPU writes them.
-    particles: Option<(Buffer, Vec<Vec4>)>,
+    particles: Option<(AssetId<ShaderBuffer>, Vec<Vec4>)>,
     layout: StrandLayout,
 }
 
@@ -452,7 +451,7 @@ fn draw_on_gpu(
         });
         let pose = state.drawn_head_pose();
         let gpu = &mut state.bypass_change_detection().gpu;
-        gpu.draw(&drawing.particles, &drawing.root_u, (overstep, pose), (shadows, order));
+        gpu.draw(drawing.particles.id(), &drawing.root_u, (overstep, pose), (shadows, order));
     }
 }
 
@@ -605,7 +604,7 @@ fn upload_guides(
             written.borrow_local_mut().push(WrittenGuides {
                 buffer: drawing.guides.clone(),
                 data,
-                particles: particles.map(|p| (drawing.particles.clone(), p)),
+                particles: particles.map(|p| (drawing.particles.id(), p)),
                 layout: drawing.layout,
             });
         }

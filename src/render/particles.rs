@@ -6,8 +6,9 @@ use super::HairRenderSystems;
 use super::timing::{RenderTime, RenderTimes};
 use bevy::platform::time::Instant;
 use bevy::prelude::*;
-use bevy::render::render_resource::Buffer;
+use bevy::render::render_asset::RenderAssets;
 use bevy::render::renderer::RenderQueue;
+use bevy::render::storage::{GpuShaderBuffer, ShaderBuffer};
 use bevy::render::{ExtractSchedule, MainWorld, Render, RenderApp, RenderSystems};
 
 /// Writes the particles of the grooms the CPU steps, queued in [`ParticleWrites`], in the
@@ -33,7 +34,7 @@ impl Plugin for ParticleWritesPlugin {
 
 /// Each drawing's particles and frames placed this frame, for its buffer.
 #[derive(Resource, Default)]
-pub(crate) struct ParticleWrites(pub Vec<(Buffer, Vec<Vec4>)>);
+pub(crate) struct ParticleWrites(pub Vec<(AssetId<ShaderBuffer>, Vec<Vec4>)>);
 
 /// [`ExtractSchedule`]: moves the frame's writes into the render world.
 fn extract_writes(mut main_world: ResMut<MainWorld>, mut writes: ResMut<ParticleWrites>, times: Res<RenderTimes>) {
@@ -44,10 +45,18 @@ fn extract_writes(mut main_world: ResMut<MainWorld>, mut writes: ResMut<Particle
 
 /// [`RenderSystems::PrepareResources`]: queues the writes, which land before the frame's
 /// passes.
-fn write_particles(mut writes: ResMut<ParticleWrites>, queue: Res<RenderQueue>, times: Res<RenderTimes>) {
+fn write_particles(
+    mut writes: ResMut<ParticleWrites>,
+    buffers: Res<RenderAssets<GpuShaderBuffer>>,
+    queue: Res<RenderQueue>,
+    times: Res<RenderTimes>,
+) {
     let started = Instant::now();
     for (buffer, particles) in writes.0.drain(..) {
-        queue.write_buffer(&buffer, 0, bytemuck::cast_slice(&particles));
+        // (A buffer made this frame is prepared by now: `PrepareAssets` came first.)
+        if let Some(buffer) = buffers.get(buffer) {
+            queue.write_buffer(&buffer.buffer, 0, bytemuck::cast_slice(&particles));
+        }
     }
     times.add(RenderTime::Render, started);
 }

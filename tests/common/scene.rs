@@ -9,8 +9,7 @@ use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::image::Image;
 use bevy::light::GlobalAmbientLight;
 use bevy::prelude::*;
-use bevy::render::render_resource::{BufferInitDescriptor, BufferUsages, TextureFormat, TextureUsages};
-use bevy::render::renderer::RenderDevice;
+use bevy::render::render_resource::{TextureFormat, TextureUsages};
 use bevy::render::storage::ShaderBuffer;
 use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured};
 use bevy_hair::hair_sim::groom::ChildParams;
@@ -136,12 +135,9 @@ impl Scene {
         guides.resize((layout.guides + 1) as usize, Vec4::ZERO);
         guides.extend(StrandLayout::pack_order(&layout.grown_order()));
         let world = self.app.world_mut();
-        let particles = world.resource::<RenderDevice>().create_buffer_with_data(&BufferInitDescriptor {
-            label: None,
-            contents: bytemuck::cast_slice(particles),
-            usage: BufferUsages::STORAGE,
-        });
-        let guides = world.resource_mut::<Assets<ShaderBuffer>>().add(ShaderBuffer::from(guides));
+        let mut buffers = world.resource_mut::<Assets<ShaderBuffer>>();
+        let particles = buffers.add(ShaderBuffer::new(bytemuck::cast_slice(particles), default()));
+        let guides = buffers.add(ShaderBuffer::from(guides));
         let material = world.resource_mut::<Assets<HairMaterial>>().add(HairMaterial { guides, uniform, particles });
         let mesh = world.resource_mut::<Assets<Mesh>>().add(layout.mesh());
         let entity = world.spawn((Mesh3d(mesh), MeshMaterial3d(material), NoFrustumCulling)).id();

@@ -222,6 +222,100 @@ fn a_gpu_groom_leaks_no_gpu_buffers() {
     }
 }
 
+/// A renderer in error (a lost device, a validation error) while a groom steps on the GPU,
+/// under an app whose renderer recovers on a new device ([`RenderErrorPolicy::Recover`];
+/// Bevy's default quits): the groom says so once and steps on the CPU, its GPU strands go,
+/// and the new device draws it as the old one did.
+#[test]
+fn a_renderer_in_error_moves_gpu_hair_to_the_cpu() {
+    use bevy::render::error_handler::{RenderErrorHandler, RenderErrorPolicy};
+    use bevy::render::render_resource::{BufferDescriptor, BufferUsages};
+    use bevy::render::renderer::{RenderDevice, RenderQueue};
+    use bevy::render::settings::RenderCreation;
+    use bevy_hair::hair_gpu::live_objects;
+    require_adapter!();
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let mut scene = Scene::new();
+    scene.app.insert_resource(RenderErrorHandler(|_, _, _| {
+        RenderErrorPolicy::Recover(RenderCreation::Automatic(Box::default()))
+    }));
+    scene.app.init_resource::<GpuFallbacks>().add_systems(Last, collect_gpu_fallbacks);
+    let before = live_objects();
+    let head = scene.spawn_head(short_groom());
+    scene.app.world_mut().entity_mut(head).insert(HairBackend::Gpu);
+    scene.wait_until_ready(head);
+    for _ in 0..600 {
+        if scene.app.world().get::<HairState>(head).is_some_and(|s| s.gpu_lag().is_some()) {
+            break;
+        }
+        scene.frames(1);
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    scene.frames(3);
+    let on_gpu = live_objects();
+    assert_eq!(on_gpu, [before[0] + 1, before[1] + 1], "the GPU steps and draws the groom");
+    let before_picture = scene.capture("device-before");
+    let skin = red_pixels(&before_picture);
+    assert!(before_picture.hair_pixels() > 500 && skin > 500, "the scene shows the head and its hair");
+
+    // A validation error puts Bevy's renderer in error; on recovery it makes a new device,
+    // as after a lost one. (`Device::destroy` cannot stand in for a lost device here: Bevy's
+    // own clustering upload panics on the destroyed device's buffers before its error
+    // handler runs.)
+    let world = scene.app.world();
+    let (device, queue) = (world.resource::<RenderDevice>(), world.resource::<RenderQueue>());
+    let small = device.create_buffer(&BufferDescriptor {
+        label: Some("too small"),
+        size: 4,
+        usage: BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    queue.write_buffer(&small, 64, &[0; 4]);
+    let mut frames = 0;
+    while scene.app.world().resource::<GpuFallbacks>().0.is_empty() && frames < 300 {
+        scene.frames(1);
+        frames += 1;
+    }
+    scene.frames(10);
+    let after = scene.capture("device-after");
+    let fallbacks = scene.app.world().resource::<GpuFallbacks>().0.clone();
+    let state = scene.app.world().get::<HairState>(head).unwrap();
+    println!(
+        "renderer in error: reported after {frames} frames: {fallbacks:?}; GPU objects {on_gpu:?} -> {:?} \
+         (before the groom {before:?}); skin pixels {skin} -> {}",
+        live_objects(),
+        red_pixels(&after)
+    );
+    assert_eq!(fallbacks.len(), 1, "said once: {fallbacks:?}");
+    assert!(fallbacks[0].contains("renderer stopped"), "{}", fallbacks[0]);
+    assert_eq!(state.gpu_lag(), None, "the CPU steps the groom");
+    assert!(state.current_positions().iter().all(|p| p.is_finite()));
+    assert_eq!(live_objects(), before, "the GPU strands and drawing went");
+    // The new device draws it as the old one did.
+    let (hair, redrawn) = (before_picture.hair_pixels(), after.hair_pixels());
+    println!("hair pixels {hair} -> {redrawn}");
+    assert!((0.95..=1.05).contains(&(redrawn as f32 / hair as f32)), "{redrawn} hair pixels after, {hair} before");
+    // And the CPU steps it: a turn of the head swings the hair.
+    let still = state.current_positions().to_vec();
+    *scene.app.world_mut().get_mut::<Transform>(head).unwrap() = Transform::from_rotation(Quat::from_rotation_y(0.5));
+    scene.frames(20);
+    let state = scene.app.world().get::<HairState>(head).unwrap();
+    let swing = state.current_positions().iter().zip(&still).map(|(a, b)| a.distance(*b)).fold(0.0, f32::max);
+    println!("turned on the CPU: the hair moved up to {:.1} mm", swing * 1e3);
+    assert!(swing > 0.01 && state.current_positions().iter().all(|p| p.is_finite()), "moved {swing} m");
+}
+
+/// Every `GpuFallback` reason reported so far.
+#[derive(Resource, Default)]
+struct GpuFallbacks(Vec<String>);
+
+fn collect_gpu_fallbacks(mut errors: MessageReader<HairError>, mut seen: ResMut<GpuFallbacks>) {
+    seen.0.extend(errors.read().filter_map(|e| match &e.kind {
+        HairErrorKind::GpuFallback(why) => Some(why.clone()),
+        _ => None,
+    }));
+}
+
 /// Every variant of the hair shader Bevy can ask for (main pass with and without MSAA, an
 /// environment map and tonemapping in the shader; the shadow pass with and without its
 /// fragment stage and unclipped-depth emulation) composes with Bevy's own shader modules
