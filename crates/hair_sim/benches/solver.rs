@@ -68,11 +68,16 @@ fn collider_resolve(c: &mut Criterion) {
 /// `guides` guides of 16 particles, 25 cm, on the scalp of [`head`], settled for
 /// `settle_steps` steps against its collider (returned with them).
 fn settled_groom(guides: usize, settle_steps: usize) -> (HeadCollider, RestShape) {
+    settled_groom_of(guides, 16, settle_steps)
+}
+
+/// [`settled_groom`] with `particles` per strand (25 cm long whatever their number).
+fn settled_groom_of(guides: usize, particles: usize, settle_steps: usize) -> (HeadCollider, RestShape) {
     let head = head();
     let collider = HeadCollider::new(&head, DEFAULT_GRID_RESOLUTION).unwrap();
     let roots = sample_roots(&head, &test_scalp(&head), guides, 1).unwrap();
-    let guide = GuideParams { segments: 15, length: 0.25, ..GuideParams::default() };
-    let rest = RestShape::new(grow_guides(&head, &roots, &guide, 1).unwrap(), 16).unwrap();
+    let guide = GuideParams { segments: particles - 1, length: 0.25, ..GuideParams::default() };
+    let rest = RestShape::new(grow_guides(&head, &roots, &guide, 1).unwrap(), particles).unwrap();
     let rest = settle(rest, Some(&collider), &SimParams::default(), settle_steps, Vec3::ZERO).unwrap();
     (collider, rest)
 }
@@ -106,42 +111,65 @@ fn strand_step(c: &mut Criterion) {
     group.finish();
 }
 
-/// A settled 2,048 × 16 groom on a turning head, stepped on this thread with and without
-/// hair volume (and without its pressure solve), and the volume's grid work alone (splat,
-/// pressure and feedback: `apply_volume`).
+/// A settled groom on a turning head (2,048 × 16 and 4,096 × 32), stepped on one thread
+/// and on two (the chunks split between them, as the plugin's pool does), with and without
+/// hair volume (and without its pressure solve), and the volume's serial grid work alone
+/// (splat, cell values and pressure: `apply_volume`; the chunks feed it back as they step).
 fn volume(c: &mut Criterion) {
-    let (collider, rest) = settled_groom(2048, 60);
-    let mut group = c.benchmark_group("volume 2048x16");
-    group.throughput(Throughput::Elements(2048 * 16));
-    let on = SimParams { volume: Volume { enabled: true, ..Volume::default() }, ..SimParams::default() };
-    let without_pressure = SimParams {
-        volume: Volume { enabled: true, pressure_iterations: 0, ..Volume::default() },
-        ..SimParams::default()
-    };
-    for (name, params) in [
-        ("step, volume off", SimParams::default()),
-        ("step, volume on", on),
-        ("step, volume on without the pressure", without_pressure),
-    ] {
+    for (guides, particles) in [(2048, 16), (4096, 32)] {
+        let (collider, rest) = settled_groom_of(guides, particles, 60);
+        let mut group = c.benchmark_group(format!("volume {guides}x{particles}"));
+        group.throughput(Throughput::Elements((guides * particles) as u64));
+        let on = SimParams { volume: Volume { enabled: true, ..Volume::default() }, ..SimParams::default() };
+        let without_pressure = SimParams {
+            volume: Volume { enabled: true, pressure_iterations: 0, ..Volume::default() },
+            ..SimParams::default()
+        };
+        for threads in [1, 2] {
+            for (name, params) in [
+                ("volume off", SimParams::default()),
+                ("volume on", on),
+                ("volume on without the pressure", without_pressure),
+            ] {
+                let mut strands = Strands::new(rest.clone(), head_pose(0));
+                let mut frame = 0u64;
+                group.bench_function(format!("step on {threads} threads, {name}"), |b| {
+                    b.iter(|| {
+                        let input = input_at(frame, &collider, &params);
+                        frame += 1;
+                        step_on_threads(&mut strands, black_box(&input), threads)
+                    })
+                });
+            }
+        }
         let mut strands = Strands::new(rest.clone(), head_pose(0));
         let mut frame = 0u64;
-        group.bench_function(name, |b| {
+        group.bench_function("apply_volume alone", |b| {
             b.iter(|| {
-                let input = input_at(frame, &collider, &params);
+                strands.apply_volume(black_box(&input_at(frame, &collider, &on)));
                 frame += 1;
-                strands.step(black_box(&input))
             })
         });
+        group.finish();
     }
-    let mut strands = Strands::new(rest.clone(), head_pose(0));
-    let mut frame = 0u64;
-    group.bench_function("apply_volume alone", |b| {
-        b.iter(|| {
-            strands.apply_volume(black_box(&input_at(frame, &collider, &on)));
-            frame += 1;
-        })
+}
+
+/// One step of `strands` with its chunks split over `threads` scoped threads (this one
+/// among them), as `bevy_hair::step_on_pool` splits them over Bevy's pool.
+fn step_on_threads(strands: &mut Strands, input: &StepInput, threads: usize) -> StepReport {
+    strands.apply_volume(input);
+    let per_chunk = strands.strand_count().div_ceil(threads).next_multiple_of(input.params.simd.strands_per_group());
+    let mut chunks = strands.chunks_mut(per_chunk.max(1));
+    let mut report = StepReport::default();
+    std::thread::scope(|scope| {
+        let (mine, others) = chunks.split_first_mut().expect("at least one chunk");
+        let others: Vec<_> = others.iter_mut().map(|chunk| scope.spawn(move || chunk.step(input))).collect();
+        report.merge(mine.step(input));
+        for other in others {
+            report.merge(other.join().expect("a step thread panicked"));
+        }
     });
-    group.finish();
+    report
 }
 
 /// The step of frame `frame` of the turning head.

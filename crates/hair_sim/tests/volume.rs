@@ -56,12 +56,14 @@ fn at_rest_the_volume_changes_nothing() {
     assert!(apart < 5e-4, "the volume moved resting hair {apart} m");
 }
 
-/// The head turns and nods for a second with volume on: the same bits on every SIMD path
-/// and in every run.
+/// The head turns and nods for a second with volume on: the same bits on every SIMD path,
+/// thread count and run.
 #[test]
 fn the_volume_is_deterministic_on_every_path() {
     let (collider, rest) = settled(96);
-    let run = |simd: SimdPath| {
+    // On this thread, or its chunks (each feeding the grid back into its own strands) on
+    // `threads` threads.
+    let run = |simd: SimdPath, threads: usize| {
         let params = SimParams { simd, ..with_volume() };
         let mut strands = Strands::new(rest.clone(), Pose::IDENTITY);
         let pose = |k: usize| {
@@ -72,15 +74,28 @@ fn the_volume_is_deterministic_on_every_path() {
             )
         };
         for k in 0..60 {
-            strands.step(&step_input(k, pose(k), pose(k + 1), Some(&collider), &params));
+            let input = step_input(k, pose(k), pose(k + 1), Some(&collider), &params);
+            if threads == 1 {
+                strands.step(&input);
+                continue;
+            }
+            strands.apply_volume(&input);
+            let per_chunk = strands.strand_count().div_ceil(threads);
+            std::thread::scope(|scope| {
+                for mut chunk in strands.chunks_mut(per_chunk) {
+                    let input = &input;
+                    scope.spawn(move || chunk.step(input));
+                }
+            });
+            strands.follow_leaders(&input);
         }
-        (strands.positions().to_vec(), strands.volume_grid().expect("on").momentum().to_vec())
+        (strands.positions().to_vec(), strands.volume_grid().expect("on").momentum())
     };
-    let baseline = run(SimdPath::Baseline);
-    assert!(baseline.0 == run(SimdPath::Baseline).0, "two runs differ");
-    for simd in [SimdPath::Auto, SimdPath::Avx2] {
-        let other = run(simd);
-        assert!(other.0 == baseline.0 && other.1 == baseline.1, "{simd} differs from the baseline");
+    let baseline = run(SimdPath::Baseline, 1);
+    assert!(baseline.0 == run(SimdPath::Baseline, 1).0, "two runs differ");
+    for (simd, threads) in [(SimdPath::Auto, 1), (SimdPath::Avx2, 1), (SimdPath::Auto, 2), (SimdPath::Baseline, 3)] {
+        let other = run(simd, threads);
+        assert!(other.0 == baseline.0 && other.1 == baseline.1, "{simd} on {threads} threads differs from the baseline");
     }
 }
 

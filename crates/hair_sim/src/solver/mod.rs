@@ -236,6 +236,9 @@ pub struct Strands {
     detail: Option<Detail>,
     /// The hair–hair grid, while [`SimParams::volume`] is on, and its resolution.
     volume: Option<(u32, VolumeGrid)>,
+    /// The step's feedback from the grid, made by [`Self::apply_volume`] for the next
+    /// [`Self::chunks_mut`]'s chunks to apply.
+    volume_step: Option<volume::VolumeStep>,
 }
 
 impl Strands {
@@ -257,6 +260,7 @@ impl Strands {
             hints,
             detail: None,
             volume: None,
+            volume_step: None,
         }
     }
 
@@ -370,6 +374,9 @@ impl Strands {
         let strands = strands_per_chunk.max(1);
         let size = strands * n;
         let roles = self.detail.as_ref().map(|d| d.roles.as_slice());
+        // The feedback of the grid that `apply_volume` prepared, once.
+        let volume_step = self.volume_step.take();
+        let volume = self.volume.as_ref().zip(volume_step.as_ref()).map(|((_, grid), step)| (grid, step));
         self.positions
             .chunks_mut(size)
             .zip(self.velocities.chunks_mut(size))
@@ -388,6 +395,7 @@ impl Strands {
                 )| {
                     StrandChunk {
                         first_strand: c * strands,
+                        volume: volume.map(|(grid, step)| (grid, step.clone())),
                         rest: step::Rest { shape: &self.rest, lanes: &self.rest_lanes },
                         roles: roles.map(|r| &r[c * strands..((c + 1) * strands).min(r.len())]),
                         state: ChunkState {
@@ -427,9 +435,12 @@ impl Strands {
 
     /// Hair–hair interaction for the step `input` asks for, where [`SimParams::volume`] is
     /// on: every particle's velocity moves toward the hair's around it and away from where
-    /// the hair is denser than at rest ([`VolumeGrid`]). A caller that steps
-    /// [`Self::chunks_mut`] itself calls this first; [`Self::step`] does.
+    /// the hair is denser than at rest ([`VolumeGrid`]). This splats the particles into the
+    /// grid and solves its pressure; the chunks of the next [`Self::chunks_mut`] feed the
+    /// answer back into their own strands as they step, side by side. A caller that steps
+    /// the chunks itself calls this first; [`Self::step`] does.
     pub fn apply_volume(&mut self, input: &StepInput) {
+        self.volume_step = None;
         let (params, _) = input.params.sanitized();
         let Some(dt) = step::step_length(input).filter(|_| params.volume.enabled) else {
             if !params.volume.enabled {
@@ -443,7 +454,8 @@ impl Strands {
         }
         let pose = if input.head_from.is_valid() { input.head_from } else { input.head_to };
         let (_, grid) = self.volume.as_mut().expect("made above");
-        volume::apply(grid, &self.rest, &self.positions, &mut self.velocities, pose, &params.volume, dt);
+        let step = volume::prepare(grid, &self.rest, &self.positions, &self.velocities, pose, &params.volume, dt);
+        self.volume_step = Some(step);
     }
 
     /// The hair–hair grid as the last step left it, while [`SimParams::volume`] is on.
@@ -596,6 +608,8 @@ pub struct StrandChunk<'a> {
     rest: step::Rest<'a>,
     /// Per strand of the chunk, its role at the level of detail; `None`: all simulated.
     roles: Option<&'a [Role]>,
+    /// The hair–hair grid and the step's feedback from it, where volume is on.
+    volume: Option<(&'a VolumeGrid, volume::VolumeStep)>,
     state: ChunkState<'a>,
 }
 
@@ -617,8 +631,13 @@ impl StrandChunk<'_> {
         self.state.positions
     }
 
-    /// Advances the strands of this chunk by one step.
+    /// Advances the strands of this chunk by one step (first taking the hair–hair grid's
+    /// feedback, where [`Strands::apply_volume`] prepared it).
     pub fn step(&mut self, input: &StepInput) -> StepReport {
+        if let Some((grid, volume)) = self.volume.take() {
+            let first = self.first_strand * self.rest.shape.particles_per_strand;
+            grid.feed_back(&volume, first, self.state.velocities);
+        }
         step::step_chunk(self.first_strand, self.rest, self.roles, &mut self.state, input)
     }
 }

@@ -41,10 +41,10 @@ pub struct VolumeGrid {
     inverse_cell: f32,
     cell: f32,
     dims: [usize; 3],
-    /// Per cell: the particles' weights, summed (units of [`PARTICLE_MASS_UNITS`]).
-    mass: Vec<i64>,
-    /// Per cell: weight × velocity (world axes, [`VELOCITY_BITS`] fixed point), summed.
-    momentum: Vec<[i64; 3]>,
+    /// Per cell, side by side (a particle adds to all four at once): the particles'
+    /// weights, summed (units of [`PARTICLE_MASS_UNITS`]), then weight × velocity (world
+    /// axes, [`VELOCITY_BITS`] fixed point), summed.
+    sums: Vec<[i64; 4]>,
     /// Per cell: the rest pose's mass.
     rest_mass: Vec<i64>,
     /// The mean rest mass over the cells the rest pose reaches, what the push compares
@@ -82,16 +82,16 @@ struct Splat {
 }
 
 impl Splat {
-    /// The eight cells around the point (corner bits x, y, z) and their integer weights,
-    /// in a grid of `dims` cells.
+    /// The eight cells around the point (corner bits x, y, z, x fastest) and their integer
+    /// weights, in a grid of `dims` cells.
     #[inline]
-    fn corners(&self, dims: [usize; 3]) -> impl Iterator<Item = (usize, i64)> {
-        let (base, fixed) = (self.base as usize, self.fixed.map(i64::from));
-        (0..8).map(move |corner: usize| {
+    fn corners(&self, dims: [usize; 3]) -> [(usize, i64); 8] {
+        let (base, [fx, fy, fz]) = (self.base as usize, self.fixed.map(i64::from));
+        let (wx, wy, wz) = ([WEIGHT_ONE - fx, fx], [WEIGHT_ONE - fy, fy], [WEIGHT_ONE - fz, fz]);
+        let (sy, sz) = (dims[0], dims[0] * dims[1]);
+        std::array::from_fn(|corner| {
             let (a, b, c) = (corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
-            let axis = |bit: usize, f: i64| if bit == 1 { f } else { WEIGHT_ONE - f };
-            let cell = base + a + dims[0] * (b + dims[1] * c);
-            (cell, axis(a, fixed[0]) * axis(b, fixed[1]) * axis(c, fixed[2]))
+            (base + a + sy * b + sz * c, wx[a] * wy[b] * wz[c])
         })
     }
 }
@@ -117,8 +117,7 @@ impl VolumeGrid {
             inverse_cell: 1.0 / cell,
             cell,
             dims,
-            mass: vec![0; cells],
-            momentum: vec![[0; 3]; cells],
+            sums: vec![[0; 4]; cells],
             rest_mass: vec![0; cells],
             rest_scale: 1.0,
             values: vec![CellValue::default(); cells],
@@ -126,7 +125,7 @@ impl VolumeGrid {
             splats: Vec::new(),
         };
         grid.splat(rest, &rest.positions, None, Pose::IDENTITY);
-        grid.rest_mass.clone_from(&grid.mass);
+        grid.rest_mass = grid.mass();
         let reached: Vec<i64> = grid.rest_mass.iter().copied().filter(|&m| m > 0).collect();
         let mean = reached.iter().map(|&m| m as f64).sum::<f64>() / reached.len().max(1) as f64;
         grid.rest_scale = (mean / PARTICLE_MASS_UNITS as f64).max(1e-6) as f32;
@@ -164,9 +163,9 @@ impl VolumeGrid {
         self.rest_scale
     }
 
-    /// Each cell's mass, in units of [`PARTICLE_MASS_UNITS`] per particle.
-    pub fn mass(&self) -> &[i64] {
-        &self.mass
+    /// Each cell's mass, in units of [`PARTICLE_MASS_UNITS`] per particle (copied out).
+    pub fn mass(&self) -> Vec<i64> {
+        self.sums.iter().map(|s| s[0]).collect()
     }
 
     /// Each cell's mass in the rest pose.
@@ -174,9 +173,10 @@ impl VolumeGrid {
         &self.rest_mass
     }
 
-    /// Each cell's momentum sums (fixed point: velocity × 2^[`VELOCITY_BITS`] × weight).
-    pub fn momentum(&self) -> &[[i64; 3]] {
-        &self.momentum
+    /// Each cell's momentum sums (fixed point: velocity × 2^[`VELOCITY_BITS`] × weight;
+    /// copied out).
+    pub fn momentum(&self) -> Vec<[i64; 3]> {
+        self.sums.iter().map(|&[_, x, y, z]| [x, y, z]).collect()
     }
 
     /// The eight cells around head-local `p` and their weights; `None` outside the grid.
@@ -206,31 +206,33 @@ impl VolumeGrid {
     /// `velocities`, world axes; none: at rest), head-local by `pose`; roots are pinned and
     /// not counted. [`Self::mass`] and [`Self::momentum`] then hold the sums.
     pub fn splat(&mut self, rest: &RestShape, positions: &[Vec3], velocities: Option<&[Vec3]>, pose: Pose) {
-        self.mass.fill(0);
-        self.momentum.fill([0; 3]);
+        self.sums.fill([0; 4]);
         let n = rest.particles_per_strand.max(1);
         let mut splats = std::mem::take(&mut self.splats);
         splats.clear();
         // Head-local as a matrix, once (as the GPU's splat does), not a quaternion per particle.
         let (inverse, translation) = (Mat3A::from_quat(pose.rotation).transpose(), Vec3A::from(pose.translation));
-        splats.extend(positions.iter().enumerate().map(|(i, &x)| {
+        for (i, &x) in positions.iter().enumerate() {
             // Roots are pinned: they neither count nor move.
-            (i % n != 0).then(|| self.splat_of((inverse * (Vec3A::from(x) - translation)).into())).flatten()
-        }));
-        for (i, splat) in splats.iter().enumerate() {
+            let splat = (i % n != 0).then(|| self.splat_of((inverse * (Vec3A::from(x) - translation)).into())).flatten();
+            splats.push(splat);
             let Some(splat) = splat else { continue };
-            let v = velocities.map_or([0; 3], |v| v[i].to_array().map(fixed_velocity));
+            let [vx, vy, vz] = velocities.map_or([0; 3], |v| v[i].to_array().map(fixed_velocity));
             for (c, w) in splat.corners(self.dims) {
-                self.mass[c] += w;
-                for (sum, v) in self.momentum[c].iter_mut().zip(v) {
-                    *sum += w * v;
-                }
+                let sum = &mut self.sums[c];
+                *sum = [sum[0] + w, sum[1] + w * vx, sum[2] + w * vy, sum[3] + w * vz];
             }
         }
         self.splats = splats;
         // Each cell's mean and excess, once, for every particle that reads it.
         let units = PARTICLE_MASS_UNITS as f32;
-        for (c, ((&m, &r), momentum)) in self.mass.iter().zip(&self.rest_mass).zip(&self.momentum).enumerate() {
+        for (c, (&[m, mx, my, mz], &r)) in self.sums.iter().zip(&self.rest_mass).enumerate() {
+            if m == 0 && r == 0 {
+                // No hair, now or at rest: what the general case below gives.
+                self.values[c] = CellValue::default();
+                continue;
+            }
+            let momentum = [mx, my, mz];
             let mean_velocity = if m > 0 {
                 let scale = 1.0 / (m as f64 * f64::from(1u32 << VELOCITY_BITS));
                 Vec3::from_array(momentum.map(|s| (s as f64 * scale) as f32))
@@ -312,21 +314,22 @@ impl VolumeGrid {
         let f = splat.fraction;
         let (mut velocity, mut weight, mut gradient) = (Vec3::ZERO, 0.0f32, Vec3::ZERO);
         let mut pressure_gradient = Vec3::ZERO;
-        for (corner, (c, w)) in splat.corners(self.dims).enumerate() {
+        // The trilinear interpolant along each axis toward the lower and upper corner, and
+        // its slope.
+        let (ax, ay, az) = ([1.0 - f.x, f.x], [1.0 - f.y, f.y], [1.0 - f.z, f.z]);
+        const SLOPE: [f32; 2] = [-1.0, 1.0];
+        for (corner, (c, w)) in splat.corners(self.dims).into_iter().enumerate() {
             let cell = self.values[c];
             if cell.occupied {
                 let w = w as f32 / PARTICLE_MASS_UNITS as f32;
                 velocity += cell.mean_velocity * w;
                 weight += w;
             }
-            // The trilinear interpolant's derivative along each axis.
-            let bits = [corner & 1, (corner >> 1) & 1, (corner >> 2) & 1];
-            let along = |axis: usize, t: f32| if bits[axis] == 1 { t } else { 1.0 - t };
-            let slope = |axis: usize| if bits[axis] == 1 { 1.0 } else { -1.0 };
+            let (a, b, c3) = (corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
             let derivative = Vec3::new(
-                slope(0) * along(1, f.y) * along(2, f.z),
-                along(0, f.x) * slope(1) * along(2, f.z),
-                along(0, f.x) * along(1, f.y) * slope(2),
+                SLOPE[a] * ay[b] * az[c3],
+                ax[a] * SLOPE[b] * az[c3],
+                ax[a] * ay[b] * SLOPE[c3],
             );
             gradient += derivative * cell.excess;
             pressure_gradient += derivative * self.pressure[c];
@@ -354,31 +357,52 @@ pub fn fixed_velocity(v: f32) -> i64 {
     floor.clamp(-MAX_FIXED_VELOCITY, MAX_FIXED_VELOCITY)
 }
 
-/// The volume's effect on one step of `dt` seconds: splats `positions` and `velocities`
-/// (head-local by `pose`, the head's pose at the step's start) into `grid`, then moves each
-/// particle's velocity toward the hair's mean velocity around it (`volume.friction_root`
-/// at the root to `friction_tip` at the tip, per 1/60 s), down the density excess
-/// (`volume.density_push`, m/s² per unit of excess per cell) and down the pressure
-/// (`volume.pressure` of its gradient, after `volume.pressure_iterations` sweeps). Roots
-/// are left alone.
-pub(super) fn apply(
+/// The volume's part of one step of `dt` seconds, before the strands move: splats
+/// `positions` and `velocities` (head-local by `pose`, the head's pose at the step's start)
+/// into `grid` and solves its pressure (`volume.pressure_iterations` sweeps). The answer
+/// then reaches each particle's velocity through [`VolumeGrid::feed_back`], chunk by chunk.
+pub(super) fn prepare(
     grid: &mut VolumeGrid,
     rest: &RestShape,
     positions: &[Vec3],
-    velocities: &mut [Vec3],
+    velocities: &[Vec3],
     pose: Pose,
     volume: &Volume,
     dt: f32,
-) {
+) -> VolumeStep {
     grid.splat(rest, positions, Some(velocities), pose);
     grid.solve_pressure(volume.pressure_iterations, dt);
     let n = rest.particles_per_strand.max(1);
-    let feedback = Feedback::new(grid, volume, n, dt);
-    for (i, (splat, v)) in grid.splats.iter().zip(velocities.iter_mut()).enumerate() {
-        let Some(splat) = splat else { continue };
-        let (mean, gradient, pressure_gradient) = grid.sample(splat);
-        let push = gradient * feedback.push - pressure_gradient * volume.pressure;
-        *v += (mean - *v) * feedback.shares[i % n] + pose.rotation * push;
+    VolumeStep { feedback: Feedback::new(grid, volume, n, dt), rotation: pose.rotation, pressure: volume.pressure }
+}
+
+/// What [`prepare`] worked out for a step's feedback, besides the grid.
+#[derive(Clone, Debug)]
+pub(super) struct VolumeStep {
+    feedback: Feedback,
+    /// The head's rotation the grid's axes turn by.
+    rotation: glam::Quat,
+    /// [`Volume::pressure`].
+    pressure: f32,
+}
+
+impl VolumeGrid {
+    /// Moves the velocities of the particles from `first` on (whole strands; the particles
+    /// [`prepare`] splatted) toward the hair's mean velocity around each (`volume.friction_root`
+    /// at the root to `friction_tip` at the tip, per 1/60 s), down the density excess
+    /// (`volume.density_push`, m/s² per unit of excess per cell) and down the pressure
+    /// (`volume.pressure` of its gradient). Roots are left alone. Each particle reads only
+    /// the grid, so chunks of strands take it on their own threads, in any order.
+    pub(super) fn feed_back(&self, step: &VolumeStep, first: usize, velocities: &mut [Vec3]) {
+        let VolumeStep { feedback, rotation, pressure } = step;
+        let splats = self.splats.get(first..).unwrap_or_default();
+        let n = feedback.shares.len();
+        for (i, (splat, v)) in splats.iter().zip(velocities).enumerate() {
+            let Some(splat) = splat else { continue };
+            let (mean, gradient, pressure_gradient) = self.sample(splat);
+            let push = gradient * feedback.push - pressure_gradient * *pressure;
+            *v += (mean - *v) * feedback.shares[(first + i) % n] + *rotation * push;
+        }
     }
 }
 

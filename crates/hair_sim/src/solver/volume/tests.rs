@@ -11,6 +11,20 @@ fn rest() -> RestShape {
     RestShape::new(positions, 5).unwrap()
 }
 
+/// One step's volume on every particle at once: [`prepare`], then the whole feedback.
+fn apply(
+    grid: &mut VolumeGrid,
+    rest: &RestShape,
+    positions: &[Vec3],
+    velocities: &mut [Vec3],
+    pose: Pose,
+    volume: &Volume,
+    dt: f32,
+) {
+    let step = prepare(grid, rest, positions, velocities, pose, volume, dt);
+    grid.feed_back(&step, 0, velocities);
+}
+
 #[test]
 fn the_splat_holds_every_particle_exactly_and_the_rest_pose_is_its_own_rest() {
     let rest = rest();
