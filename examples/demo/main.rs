@@ -5,7 +5,7 @@
 //! ```text
 //! cargo run --release --example demo
 //! cargo run --example demo -- [--preset NAME] [--lights KIND] [--shading MODEL] [--self-shadow X]
-//!     [--antialias MODE] [--solver cpu|gpu] [--camera Y,P,D] [--head FILE.glb] [--groom FILE.hair]
+//!     [--antialias MODE] [--solver cpu|gpu] [--volume on|off] [--camera Y,P,D] [--head FILE.glb] [--groom FILE.hair]
 //!     [--screenshot FILE [--frames N] [--no-panel] [--size WxH] [--offscreen]]
 //! ```
 //!
@@ -39,7 +39,7 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 const USAGE: &str = "usage: demo [--preset NAME] [--lights KIND] [--shading MODEL] [--self-shadow X] [--antialias MODE]
-            [--solver cpu|gpu] [--camera Y,P,D] [--head FILE.glb] [--groom FILE.hair]
+            [--solver cpu|gpu] [--volume on|off] [--camera Y,P,D] [--head FILE.glb] [--groom FILE.hair]
             [--screenshot FILE [--frames N] [--no-panel] [--size WxH] [--offscreen]]
   --preset NAME      start with this hairstyle: Shoulder (default), Short, Long, Curly, Windy, Reference
   --lights KIND      studio (default: key, fill and rim lights), lamps (a point and a spot light),
@@ -49,6 +49,7 @@ const USAGE: &str = "usage: demo [--preset NAME] [--lights KIND] [--shading MODE
   --antialias MODE   how strands thinner than a pixel are drawn: auto (default: blended when the
                      whole groom is that thin), coverage (MSAA alpha-to-coverage), blended, off
   --solver cpu|gpu   step the hair on the CPU (default) or with the GPU solver (drawn from the GPU)
+  --volume on|off    hair volume (hair pushes hair) on or off (default: the preset's)
   --camera Y,P,D     start the orbit camera at yaw Y and pitch P (radians), D metres away
   --head FILE.glb    your head instead of the character: a .glb under assets/ whose first
                      primitive has its scalp painted black in its vertex colours
@@ -102,6 +103,13 @@ fn parse_args() -> Result<Options, String> {
                 let mode = scene::ANTIALIAS_MODES.iter().find_map(|&(mode, n)| (n == name).then_some(mode));
                 options.stage.antialias =
                     Some(mode.ok_or(format!("--antialias is auto, coverage, blended or off, not {name:?}"))?);
+            }
+            "--volume" => {
+                options.stage.volume = Some(match args.next().ok_or("--volume needs on or off")?.as_str() {
+                    "on" => true,
+                    "off" => false,
+                    other => return Err(format!("--volume is on or off, not {other:?}")),
+                });
             }
             "--solver" => {
                 let name = args.next().ok_or("--solver needs cpu or gpu")?;

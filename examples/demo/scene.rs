@@ -89,6 +89,8 @@ pub struct Stage {
     pub antialias: Option<HairAntialias>,
     /// `--solver`.
     pub backend: HairBackend,
+    /// `--volume`: hair volume on or off instead of the preset's.
+    pub volume: Option<bool>,
     /// `--camera`: where the orbit camera starts.
     pub camera: Option<OrbitCamera>,
     /// `--offscreen`: the camera draws into an image of this size ([`OffscreenTarget`])
@@ -138,6 +140,9 @@ pub fn setup(
     stage: Res<Stage>,
 ) {
     settings.0 = presets::named(start.0).params;
+    if let Some(on) = stage.volume {
+        settings.0.volume.enabled = on;
+    }
     match &stage.head {
         // A user's head, loaded as README's code loads it, under a character root the
         // mouse turns (it has no clip to play), its origin where the camera looks.

@@ -222,6 +222,33 @@ fn a_gpu_groom_leaks_no_gpu_buffers() {
     }
 }
 
+/// The same groom settled with hair volume off and on, seen from the side: without it the
+/// hair settles into a shell one strand thick on the skull; with it the strands keep each
+/// other out and the hair stands off the head, covering more of the picture
+/// (`docs/volume-off.png` and `docs/volume-on.png` are these pictures).
+#[test]
+fn hair_volume_keeps_a_groom_full() {
+    require_adapter!();
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let mut pictures = Vec::new();
+    for enabled in [false, true] {
+        let mut scene = Scene::new();
+        let volume = Volume { enabled, ..default() };
+        scene.app.insert_resource(HairSettings(SimParams { volume, ..default() }));
+        let groom = HairGroom { length: 0.12, settle_steps: 240, ..short_groom() };
+        let head = scene.spawn_head(groom);
+        scene.wait_until_ready(head);
+        scene.look_from(Vec3::new(0.55, 0.05, 0.1));
+        let name = if enabled { "volume-on" } else { "volume-off" };
+        let picture = scene.capture(name);
+        pictures.push(picture.hair_pixels());
+    }
+    let [off, on] = pictures[..] else { unreachable!() };
+    println!("hair pixels: {off} with volume off, {on} with it on");
+    assert!(off > 2000, "too little hair in view: {off}");
+    assert!(on as f32 > 1.5 * off as f32, "volume on covers {on} pixels, off {off}");
+}
+
 /// A renderer in error (a lost device, a validation error) while a groom steps on the GPU,
 /// under an app whose renderer recovers on a new device ([`RenderErrorPolicy::Recover`];
 /// Bevy's default quits): the groom says so once and steps on the CPU, its GPU strands go,

@@ -95,7 +95,10 @@ fn the_volume_is_deterministic_on_every_path() {
     assert!(baseline.0 == run(SimdPath::Baseline, 1).0, "two runs differ");
     for (simd, threads) in [(SimdPath::Auto, 1), (SimdPath::Avx2, 1), (SimdPath::Auto, 2), (SimdPath::Baseline, 3)] {
         let other = run(simd, threads);
-        assert!(other.0 == baseline.0 && other.1 == baseline.1, "{simd} on {threads} threads differs from the baseline");
+        assert!(
+            other.0 == baseline.0 && other.1 == baseline.1,
+            "{simd} on {threads} threads differs from the baseline"
+        );
     }
 }
 

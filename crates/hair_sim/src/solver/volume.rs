@@ -214,7 +214,8 @@ impl VolumeGrid {
         let (inverse, translation) = (Mat3A::from_quat(pose.rotation).transpose(), Vec3A::from(pose.translation));
         for (i, &x) in positions.iter().enumerate() {
             // Roots are pinned: they neither count nor move.
-            let splat = (i % n != 0).then(|| self.splat_of((inverse * (Vec3A::from(x) - translation)).into())).flatten();
+            let splat =
+                (i % n != 0).then(|| self.splat_of((inverse * (Vec3A::from(x) - translation)).into())).flatten();
             splats.push(splat);
             let Some(splat) = splat else { continue };
             let [vx, vy, vz] = velocities.map_or([0; 3], |v| v[i].to_array().map(fixed_velocity));
@@ -326,11 +327,7 @@ impl VolumeGrid {
                 weight += w;
             }
             let (a, b, c3) = (corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
-            let derivative = Vec3::new(
-                SLOPE[a] * ay[b] * az[c3],
-                ax[a] * SLOPE[b] * az[c3],
-                ax[a] * ay[b] * SLOPE[c3],
-            );
+            let derivative = Vec3::new(SLOPE[a] * ay[b] * az[c3], ax[a] * SLOPE[b] * az[c3], ax[a] * ay[b] * SLOPE[c3]);
             gradient += derivative * cell.excess;
             pressure_gradient += derivative * self.pressure[c];
         }
