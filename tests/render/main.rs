@@ -246,7 +246,7 @@ fn hair_volume_keeps_a_groom_full() {
     let [off, on] = pictures[..] else { unreachable!() };
     println!("hair pixels: {off} with volume off, {on} with it on");
     assert!(off > 2000, "too little hair in view: {off}");
-    assert!(on as f32 > 1.5 * off as f32, "volume on covers {on} pixels, off {off}");
+    assert!(on as f32 > 1.25 * off as f32, "volume on covers {on} pixels, off {off}");
 }
 
 /// A renderer in error (a lost device, a validation error) while a groom steps on the GPU,

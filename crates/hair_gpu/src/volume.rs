@@ -233,6 +233,7 @@ mod tests {
         assert_eq!(constant("MAX_FIXED_VELOCITY"), MAX_FIXED_VELOCITY as f64);
         assert_eq!(constant("WORDS_PER_CELL"), WORDS_PER_CELL as f64);
         assert_eq!(constant("PRESSURE_SLACK"), f64::from(hair_sim::solver::PRESSURE_SLACK));
+        assert_eq!(constant("LIVE_FLOOR"), f64::from(hair_sim::solver::LIVE_FLOOR));
         assert_eq!(std::mem::size_of::<VolumeUniform>(), crate::pass::validated_struct_size(VOLUME_SHADER, "Volume"));
     }
 

@@ -52,6 +52,8 @@ const MAX_FIXED_VELOCITY: f32 = 65535.0;
 const WORDS_PER_CELL: u32 = 8u;
 // hair_sim's `PRESSURE_SLACK`.
 const PRESSURE_SLACK: f32 = 0.05;
+// hair_sim's `LIVE_FLOOR`: the share of the mean rest density any cell may fill up to.
+const LIVE_FLOOR: f32 = 0.5;
 
 // A point's cell (its lowest corner), fixed-point weights per axis and where in the cell it
 // lies, as `VolumeGrid::splat_of` finds them; `inside` false outside the grid.
@@ -174,7 +176,7 @@ fn resolve_cells(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_work
         mean = vec3<f32>(wide_f32(px.x, px.y), wide_f32(py.x, py.y), wide_f32(pz.x, pz.y)) * scale;
     }
     // The density beyond the target, per second, as `VolumeGrid::splat` works it out.
-    let wanted = max(wide_f32(rest.x, rest.y) / PARTICLE_MASS_UNITS, volume.feedback.y * 0.5) * (1.0 + PRESSURE_SLACK);
+    let wanted = max(wide_f32(rest.x, rest.y) / PARTICLE_MASS_UNITS, volume.feedback.y * LIVE_FLOOR) * (1.0 + PRESSURE_SLACK);
     let overflow = max((m / PARTICLE_MASS_UNITS - wanted) / wanted, 0.0);
     cells[2u * c] = vec4<f32>(mean, excess);
     cells[2u * c + 1u] = vec4<f32>(m, overflow, 0.0, 0.0);

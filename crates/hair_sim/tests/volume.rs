@@ -357,8 +357,10 @@ fn median_thickness(positions: &[Vec3], normals: &[Vec3], n: usize) -> f32 {
 /// The groom's thickness (its median reach along the scalp's normal) on the shipped head,
 /// 1,024 × 16, settled as the plugin settles (180 steps) under the same settings it then
 /// runs 2 s under, over the thickness as grown (straight out along the normal). With volume
-/// off settling lays the hair into a helmet, under a tenth of it; with volume on (the rest
-/// density then the grown pose's while it settles) the pressure keeps over half of it.
+/// off settling lays the hair into a helmet, under a twentieth of it; with volume on the
+/// strands keep each other out as they fall and the hair keeps a body of several
+/// centimetres, without holding the grown pose (which stood out like a shock while the
+/// grown pose's density was the target while settling).
 #[test]
 fn the_thickness_of_a_groom_settled_with_and_without_volume() {
     let (head, collider, roots, grown) = grown_on_the_shipped_head();
@@ -377,5 +379,5 @@ fn the_thickness_of_a_groom_settled_with_and_without_volume() {
         "thickness over groomed ({:.1} mm): {off:.2} with volume off, {on:.2} with volume on while settling and after",
         groomed * 1e3
     );
-    assert!(off < 0.1 && on > 0.5, "off {off}, on {on}");
+    assert!(off < 0.05 && (0.12..0.4).contains(&on), "off {off}, on {on}");
 }

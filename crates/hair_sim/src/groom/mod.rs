@@ -29,7 +29,7 @@ pub use vertex_roots::sample_roots_at_vertices;
 use crate::collide::HeadCollider;
 use crate::math::{Pose, Vec3};
 use crate::mesh::{HeadMesh, MeshError};
-use crate::solver::{RestShape, SimParams, StepInput, Strands, StrandsError};
+use crate::solver::{RestShape, SimParams, StepInput, Strands, StrandsError, VolumeGrid};
 use std::fmt;
 
 /// Where a root sits on the head: a triangle and barycentric coordinates in it.
@@ -380,6 +380,11 @@ fn finite_or_zero(v: Vec3) -> Vec3 {
 /// adds `|gravity|·comb` to gravity, so hair combed back lies back over the crown instead of
 /// sliding down into the face. The result is the rest shape that shape keeping then holds.
 /// Non-finite components count as zero.
+///
+/// With [`SimParams::volume`] on, the strands keep each other out as they fall, so the
+/// hair keeps a body instead of lying in one layer on the skull; the grown pose being no
+/// groom yet, any cell may fill up to [`SETTLING_FLOOR`](crate::solver::SETTLING_FLOOR)
+/// times the mean grown density before the pressure pushes.
 pub fn settle(
     rest: RestShape,
     collider: Option<&HeadCollider>,
@@ -396,7 +401,11 @@ pub fn settle(
     params.drag = params.drag.max(8.0); // overdamped: settle, do not swing
     let gravity = Vec3::from_array(params.gravity);
     params.gravity = (gravity + finite_or_zero(comb) * gravity.length()).to_array();
+    let volume = params.volume.enabled.then(|| VolumeGrid::for_settling(&rest, params.volume.resolution));
     let mut strands = Strands::new(rest, Pose::IDENTITY);
+    if let Some(grid) = volume {
+        strands.use_volume_grid(params.volume.resolution, grid);
+    }
     for k in 0..steps {
         let input = StepInput {
             dt: 1.0 / 60.0,

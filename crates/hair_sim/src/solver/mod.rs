@@ -19,8 +19,8 @@ use rest_lanes::RestLanes;
 
 pub use step::{MIN_STEP, StepConstants};
 pub use volume::{
-    Feedback, MAX_FIXED_VELOCITY, PARTICLE_MASS_UNITS, PRESSURE_SLACK, VELOCITY_BITS, VolumeGrid, WEIGHT_BITS,
-    fixed_velocity,
+    Feedback, LIVE_FLOOR, MAX_FIXED_VELOCITY, PARTICLE_MASS_UNITS, PRESSURE_SLACK, SETTLING_FLOOR, VELOCITY_BITS,
+    VolumeGrid, WEIGHT_BITS, fixed_velocity,
 };
 mod volume;
 mod wind;
@@ -456,6 +456,12 @@ impl Strands {
         let (_, grid) = self.volume.as_mut().expect("made above");
         let step = volume::prepare(grid, &self.rest, &self.positions, &self.velocities, pose, &params.volume, dt);
         self.volume_step = Some(step);
+    }
+
+    /// Settles with `grid` as the hair–hair grid (made for `resolution`) while
+    /// [`SimParams::volume`] is on, instead of one made from the rest pose.
+    pub(crate) fn use_volume_grid(&mut self, resolution: u32, grid: VolumeGrid) {
+        self.volume = Some((resolution, grid));
     }
 
     /// The hair–hair grid as the last step left it, while [`SimParams::volume`] is on.

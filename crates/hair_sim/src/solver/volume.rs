@@ -54,6 +54,9 @@ pub struct VolumeGrid {
     values: Vec<CellValue>,
     /// Per cell, the pressure solve's answer, kept between steps as the next one's start.
     pressure: Vec<f32>,
+    /// The share of `rest_scale` any cell may fill up to before the pressure pushes
+    /// ([`LIVE_FLOOR`], or [`SETTLING_FLOOR`] while a grown groom settles).
+    floor: f32,
     /// Each particle's splat, kept from the sums for the feedback.
     splats: Vec<Option<Splat>>,
 }
@@ -101,6 +104,18 @@ impl VolumeGrid {
     /// particles (head space) grown by a quarter of the longest strand on every side: the
     /// reach of hair that swings away from its rest pose. Its rest density is `rest`'s.
     pub fn new(rest: &RestShape, resolution: u32) -> Self {
+        Self::with_floor(rest, resolution, LIVE_FLOOR)
+    }
+
+    /// [`Self::new`] for settling a grown groom ([`crate::groom::settle`]): its pose is not
+    /// a groom yet (strands straight out along the scalp's normals), so the hair may fill
+    /// any cell up to [`SETTLING_FLOOR`] times the mean rest density before the pressure
+    /// pushes, and hangs and combs as it falls instead of holding the grown pose.
+    pub(crate) fn for_settling(rest: &RestShape, resolution: u32) -> Self {
+        Self::with_floor(rest, resolution, SETTLING_FLOOR)
+    }
+
+    fn with_floor(rest: &RestShape, resolution: u32, floor: f32) -> Self {
         let (mut min, mut max) = crate::math::bounds(&rest.positions);
         if rest.positions.is_empty() {
             (min, max) = (Vec3::ZERO, Vec3::ZERO);
@@ -122,6 +137,7 @@ impl VolumeGrid {
             rest_scale: 1.0,
             values: vec![CellValue::default(); cells],
             pressure: vec![0.0; cells],
+            floor,
             splats: Vec::new(),
         };
         grid.splat(rest, &rest.positions, None, Pose::IDENTITY);
@@ -241,11 +257,11 @@ impl VolumeGrid {
                 Vec3::ZERO
             };
             let excess = (m - r) as f32 / units / self.rest_scale;
-            // The target: what the cell held at rest, or half the mean rest density where
-            // that is more (a cell the rest pose barely reaches, or hair far from its rest
-            // pose, may fill up to it), with a little room, so that hair settling about
-            // its rest pose is left alone.
-            let target = (r as f32 / units).max(self.rest_scale * 0.5) * (1.0 + PRESSURE_SLACK);
+            // The target: what the cell held at rest, or the floor's share of the mean rest
+            // density where that is more (a cell the rest pose barely reaches, or hair far
+            // from its rest pose, may fill up to it), with a little room, so that hair
+            // settling about its rest pose is left alone.
+            let target = (r as f32 / units).max(self.rest_scale * self.floor) * (1.0 + PRESSURE_SLACK);
             let overflow = ((m as f32 / units - target) / target).max(0.0);
             self.values[c] = CellValue { mean_velocity, occupied: m > 0, excess, overflow };
         }
@@ -339,6 +355,14 @@ impl VolumeGrid {
 /// How far, as a share, a cell's density may exceed its target before the pressure
 /// pushes ([`VolumeGrid::solve_pressure`]).
 pub const PRESSURE_SLACK: f32 = 0.05;
+
+/// The share of the mean rest density any cell may fill up to before the pressure pushes,
+/// for a groom at its rest pose (the GPU's `resolve_cells` uses the same).
+pub const LIVE_FLOOR: f32 = 0.5;
+
+/// [`LIVE_FLOOR`] while a grown groom settles: dense enough for hanging, combed hair,
+/// sparse enough that the hair keeps a body instead of lying in one layer on the skull.
+pub const SETTLING_FLOOR: f32 = 4.0;
 
 /// A velocity component in the momentum sums' fixed point, rounded as the GPU rounds
 /// (`floor(x + 0.5)` in `f32`: the product is exact, the sum correctly rounded on both),
