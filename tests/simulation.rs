@@ -559,17 +559,6 @@ fn a_gpu_groom_with_volume_steps_on_the_gpu() {
     assert!(mean < 2e-4 && max < 0.01, "mean {mean} m, max {max} m apart");
 }
 
-/// Every `GpuFallback` reason reported so far.
-#[derive(Resource, Default)]
-struct GpuFallbacks(Vec<String>);
-
-fn collect_gpu_fallbacks(mut errors: MessageReader<HairError>, mut seen: ResMut<GpuFallbacks>) {
-    seen.0.extend(errors.read().filter_map(|e| match &e.kind {
-        HairErrorKind::GpuFallback(why) => Some(why.clone()),
-        _ => None,
-    }));
-}
-
 /// What [`beside_the_cpu`] saw.
 struct Beside {
     /// The first app's positions as its state held them (for a GPU groom, the last copy

@@ -184,3 +184,15 @@ pub fn app_on_a_gpu() -> Option<App> {
         }
     }
 }
+
+/// Every `GpuFallback` reason reported so far ([`collect_gpu_fallbacks`] in `Last`).
+#[derive(Resource, Default)]
+pub struct GpuFallbacks(pub Vec<String>);
+
+/// Collects the [`HairErrorKind::GpuFallback`] reasons into [`GpuFallbacks`].
+pub fn collect_gpu_fallbacks(mut errors: MessageReader<HairError>, mut seen: ResMut<GpuFallbacks>) {
+    seen.0.extend(errors.read().filter_map(|e| match &e.kind {
+        HairErrorKind::GpuFallback(why) => Some(why.clone()),
+        _ => None,
+    }));
+}

@@ -266,7 +266,7 @@ fn a_renderer_in_error_moves_gpu_hair_to_the_cpu() {
     scene.app.insert_resource(RenderErrorHandler(|_, _, _| {
         RenderErrorPolicy::Recover(RenderCreation::Automatic(Box::default()))
     }));
-    scene.app.init_resource::<GpuFallbacks>().add_systems(Last, collect_gpu_fallbacks);
+    scene.app.init_resource::<common::GpuFallbacks>().add_systems(Last, common::collect_gpu_fallbacks);
     let before = live_objects();
     let head = scene.spawn_head(short_groom());
     scene.app.world_mut().entity_mut(head).insert(HairBackend::Gpu);
@@ -299,13 +299,13 @@ fn a_renderer_in_error_moves_gpu_hair_to_the_cpu() {
     });
     queue.write_buffer(&small, 64, &[0; 4]);
     let mut frames = 0;
-    while scene.app.world().resource::<GpuFallbacks>().0.is_empty() && frames < 300 {
+    while scene.app.world().resource::<common::GpuFallbacks>().0.is_empty() && frames < 300 {
         scene.frames(1);
         frames += 1;
     }
     scene.frames(10);
     let after = scene.capture("device-after");
-    let fallbacks = scene.app.world().resource::<GpuFallbacks>().0.clone();
+    let fallbacks = scene.app.world().resource::<common::GpuFallbacks>().0.clone();
     let state = scene.app.world().get::<HairState>(head).unwrap();
     println!(
         "renderer in error: reported after {frames} frames: {fallbacks:?}; GPU objects {on_gpu:?} -> {:?} \
@@ -330,17 +330,6 @@ fn a_renderer_in_error_moves_gpu_hair_to_the_cpu() {
     let swing = state.current_positions().iter().zip(&still).map(|(a, b)| a.distance(*b)).fold(0.0, f32::max);
     println!("turned on the CPU: the hair moved up to {:.1} mm", swing * 1e3);
     assert!(swing > 0.01 && state.current_positions().iter().all(|p| p.is_finite()), "moved {swing} m");
-}
-
-/// Every `GpuFallback` reason reported so far.
-#[derive(Resource, Default)]
-struct GpuFallbacks(Vec<String>);
-
-fn collect_gpu_fallbacks(mut errors: MessageReader<HairError>, mut seen: ResMut<GpuFallbacks>) {
-    seen.0.extend(errors.read().filter_map(|e| match &e.kind {
-        HairErrorKind::GpuFallback(why) => Some(why.clone()),
-        _ => None,
-    }));
 }
 
 /// Every variant of the hair shader Bevy can ask for (main pass with and without MSAA, an
