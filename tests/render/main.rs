@@ -271,13 +271,7 @@ fn a_renderer_in_error_moves_gpu_hair_to_the_cpu() {
     let head = scene.spawn_head(short_groom());
     scene.app.world_mut().entity_mut(head).insert(HairBackend::Gpu);
     scene.wait_until_ready(head);
-    for _ in 0..600 {
-        if scene.app.world().get::<HairState>(head).is_some_and(|s| s.gpu_lag().is_some()) {
-            break;
-        }
-        scene.frames(1);
-        std::thread::sleep(Duration::from_millis(2));
-    }
+    common::wait_until_on_gpu(&mut scene.app, head);
     scene.frames(3);
     let on_gpu = live_objects();
     assert_eq!(on_gpu, [before[0] + 1, before[1] + 1], "the GPU steps and draws the groom");

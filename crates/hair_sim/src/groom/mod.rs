@@ -404,7 +404,7 @@ pub fn settle(
     let volume = params.volume.enabled.then(|| VolumeGrid::for_settling(&rest, params.volume.resolution));
     let mut strands = Strands::new(rest, Pose::IDENTITY);
     if let Some(grid) = volume {
-        strands.use_volume_grid(params.volume.resolution, grid);
+        strands.use_volume_grid(grid);
     }
     for k in 0..steps {
         let input = StepInput {

@@ -234,8 +234,8 @@ pub struct Strands {
     anchors: Vec<Vec3>,
     /// Levels of detail, once asked for ([`Self::set_detail_level`]).
     detail: Option<Detail>,
-    /// The hair–hair grid, while [`SimParams::volume`] is on, and its resolution.
-    volume: Option<(u32, VolumeGrid)>,
+    /// The hair–hair grid, while [`SimParams::volume`] is on.
+    volume: Option<VolumeGrid>,
     /// The step's feedback from the grid, made by [`Self::apply_volume`] for the next
     /// [`Self::chunks_mut`]'s chunks to apply.
     volume_step: Option<volume::VolumeStep>,
@@ -376,7 +376,7 @@ impl Strands {
         let roles = self.detail.as_ref().map(|d| d.roles.as_slice());
         // The feedback of the grid that `apply_volume` prepared, once.
         let volume_step = self.volume_step.take();
-        let volume = self.volume.as_ref().zip(volume_step.as_ref()).map(|((_, grid), step)| (grid, step));
+        let volume = self.volume.as_ref().zip(volume_step.as_ref());
         self.positions
             .chunks_mut(size)
             .zip(self.velocities.chunks_mut(size))
@@ -449,24 +449,24 @@ impl Strands {
             return;
         };
         let resolution = params.volume.resolution;
-        if self.volume.as_ref().is_none_or(|(r, _)| *r != resolution) {
-            self.volume = Some((resolution, VolumeGrid::new(&self.rest, resolution)));
+        if self.volume.as_ref().is_none_or(|grid| grid.resolution() != resolution) {
+            self.volume = Some(VolumeGrid::new(&self.rest, resolution));
         }
         let pose = if input.head_from.is_valid() { input.head_from } else { input.head_to };
-        let (_, grid) = self.volume.as_mut().expect("made above");
+        let grid = self.volume.as_mut().expect("made above");
         let step = volume::prepare(grid, &self.rest, &self.positions, &self.velocities, pose, &params.volume, dt);
         self.volume_step = Some(step);
     }
 
-    /// Settles with `grid` as the hair–hair grid (made for `resolution`) while
-    /// [`SimParams::volume`] is on, instead of one made from the rest pose.
-    pub(crate) fn use_volume_grid(&mut self, resolution: u32, grid: VolumeGrid) {
-        self.volume = Some((resolution, grid));
+    /// Settles with `grid` as the hair–hair grid while [`SimParams::volume`] is on (at
+    /// `grid`'s resolution), instead of one made from the rest pose.
+    pub(crate) fn use_volume_grid(&mut self, grid: VolumeGrid) {
+        self.volume = Some(grid);
     }
 
     /// The hair–hair grid as the last step left it, while [`SimParams::volume`] is on.
     pub fn volume_grid(&self) -> Option<&VolumeGrid> {
-        self.volume.as_ref().map(|(_, grid)| grid)
+        self.volume.as_ref()
     }
 
     /// Steps every simulated strand, on this thread.
