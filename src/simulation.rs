@@ -714,7 +714,16 @@ fn warn_of_resets(entity: Entity, report: &StepReport) {
 /// Like the plugin, it leaves a level of detail's followers where they were
 /// ([`Strands::fade_and_rise`]): [`Strands::place_followers`] places them.
 pub fn step_on_pool(strands: &mut Strands, input: &StepInput, pool: &TaskPool) -> StepReport {
-    strands.apply_volume(input);
+    // The volume's splat, a part per thread: each part sums into a grid of its own.
+    strands.apply_volume_on(input, pool.thread_num().max(1), |parts| {
+        if parts.len() > 1 {
+            pool.scope(|scope| {
+                for part in parts {
+                    scope.spawn(async move { part.run() });
+                }
+            });
+        }
+    });
     // Tasks of at least MIN_STRANDS_PER_TASK simulated strands each: a far head's few are
     // spread over all its strands (a task's SIMD groups gather its simulated ones), and
     // stepping them in one task fills the groups' lanes and spares the pool a round trip.

@@ -230,12 +230,11 @@ fn feed_back(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgrou
         return;
     }
     // `VolumeGrid::sample`: the mean velocity over the cells that hold hair, and the
-    // trilinear interpolant's gradient of the excess.
-    let f = splat.fraction;
+    // trilinear interpolant's gradient of the potential (the density push's share of the
+    // excess less the pressure's share of the pressure).
     var velocity = vec3<f32>(0.0);
     var weight = 0.0;
-    var gradient = vec3<f32>(0.0);
-    var pressure_gradient = vec3<f32>(0.0);
+    var p: array<f32, 8>;
     for (var corner = 0u; corner < 8u; corner++) {
         let c = corner_cell(splat, corner);
         let cell = cells[2u * c];
@@ -244,17 +243,21 @@ fn feed_back(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgrou
             velocity += cell.xyz * w;
             weight += w;
         }
-        let bits = vec3<bool>((corner & 1u) == 1u, ((corner >> 1u) & 1u) == 1u, ((corner >> 2u) & 1u) == 1u);
-        let along = select(vec3<f32>(1.0) - f, f, bits);
-        let slope = select(vec3<f32>(-1.0), vec3<f32>(1.0), bits);
-        let derivative = vec3<f32>(slope.x * along.y * along.z, along.x * slope.y * along.z, along.x * along.y * slope.z);
-        gradient += derivative * cell.w;
-        pressure_gradient += derivative * pressure[c];
+        p[corner] = volume.feedback.x * cell.w - volume.feedback.z * pressure[c];
     }
     if weight > 0.0 {
         velocity /= weight;
     }
-    let push = gradient * volume.origin.w * volume.feedback.x - pressure_gradient * volume.origin.w * volume.feedback.z;
+    // Along each axis, the differences across the cell weighted by where the point lies
+    // along the other two (corner bits x, y, z).
+    let f = splat.fraction;
+    let a = vec3<f32>(1.0) - f;
+    let gradient = vec3<f32>(
+        a.y * a.z * (p[1] - p[0]) + f.y * a.z * (p[3] - p[2]) + a.y * f.z * (p[5] - p[4]) + f.y * f.z * (p[7] - p[6]),
+        a.x * a.z * (p[2] - p[0]) + f.x * a.z * (p[3] - p[1]) + a.x * f.z * (p[6] - p[4]) + f.x * f.z * (p[7] - p[5]),
+        a.x * a.y * (p[4] - p[0]) + f.x * a.y * (p[5] - p[1]) + a.x * f.y * (p[6] - p[2]) + f.x * f.y * (p[7] - p[3]),
+    );
+    let push = gradient * volume.origin.w;
     let world_push = volume.rotation[0].xyz * push.x + volume.rotation[1].xyz * push.y + volume.rotation[2].xyz * push.z;
     let j = slot_particle(i, volume.counts.y).y;
     let v = motion[i];

@@ -5,6 +5,7 @@ use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use hair_sim::collide::ContactHint;
 use hair_sim::groom::SplitMix64;
 use hair_sim::prelude::*;
+use hair_sim::solver::SplatPart;
 use std::hint::black_box;
 use std::time::Duration;
 
@@ -157,19 +158,26 @@ fn volume(c: &mut Criterion) {
 /// One step of `strands` with its chunks split over `threads` scoped threads (this one
 /// among them), as `bevy_hair::step_on_pool` splits them over Bevy's pool.
 fn step_on_threads(strands: &mut Strands, input: &StepInput, threads: usize) -> StepReport {
-    strands.apply_volume(input);
+    strands.apply_volume_on(input, threads, |parts| {
+        on_threads(parts, SplatPart::run);
+    });
     let per_chunk = strands.strand_count().div_ceil(threads).next_multiple_of(input.params.simd.strands_per_group());
     let mut chunks = strands.chunks_mut(per_chunk.max(1));
     let mut report = StepReport::default();
-    std::thread::scope(|scope| {
-        let (mine, others) = chunks.split_first_mut().expect("at least one chunk");
-        let others: Vec<_> = others.iter_mut().map(|chunk| scope.spawn(move || chunk.step(input))).collect();
-        report.merge(mine.step(input));
-        for other in others {
-            report.merge(other.join().expect("a step thread panicked"));
-        }
-    });
+    on_threads(&mut chunks, |chunk| chunk.step(input)).into_iter().for_each(|r| report.merge(r));
     report
+}
+
+/// `f` of each item, the first on this thread and each other on a scoped thread of its own.
+fn on_threads<T: Send, R: Send>(items: &mut [T], f: impl Fn(&mut T) -> R + Sync) -> Vec<R> {
+    let Some((mine, others)) = items.split_first_mut() else { return Vec::new() };
+    let f = &f;
+    std::thread::scope(|scope| {
+        let others: Vec<_> = others.iter_mut().map(|item| scope.spawn(move || f(item))).collect();
+        let mut results = vec![f(mine)];
+        results.extend(others.into_iter().map(|other| other.join().expect("a bench thread panicked")));
+        results
+    })
 }
 
 /// The step of frame `frame` of the turning head.

@@ -61,10 +61,13 @@ fn at_rest_the_volume_changes_nothing() {
 #[test]
 fn the_volume_is_deterministic_on_every_path() {
     let (collider, rest) = settled(96);
-    // On this thread, or its chunks (each feeding the grid back into its own strands) on
-    // `threads` threads.
+    // On this thread, or its splat's parts and chunks (each feeding the grid back into its
+    // own strands) on `threads` threads.
     let run = |simd: SimdPath, threads: usize| {
-        let params = SimParams { simd, ..with_volume() };
+        // Cells few enough for the splat to split into parts here (each part's sums cost
+        // a grid's size to add up).
+        let coarse = Volume { resolution: 8, ..with_volume().volume };
+        let params = SimParams { simd, volume: coarse, ..SimParams::default() };
         let mut strands = Strands::new(rest.clone(), Pose::IDENTITY);
         let pose = |k: usize| {
             let t = k as f32 / 60.0;
@@ -79,7 +82,15 @@ fn the_volume_is_deterministic_on_every_path() {
                 strands.step(&input);
                 continue;
             }
-            strands.apply_volume(&input);
+            // The splat in `threads` parts too, each on its own thread.
+            strands.apply_volume_on(&input, threads, |parts| {
+                assert_eq!(parts.len(), threads, "a part for each thread");
+                std::thread::scope(|scope| {
+                    for part in parts {
+                        scope.spawn(move || part.run());
+                    }
+                })
+            });
             let per_chunk = strands.strand_count().div_ceil(threads);
             std::thread::scope(|scope| {
                 for mut chunk in strands.chunks_mut(per_chunk) {

@@ -19,8 +19,8 @@ use rest_lanes::RestLanes;
 
 pub use step::{MIN_STEP, StepConstants};
 pub use volume::{
-    Feedback, LIVE_FLOOR, MAX_FIXED_VELOCITY, PARTICLE_MASS_UNITS, PRESSURE_SLACK, SETTLING_FLOOR, VELOCITY_BITS,
-    VolumeGrid, WEIGHT_BITS, fixed_velocity,
+    Feedback, LIVE_FLOOR, MAX_FIXED_VELOCITY, PARTICLE_MASS_UNITS, PRESSURE_SLACK, SETTLING_FLOOR, SplatPart,
+    VELOCITY_BITS, VolumeGrid, WEIGHT_BITS, fixed_velocity,
 };
 mod volume;
 mod wind;
@@ -438,8 +438,17 @@ impl Strands {
     /// the hair is denser than at rest ([`VolumeGrid`]). This splats the particles into the
     /// grid and solves its pressure; the chunks of the next [`Self::chunks_mut`] feed the
     /// answer back into their own strands as they step, side by side. A caller that steps
-    /// the chunks itself calls this first; [`Self::step`] does.
+    /// the chunks itself calls this (or [`Self::apply_volume_on`]) first; [`Self::step`]
+    /// does.
     pub fn apply_volume(&mut self, input: &StepInput) {
+        self.apply_volume_on(input, 1, |_| {});
+    }
+
+    /// [`Self::apply_volume`] with the splat split into up to `parts` runs of whole
+    /// strands, for `run` to take on threads of their own ([`SplatPart::run`]) before the
+    /// grid's sums are added up here; any part it leaves is run on this thread. The grid
+    /// is the same for any `parts`: its sums are integers.
+    pub fn apply_volume_on(&mut self, input: &StepInput, parts: usize, run: impl FnOnce(&mut [SplatPart<'_>])) {
         self.volume_step = None;
         let (params, _) = input.params.sanitized();
         let Some(dt) = step::step_length(input).filter(|_| params.volume.enabled) else {
@@ -454,7 +463,8 @@ impl Strands {
         }
         let pose = if input.head_from.is_valid() { input.head_from } else { input.head_to };
         let grid = self.volume.as_mut().expect("made above");
-        let step = volume::prepare(grid, &self.rest, &self.positions, &self.velocities, pose, &params.volume, dt);
+        let (positions, velocities) = (&self.positions, &self.velocities);
+        let step = volume::prepare(grid, &self.rest, positions, velocities, pose, &params.volume, dt, (parts, run));
         self.volume_step = Some(step);
     }
 

@@ -16,12 +16,14 @@
 use super::RestShape;
 use super::params::Volume;
 use crate::math::{Pose, Vec3};
-use glam::{Mat3A, Vec3A};
+use splat::{Lattice, Splat};
+pub use splat::{SplatPart, fixed_velocity};
+
+mod splat;
 
 /// Fractional bits of a trilinear weight per axis: a particle's eight weights are
 /// products of three, summing to exactly `1 << (3 · WEIGHT_BITS)`.
 pub const WEIGHT_BITS: u32 = 5;
-const WEIGHT_ONE: i64 = 1 << WEIGHT_BITS;
 /// One particle's whole mass in a cell's integer sum.
 pub const PARTICLE_MASS_UNITS: i64 = 1 << (3 * WEIGHT_BITS);
 /// Fractional bits of a velocity component, m/s, in the momentum sums.
@@ -29,18 +31,14 @@ pub const VELOCITY_BITS: u32 = 11;
 /// The largest velocity component the momentum sums hold, in their fixed point (about
 /// 32 m/s): with a weight of at most [`PARTICLE_MASS_UNITS`], a particle's share of a
 /// cell's momentum fits an `i32`.
-pub const MAX_FIXED_VELOCITY: i64 = (1 << 16) - 1;
+pub const MAX_FIXED_VELOCITY: i32 = (1 << 16) - 1;
 
 /// The grid a groom's particles splat into, in head space over the groom's reach.
 #[derive(Clone, Debug)]
 pub struct VolumeGrid {
     /// Cells along the longest side, as asked ([`Volume::resolution`]).
     resolution: u32,
-    origin: Vec3,
-    /// Cells per metre.
-    inverse_cell: f32,
-    cell: f32,
-    dims: [usize; 3],
+    lattice: Lattice,
     /// Per cell, side by side (a particle adds to all four at once): the particles'
     /// weights, summed (units of [`PARTICLE_MASS_UNITS`]), then weight × velocity (world
     /// axes, [`VELOCITY_BITS`] fixed point), summed.
@@ -50,8 +48,11 @@ pub struct VolumeGrid {
     /// The mean rest mass over the cells the rest pose reaches, what the push compares
     /// a density excess with.
     rest_scale: f32,
-    /// Per cell, worked out once a step from the sums, for the feedback to read together.
+    /// Per cell, worked out once a step from the sums, for the pressure solve.
     values: Vec<CellValue>,
+    /// Per cell, what the feedback reads, side by side: worked out from the sums, then
+    /// (the potential) from the pressure.
+    field: Vec<FieldCell>,
     /// Per cell, the pressure solve's answer, kept between steps as the next one's start.
     pressure: Vec<f32>,
     /// The share of `rest_scale` any cell may fill up to before the pressure pushes
@@ -59,14 +60,15 @@ pub struct VolumeGrid {
     floor: f32,
     /// Each particle's splat, kept from the sums for the feedback.
     splats: Vec<Option<Splat>>,
+    /// The sums of the splat's parts but the first, which adds into `sums` itself
+    /// ([`Self::splat_on`]), kept for the next step.
+    partials: Vec<Vec<[i64; 4]>>,
 }
 
-/// What the feedback reads of a cell: the hair's mean velocity (zero in an empty cell),
-/// whether it holds hair, and its density excess over the rest pose's as a share of the
-/// grid's `rest_scale`.
+/// What the pressure solve reads of a cell: whether it holds hair and its density excess
+/// over the rest pose's as a share of the grid's `rest_scale`.
 #[derive(Clone, Copy, Debug, Default)]
 struct CellValue {
-    mean_velocity: Vec3,
     occupied: bool,
     excess: f32,
     /// The density beyond the cell's target to take away per second
@@ -74,29 +76,17 @@ struct CellValue {
     overflow: f32,
 }
 
-/// Where a point splats: its cell (the lowest of the eight around it), its fixed-point
-/// weight toward the next cell along each axis, and where in its cell it lies. Kept small:
-/// there is one per particle, written by the splat and read by the feedback.
-#[derive(Clone, Copy, Debug)]
-struct Splat {
-    base: u32,
-    fixed: [u8; 3],
-    fraction: Vec3,
-}
-
-impl Splat {
-    /// The eight cells around the point (corner bits x, y, z, x fastest) and their integer
-    /// weights, in a grid of `dims` cells.
-    #[inline]
-    fn corners(&self, dims: [usize; 3]) -> [(usize, i64); 8] {
-        let (base, [fx, fy, fz]) = (self.base as usize, self.fixed.map(i64::from));
-        let (wx, wy, wz) = ([WEIGHT_ONE - fx, fx], [WEIGHT_ONE - fy, fy], [WEIGHT_ONE - fz, fz]);
-        let (sy, sz) = (dims[0], dims[0] * dims[1]);
-        std::array::from_fn(|corner| {
-            let (a, b, c) = (corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
-            (base + a + sy * b + sz * c, wx[a] * wy[b] * wz[c])
-        })
-    }
+/// What the feedback reads of a cell, in one place for the eight reads per particle.
+#[derive(Clone, Copy, Debug, Default)]
+struct FieldCell {
+    /// The hair's mean velocity (zero in an empty cell).
+    mean_velocity: Vec3,
+    /// 1 where the cell holds hair, else 0: the mean velocity is averaged over those.
+    occupied: f32,
+    /// The velocity change whose gradient (per cell) pushes a particle: the density
+    /// push's share of the excess less the pressure's share of the pressure, so that one
+    /// gradient serves both ([`VolumeGrid::resolve_potential`]).
+    potential: f32,
 }
 
 impl VolumeGrid {
@@ -128,17 +118,16 @@ impl VolumeGrid {
         let cells = dims[0] * dims[1] * dims[2];
         let mut grid = VolumeGrid {
             resolution,
-            origin: min,
-            inverse_cell: 1.0 / cell,
-            cell,
-            dims,
+            lattice: Lattice { origin: min, inverse_cell: 1.0 / cell, cell, dims },
             sums: vec![[0; 4]; cells],
             rest_mass: vec![0; cells],
             rest_scale: 1.0,
             values: vec![CellValue::default(); cells],
+            field: vec![FieldCell::default(); cells],
             pressure: vec![0.0; cells],
             floor,
             splats: Vec::new(),
+            partials: Vec::new(),
         };
         grid.splat(rest, &rest.positions, None, Pose::IDENTITY);
         grid.rest_mass = grid.mass();
@@ -155,22 +144,22 @@ impl VolumeGrid {
 
     /// Cells along each axis (x fastest in the cell arrays).
     pub fn dims(&self) -> [usize; 3] {
-        self.dims
+        self.lattice.dims
     }
 
     /// The head-local corner of cell 0.
     pub fn origin(&self) -> Vec3 {
-        self.origin
+        self.lattice.origin
     }
 
     /// A cell's side, m.
     pub fn cell(&self) -> f32 {
-        self.cell
+        self.lattice.cell
     }
 
     /// Cells per metre: what a head-local offset from [`Self::origin`] is multiplied by.
     pub fn inverse_cell(&self) -> f32 {
-        self.inverse_cell
+        self.lattice.inverse_cell
     }
 
     /// The mean rest mass over the cells the rest pose reaches, as a share of
@@ -195,58 +184,77 @@ impl VolumeGrid {
         self.sums.iter().map(|&[_, x, y, z]| [x, y, z]).collect()
     }
 
-    /// The eight cells around head-local `p` and their weights; `None` outside the grid.
-    fn splat_of(&self, p: Vec3) -> Option<Splat> {
-        let g = (p - self.origin) * self.inverse_cell;
-        let [dx, dy, dz] = self.dims;
-        // Compared as floats, so that a point far outside (or not finite) never becomes
-        // an index.
-        let within = |g: f32, d: usize| g >= 0.0 && g < (d - 1) as f32;
-        if !(within(g.x, dx) && within(g.y, dy) && within(g.z, dz)) {
-            return None;
-        }
-        // Non-negative here, so truncation is the floor (without SSE4.1, `floor` is a
-        // library call).
-        let [i, j, k] = g.to_array().map(|g| g as usize);
-        if i + 1 >= dx || j + 1 >= dy || k + 1 >= dz {
-            return None;
-        }
-        let fraction = g - Vec3::new(i as f32, j as f32, k as f32);
-        // Rounded as the GPU rounds (`floor(x + 0.5)`, truncation of a non-negative value):
-        // the product is exact, the sum correctly rounded on both.
-        let fixed = fraction.to_array().map(|f| ((f * WEIGHT_ONE as f32 + 0.5) as i64).clamp(0, WEIGHT_ONE) as u8);
-        Some(Splat { base: (i + dx * (j + dy * k)) as u32, fixed, fraction })
-    }
-
     /// Clears the grid and splats the particles at `positions` (their velocities
     /// `velocities`, world axes; none: at rest), head-local by `pose`; roots are pinned and
     /// not counted. [`Self::mass`] and [`Self::momentum`] then hold the sums.
     pub fn splat(&mut self, rest: &RestShape, positions: &[Vec3], velocities: Option<&[Vec3]>, pose: Pose) {
-        self.sums.fill([0; 4]);
+        self.splat_on(rest, positions, velocities, pose, 1, |_| {});
+    }
+
+    /// [`Self::splat`] split into up to `parts` runs of whole strands, which `run` may take
+    /// on threads of their own ([`SplatPart::run`]); whatever it leaves is run here. The
+    /// parts' sums are added in a fixed order, and integers: the grid is the same for any
+    /// `parts`.
+    pub(super) fn splat_on(
+        &mut self,
+        rest: &RestShape,
+        positions: &[Vec3],
+        velocities: Option<&[Vec3]>,
+        pose: Pose,
+        parts: usize,
+        run: impl FnOnce(&mut [SplatPart<'_>]),
+    ) {
         let n = rest.particles_per_strand.max(1);
-        let mut splats = std::mem::take(&mut self.splats);
-        splats.clear();
-        // Head-local as a matrix, once (as the GPU's splat does), not a quaternion per particle.
-        let (inverse, translation) = (Mat3A::from_quat(pose.rotation).transpose(), Vec3A::from(pose.translation));
-        for (i, &x) in positions.iter().enumerate() {
-            // Roots are pinned: they neither count nor move.
-            let splat =
-                (i % n != 0).then(|| self.splat_of((inverse * (Vec3A::from(x) - translation)).into())).flatten();
-            splats.push(splat);
-            let Some(splat) = splat else { continue };
-            let [vx, vy, vz] = velocities.map_or([0; 3], |v| v[i].to_array().map(fixed_velocity));
-            for (c, w) in splat.corners(self.dims) {
-                let sum = &mut self.sums[c];
-                *sum = [sum[0] + w, sum[1] + w * vx, sum[2] + w * vy, sum[3] + w * vz];
+        let strands = positions.len().div_ceil(n);
+        let cells = self.sums.len();
+        // Each part but the first adds its sums to the grid's here, on one thread: past
+        // about √(SPLAT_PER_CELL_ADD × particles / cells) parts that costs more than the
+        // parts save.
+        let useful = ((SPLAT_PER_CELL_ADD * positions.len()) as f64 / cells.max(1) as f64).sqrt() as usize;
+        let size = strands.div_ceil(parts.min(useful).clamp(1, strands.max(1))).max(1) * n;
+        let parts = positions.len().div_ceil(size).max(1);
+        self.partials.resize_with(parts - 1, || vec![[0; 4]; cells]);
+        self.splats.resize(positions.len(), None);
+        if positions.is_empty() {
+            // No part to clear the sums.
+            self.sums.fill([0; 4]);
+        }
+        let (inverse, translation) = SplatPart::head_local(pose);
+        let Self { lattice, sums, partials, splats, .. } = self;
+        let mut jobs: Vec<SplatPart> = std::iter::once(sums.as_mut_slice())
+            .chain(partials.iter_mut().map(Vec::as_mut_slice))
+            .zip(splats.chunks_mut(size))
+            .enumerate()
+            .map(|(k, (sums, splats))| {
+                let range = k * size..k * size + splats.len();
+                SplatPart {
+                    lattice,
+                    inverse,
+                    translation,
+                    n,
+                    positions: &positions[range.clone()],
+                    velocities: velocities.map(|v| &v[range]),
+                    sums,
+                    splats,
+                    done: false,
+                }
+            })
+            .collect();
+        run(&mut jobs);
+        jobs.iter_mut().for_each(SplatPart::run);
+        drop(jobs);
+        for partial in &*partials {
+            for (sum, part) in sums.iter_mut().zip(partial) {
+                *sum = std::array::from_fn(|k| sum[k] + part[k]);
             }
         }
-        self.splats = splats;
         // Each cell's mean and excess, once, for every particle that reads it.
         let units = PARTICLE_MASS_UNITS as f32;
-        for (c, (&[m, mx, my, mz], &r)) in self.sums.iter().zip(&self.rest_mass).enumerate() {
+        let cells = self.sums.iter().zip(&self.rest_mass).zip(self.values.iter_mut().zip(&mut self.field));
+        for ((&[m, mx, my, mz], &r), (value, field)) in cells {
             if m == 0 && r == 0 {
                 // No hair, now or at rest: what the general case below gives.
-                self.values[c] = CellValue::default();
+                (*value, *field) = Default::default();
                 continue;
             }
             let momentum = [mx, my, mz];
@@ -263,7 +271,8 @@ impl VolumeGrid {
             // settling about its rest pose is left alone.
             let target = (r as f32 / units).max(self.rest_scale * self.floor) * (1.0 + PRESSURE_SLACK);
             let overflow = ((m as f32 / units - target) / target).max(0.0);
-            self.values[c] = CellValue { mean_velocity, occupied: m > 0, excess, overflow };
+            *value = CellValue { occupied: m > 0, excess, overflow };
+            *field = FieldCell { mean_velocity, occupied: if m > 0 { 1.0 } else { 0.0 }, potential: 0.0 };
         }
     }
 
@@ -277,8 +286,8 @@ impl VolumeGrid {
             self.pressure.fill(0.0);
             return;
         }
-        let [dx, dy, dz] = self.dims;
-        let h2 = self.cell * self.cell;
+        let [dx, dy, dz] = self.lattice.dims;
+        let h2 = self.lattice.cell * self.lattice.cell;
         let inverse_dt = 1.0 / dt.max(1e-6);
         for _ in 0..sweeps {
             for colour in 0..2 {
@@ -303,7 +312,7 @@ impl VolumeGrid {
         if !value.occupied {
             return 0.0;
         }
-        let [dx, dy, dz] = self.dims;
+        let [dx, dy, dz] = self.lattice.dims;
         let [i, j, k] = at;
         let p = |c: usize| self.pressure[c];
         let (sx, sy) = (1, dx);
@@ -324,33 +333,44 @@ impl VolumeGrid {
         &self.pressure
     }
 
-    /// The mean velocity of the hair where `splat` lies, the gradient (per metre, head
-    /// axes) of its density excess over the rest pose's, as a share of the mean rest
-    /// density, and the pressure's gradient (m/s, head axes).
-    fn sample(&self, splat: &Splat) -> (Vec3, Vec3, Vec3) {
+    /// Each cell's potential ([`FieldCell::potential`]): `push` times its density excess
+    /// less `share` times its pressure, once the pressure is solved.
+    fn resolve_potential(&mut self, push: f32, share: f32) {
+        for ((field, value), &p) in self.field.iter_mut().zip(&self.values).zip(&self.pressure) {
+            field.potential = push * value.excess - share * p;
+        }
+    }
+
+    /// The mean velocity of the hair where `splat` lies, and the gradient (per metre, head
+    /// axes) of the potential there: the velocity change the density and the pressure push by.
+    fn sample(&self, splat: &Splat) -> (Vec3, Vec3) {
         let f = splat.fraction;
-        let (mut velocity, mut weight, mut gradient) = (Vec3::ZERO, 0.0f32, Vec3::ZERO);
-        let mut pressure_gradient = Vec3::ZERO;
-        // The trilinear interpolant along each axis toward the lower and upper corner, and
-        // its slope.
-        let (ax, ay, az) = ([1.0 - f.x, f.x], [1.0 - f.y, f.y], [1.0 - f.z, f.z]);
-        const SLOPE: [f32; 2] = [-1.0, 1.0];
-        for (corner, (c, w)) in splat.corners(self.dims).into_iter().enumerate() {
-            let cell = self.values[c];
-            if cell.occupied {
-                let w = w as f32 / PARTICLE_MASS_UNITS as f32;
-                velocity += cell.mean_velocity * w;
-                weight += w;
-            }
-            let (a, b, c3) = (corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
-            let derivative = Vec3::new(SLOPE[a] * ay[b] * az[c3], ax[a] * SLOPE[b] * az[c3], ax[a] * ay[b] * SLOPE[c3]);
-            gradient += derivative * cell.excess;
-            pressure_gradient += derivative * self.pressure[c];
+        let (mut velocity, mut weight) = (Vec3::ZERO, 0.0f32);
+        let mut potential = [0.0f32; 8];
+        for (corner, (c, w)) in splat.corners(self.lattice.dims).into_iter().enumerate() {
+            let cell = self.field[c];
+            let w = w as f32 / PARTICLE_MASS_UNITS as f32 * cell.occupied;
+            velocity += cell.mean_velocity * w;
+            weight += w;
+            potential[corner] = cell.potential;
         }
         let velocity = if weight > 0.0 { velocity / weight } else { Vec3::ZERO };
-        (velocity, gradient * self.inverse_cell, pressure_gradient * self.inverse_cell)
+        // The trilinear interpolant's gradient: along each axis, the differences across the
+        // cell weighted by where the point lies along the other two (corner bits x, y, z).
+        let ([x0, x1], [y0, y1], [z0, z1]) = ([1.0 - f.x, f.x], [1.0 - f.y, f.y], [1.0 - f.z, f.z]);
+        let p = potential;
+        let gradient = Vec3::new(
+            y0 * z0 * (p[1] - p[0]) + y1 * z0 * (p[3] - p[2]) + y0 * z1 * (p[5] - p[4]) + y1 * z1 * (p[7] - p[6]),
+            x0 * z0 * (p[2] - p[0]) + x1 * z0 * (p[3] - p[1]) + x0 * z1 * (p[6] - p[4]) + x1 * z1 * (p[7] - p[5]),
+            x0 * y0 * (p[4] - p[0]) + x1 * y0 * (p[5] - p[1]) + x0 * y1 * (p[6] - p[2]) + x1 * y1 * (p[7] - p[3]),
+        );
+        (velocity, gradient * self.lattice.inverse_cell)
     }
 }
+
+/// How many cells' sums are added in the time one particle splats (about, on a CPU):
+/// what [`VolumeGrid::splat_on`] weighs a part's saving against.
+const SPLAT_PER_CELL_ADD: usize = 20;
 
 /// How far, as a share, a cell's density may exceed its target before the pressure
 /// pushes ([`VolumeGrid::solve_pressure`]).
@@ -364,24 +384,13 @@ pub const LIVE_FLOOR: f32 = 0.5;
 /// sparse enough that the hair keeps a body instead of lying in one layer on the skull.
 pub const SETTLING_FLOOR: f32 = 4.0;
 
-/// A velocity component in the momentum sums' fixed point, rounded as the GPU rounds
-/// (`floor(x + 0.5)` in `f32`: the product is exact, the sum correctly rounded on both),
-/// within [`MAX_FIXED_VELOCITY`]; not finite: 0 (such a strand is reset by the step).
-pub fn fixed_velocity(v: f32) -> i64 {
-    if !v.is_finite() {
-        return 0;
-    }
-    let x = v * (1u32 << VELOCITY_BITS) as f32 + 0.5;
-    // The floor without a library call: truncation, one less below zero where it cut.
-    let t = x as i64;
-    let floor = if (t as f32) > x { t - 1 } else { t };
-    floor.clamp(-MAX_FIXED_VELOCITY, MAX_FIXED_VELOCITY)
-}
-
 /// The volume's part of one step of `dt` seconds, before the strands move: splats
 /// `positions` and `velocities` (head-local by `pose`, the head's pose at the step's start)
-/// into `grid` and solves its pressure (`volume.pressure_iterations` sweeps). The answer
-/// then reaches each particle's velocity through [`VolumeGrid::feed_back`], chunk by chunk.
+/// into `grid` in up to `parts` parts that `run` may take on threads of their own
+/// ([`VolumeGrid::splat_on`]), and solves its pressure (`volume.pressure_iterations`
+/// sweeps). The answer then reaches each particle's velocity through
+/// [`VolumeGrid::feed_back`], chunk by chunk.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn prepare(
     grid: &mut VolumeGrid,
     rest: &RestShape,
@@ -390,21 +399,23 @@ pub(super) fn prepare(
     pose: Pose,
     volume: &Volume,
     dt: f32,
+    (parts, run): (usize, impl FnOnce(&mut [SplatPart<'_>])),
 ) -> VolumeStep {
-    grid.splat(rest, positions, Some(velocities), pose);
+    grid.splat_on(rest, positions, Some(velocities), pose, parts, run);
     grid.solve_pressure(volume.pressure_iterations, dt);
     let n = rest.particles_per_strand.max(1);
-    VolumeStep { feedback: Feedback::new(grid, volume, n, dt), rotation: pose.rotation, pressure: volume.pressure }
+    let feedback = Feedback::new(grid, volume, n, dt);
+    grid.resolve_potential(feedback.push, volume.pressure);
+    VolumeStep { shares: feedback.shares, rotation: pose.rotation }
 }
 
 /// What [`prepare`] worked out for a step's feedback, besides the grid.
 #[derive(Clone, Debug)]
 pub(super) struct VolumeStep {
-    feedback: Feedback,
+    /// [`Feedback::shares`].
+    shares: Vec<f32>,
     /// The head's rotation the grid's axes turn by.
     rotation: glam::Quat,
-    /// [`Volume::pressure`].
-    pressure: f32,
 }
 
 impl VolumeGrid {
@@ -415,14 +426,16 @@ impl VolumeGrid {
     /// (`volume.pressure` of its gradient). Roots are left alone. Each particle reads only
     /// the grid, so chunks of strands take it on their own threads, in any order.
     pub(super) fn feed_back(&self, step: &VolumeStep, first: usize, velocities: &mut [Vec3]) {
-        let VolumeStep { feedback, rotation, pressure } = step;
+        let VolumeStep { shares, rotation } = step;
+        let n = shares.len().max(1);
+        debug_assert_eq!(first % n, 0, "whole strands");
         let splats = self.splats.get(first..).unwrap_or_default();
-        let n = feedback.shares.len();
-        for (i, (splat, v)) in splats.iter().zip(velocities).enumerate() {
-            let Some(splat) = splat else { continue };
-            let (mean, gradient, pressure_gradient) = self.sample(splat);
-            let push = gradient * feedback.push - pressure_gradient * *pressure;
-            *v += (mean - *v) * feedback.shares[(first + i) % n] + *rotation * push;
+        for (strand, velocities) in splats.chunks(n).zip(velocities.chunks_mut(n)) {
+            for ((splat, v), share) in strand.iter().zip(velocities).zip(shares) {
+                let Some(splat) = splat else { continue };
+                let (mean, push) = self.sample(splat);
+                *v += (mean - *v) * *share + *rotation * push;
+            }
         }
     }
 }
@@ -450,7 +463,7 @@ impl Feedback {
                 1.0 - (1.0 - friction).powf(dt * 60.0)
             })
             .collect();
-        Feedback { shares, push: -volume.density_push * grid.cell * dt }
+        Feedback { shares, push: -volume.density_push * grid.lattice.cell * dt }
     }
 }
 

@@ -21,7 +21,7 @@ fn apply(
     volume: &Volume,
     dt: f32,
 ) {
-    let step = prepare(grid, rest, positions, velocities, pose, volume, dt);
+    let step = prepare(grid, rest, positions, velocities, pose, volume, dt, (1, |_: &mut [SplatPart]| {}));
     grid.feed_back(&step, 0, velocities);
 }
 
@@ -50,7 +50,7 @@ fn a_uniform_velocity_round_trips() {
     let velocities = vec![u; rest.positions.len()];
     grid.splat(&rest, &rest.positions, Some(&velocities), Pose::IDENTITY);
     for (i, &x) in rest.positions.iter().enumerate().filter(|(i, _)| i % 5 != 0) {
-        let (mean, _, _) = grid.sample(&grid.splat_of(x).expect("inside the grid"));
+        let (mean, _) = grid.sample(&grid.lattice.splat_of(x).expect("inside the grid"));
         // Each component to half a unit of the fixed point.
         let half = 0.5 / (1u32 << VELOCITY_BITS) as f32;
         assert!((mean - u).abs().max_element() <= half, "particle {i}: {mean} for {u}");
@@ -102,5 +102,28 @@ fn velocities_round_as_the_gpu_rounds_them() {
     ] {
         let floor = (v * (1u32 << VELOCITY_BITS) as f32 + 0.5).floor();
         assert_eq!(fixed_velocity(v), fixed, "{v} m/s (floor(x + 0.5) = {floor})");
+    }
+}
+
+#[test]
+fn a_splat_in_parts_sums_what_one_does() {
+    let rest = rest();
+    let velocities: Vec<Vec3> = (0..15).map(|i| Vec3::new(0.1 * i as f32, -0.3, 0.02 * (i * i) as f32)).collect();
+    let moved: Vec<Vec3> = rest.positions.iter().map(|x| *x + Vec3::new(0.003, -0.002, 0.001)).collect();
+    // Few cells, so that the splat splits into parts (each costs a grid's size to add up).
+    let mut whole = VolumeGrid::new(&rest, 2);
+    whole.splat(&rest, &moved, Some(&velocities), Pose::IDENTITY);
+    for parts in [2, 3, 7] {
+        let mut grid = VolumeGrid::new(&rest, 2);
+        // The first time the caller runs no part (they run here), the second time every one.
+        for run_them in [false, true] {
+            grid.splat_on(&rest, &moved, Some(&velocities), Pose::IDENTITY, parts, |jobs| {
+                assert_eq!(jobs.len(), parts.min(3), "whole strands a part");
+                if run_them {
+                    jobs.iter_mut().rev().for_each(SplatPart::run);
+                }
+            });
+            assert_eq!((grid.mass(), grid.momentum()), (whole.mass(), whole.momentum()), "{parts} parts");
+        }
     }
 }

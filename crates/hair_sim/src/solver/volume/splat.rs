@@ -1,0 +1,139 @@
+//! The splat: each particle's share of mass and momentum, added to the eight cells around
+//! it in fixed point. A groom's strands split into parts that splat on threads of their
+//! own, each into sums of its own, and the parts' sums add up to the same integers in any
+//! order.
+
+use super::{MAX_FIXED_VELOCITY, VELOCITY_BITS, WEIGHT_BITS};
+use crate::math::{Pose, Vec3};
+use glam::{Mat3A, Vec3A};
+
+const WEIGHT_ONE: i32 = 1 << WEIGHT_BITS;
+
+/// Where the grid's cells lie: in head space, from `origin`, `dims` cells of side `cell`.
+#[derive(Clone, Debug)]
+pub(super) struct Lattice {
+    pub origin: Vec3,
+    /// Cells per metre.
+    pub inverse_cell: f32,
+    pub cell: f32,
+    pub dims: [usize; 3],
+}
+
+impl Lattice {
+    /// The eight cells around head-local `p` and their weights; `None` outside the grid.
+    pub fn splat_of(&self, p: Vec3) -> Option<Splat> {
+        let g = (p - self.origin) * self.inverse_cell;
+        let [dx, dy, dz] = self.dims;
+        // Compared as floats, so that a point far outside (or not finite) never becomes
+        // an index.
+        let within = |g: f32, d: usize| g >= 0.0 && g < (d - 1) as f32;
+        if !(within(g.x, dx) && within(g.y, dy) && within(g.z, dz)) {
+            return None;
+        }
+        // Non-negative here, so truncation is the floor (without SSE4.1, `floor` is a
+        // library call).
+        let [i, j, k] = g.to_array().map(|g| g as usize);
+        if i + 1 >= dx || j + 1 >= dy || k + 1 >= dz {
+            return None;
+        }
+        let fraction = g - Vec3::new(i as f32, j as f32, k as f32);
+        // Rounded as the GPU rounds (`floor(x + 0.5)`, truncation of a non-negative value):
+        // the product is exact, the sum correctly rounded on both.
+        let fixed = fraction.to_array().map(|f| ((f * WEIGHT_ONE as f32 + 0.5) as i32).clamp(0, WEIGHT_ONE) as u8);
+        Some(Splat { base: (i + dx * (j + dy * k)) as u32, fixed, fraction })
+    }
+}
+
+/// Where a point splats: its cell (the lowest of the eight around it), its fixed-point
+/// weight toward the next cell along each axis, and where in its cell it lies. Kept small:
+/// there is one per particle, written by the splat and read by the feedback.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Splat {
+    base: u32,
+    fixed: [u8; 3],
+    pub fraction: Vec3,
+}
+
+impl Splat {
+    /// The eight cells around the point (corner bits x, y, z, x fastest) and their integer
+    /// weights, in a grid of `dims` cells.
+    #[inline]
+    pub fn corners(&self, dims: [usize; 3]) -> [(usize, i32); 8] {
+        let (base, [fx, fy, fz]) = (self.base as usize, self.fixed.map(i32::from));
+        let (wx, wy, wz) = ([WEIGHT_ONE - fx, fx], [WEIGHT_ONE - fy, fy], [WEIGHT_ONE - fz, fz]);
+        let (sy, sz) = (dims[0], dims[0] * dims[1]);
+        std::array::from_fn(|corner| {
+            let (a, b, c) = (corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
+            (base + a + sy * b + sz * c, wx[a] * wy[b] * wz[c])
+        })
+    }
+}
+
+/// A run of whole strands' share of a step's splat, which a thread of its own can take
+/// ([`Self::run`]): its particles' weights and momenta, summed into sums of its own, and
+/// each particle's [`Splat`] for the feedback. Made by
+/// [`Strands::apply_volume_on`](crate::solver::Strands::apply_volume_on).
+pub struct SplatPart<'a> {
+    pub(super) lattice: &'a Lattice,
+    /// World → head-local, as a matrix (as the GPU's splat does), not a quaternion per
+    /// particle.
+    pub(super) inverse: Mat3A,
+    pub(super) translation: Vec3A,
+    /// Particles per strand.
+    pub(super) n: usize,
+    pub(super) positions: &'a [Vec3],
+    pub(super) velocities: Option<&'a [Vec3]>,
+    pub(super) sums: &'a mut [[i64; 4]],
+    pub(super) splats: &'a mut [Option<Splat>],
+    pub(super) done: bool,
+}
+
+impl SplatPart<'_> {
+    /// The world → head-local transform of `pose`, as the parts apply it.
+    pub(super) fn head_local(pose: Pose) -> (Mat3A, Vec3A) {
+        (Mat3A::from_quat(pose.rotation).transpose(), Vec3A::from(pose.translation))
+    }
+
+    /// Clears this part's sums and adds its particles' shares; roots are pinned and not
+    /// counted. Once only: a part already run is left as it is.
+    pub fn run(&mut self) {
+        if self.done {
+            return;
+        }
+        self.done = true;
+        self.sums.fill([0; 4]);
+        let n = self.n.max(1);
+        let strands = self.positions.chunks(n).zip(self.splats.chunks_mut(n));
+        for (s, (strand, splats)) in strands.enumerate() {
+            // Roots are pinned: they neither count nor move.
+            splats[0] = None;
+            for j in 1..strand.len() {
+                let local = self.inverse * (Vec3A::from(strand[j]) - self.translation);
+                let splat = self.lattice.splat_of(local.into());
+                splats[j] = splat;
+                let Some(splat) = splat else { continue };
+                let [vx, vy, vz] = self.velocities.map_or([0; 3], |v| v[s * n + j].to_array().map(fixed_velocity));
+                for (c, w) in splat.corners(self.lattice.dims) {
+                    // Each product fits an `i32` (see `MAX_FIXED_VELOCITY`).
+                    let share = [w, w * vx, w * vy, w * vz].map(i64::from);
+                    let sum = &mut self.sums[c];
+                    *sum = std::array::from_fn(|k| sum[k] + share[k]);
+                }
+            }
+        }
+    }
+}
+
+/// A velocity component in the momentum sums' fixed point, rounded as the GPU rounds
+/// (`floor(x + 0.5)` in `f32`: the product is exact, the sum correctly rounded on both),
+/// within [`MAX_FIXED_VELOCITY`]; not finite: 0 (such a strand is reset by the step).
+pub fn fixed_velocity(v: f32) -> i32 {
+    if !v.is_finite() {
+        return 0;
+    }
+    let x = v * (1u32 << VELOCITY_BITS) as f32 + 0.5;
+    // The floor without a library call: truncation, one less below zero where it cut.
+    let t = x as i64;
+    let floor = if (t as f32) > x { t - 1 } else { t };
+    floor.clamp(-i64::from(MAX_FIXED_VELOCITY), i64::from(MAX_FIXED_VELOCITY)) as i32
+}
