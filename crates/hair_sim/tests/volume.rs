@@ -286,10 +286,8 @@ fn after_a_shake_the_volume_spreads_piled_hair() {
 
 /// Two locks of 8 × 8 strands, 25 cm of 16 particles, rows 3 mm apart, A's roots between
 /// B's: lock B hangs at rest, lock A starts straight out along −x and swings down for 2 s
-/// (no head, shape keeping or collision), through B to where it would hang inside it. Returns the share of A's particles (roots left out) that
-/// end in 1 cm cubes holding 4 or more of B's, and the largest momentum B reaches, as a
-/// share of the largest A has (per unit particle mass).
-fn locks_crossing(volume: Volume) -> (f32, f32) {
+/// (no head, shape keeping or collision), through B to where it would hang inside it.
+fn locks_crossing(volume: Volume) -> Locks {
     let (side, n, spacing) = (8, 16, 0.003);
     let lock = |x0: f32, along: Vec3| -> Vec<Vec3> {
         (0..side * side)
@@ -315,7 +313,11 @@ fn locks_crossing(volume: Volume) -> (f32, f32) {
     let momentum = |v: &[Vec3]| v.iter().copied().sum::<Vec3>().length();
     let mut strands = Strands::new(rest, Pose::IDENTITY);
     let (mut a_most, mut b_most) = (0.0f32, 0.0f32);
+    let mut sweeping = Vec::new();
     for k in 0..120 {
+        if k == LOCKS_SWEEPING {
+            sweeping = strands.positions().to_vec();
+        }
         strands.step(&step_input(k, Pose::IDENTITY, Pose::IDENTITY, None, &params));
         let (va, vb) = strands.velocities().split_at(a_particles);
         a_most = a_most.max(momentum(va));
@@ -331,26 +333,61 @@ fn locks_crossing(volume: Volume) -> (f32, f32) {
     }
     let a_counted = xa.iter().enumerate().filter(|(i, _)| i % n != 0);
     let inside = a_counted.clone().filter(|(_, p)| b_cubes.get(&cube(**p)).is_some_and(|&c| c >= 4)).count();
-    (inside as f32 / a_counted.count() as f32, b_most / a_most)
+    Locks {
+        inside: inside as f32 / a_counted.count() as f32,
+        passed: b_most / a_most,
+        a_particles,
+        sweeping,
+        end: strands.positions().to_vec(),
+    }
+}
+
+/// Step of [`locks_crossing`] whose positions [`Locks::sweeping`] keeps: lock A halfway down.
+const LOCKS_SWEEPING: usize = 9;
+
+/// How two locks crossed ([`locks_crossing`]).
+struct Locks {
+    /// The share of A's particles (roots left out) that end in 1 cm cubes holding 4 or
+    /// more of B's.
+    inside: f32,
+    /// The largest momentum B reaches, as a share of the largest A has (per unit particle
+    /// mass).
+    passed: f32,
+    /// A's particles come first in the positions.
+    a_particles: usize,
+    /// Both locks' positions while A sweeps down ([`LOCKS_SWEEPING`]), and at the end.
+    sweeping: Vec<Vec3>,
+    end: Vec<Vec3>,
 }
 
 /// Two locks swept through each other ([`locks_crossing`]): without volume most of A ends
 /// inside B and B never moves; with it A pushes B aside, a quarter of it at most left
-/// inside (near the roots they share), and B takes up momentum.
+/// inside (near the roots they share), and B takes up momentum. Draws the two runs side by
+/// side, while A sweeps and at the end (`docs/volume-locks.png` is this picture).
 #[test]
 fn a_lock_swept_into_another_pushes_it_aside() {
-    let (inside_off, passed_off) = locks_crossing(Volume::default());
-    let (inside_on, passed_on) = locks_crossing(Volume { enabled: true, ..Volume::default() });
+    let off = locks_crossing(Volume::default());
+    let on = locks_crossing(Volume { enabled: true, ..Volume::default() });
     println!(
         "a lock swept into another: {:.0} % of its particles end in the other's dense cubes without volume, {:.0} % \
          with; the other's momentum reaches {:.2} of the swept lock's without, {:.2} with",
-        inside_off * 100.0,
-        inside_on * 100.0,
-        passed_off,
-        passed_on
+        off.inside * 100.0,
+        on.inside * 100.0,
+        off.passed,
+        on.passed
     );
-    assert!(inside_off > 0.7 && passed_off < 1e-3, "without volume: {inside_off}, {passed_off}");
-    assert!(inside_on <= 0.25 && passed_on >= 0.02, "with volume: {inside_on}, {passed_on}");
+    let mut picture = common::picture::StrandPicture::new(2, 2, 320, Vec3::new(-0.24, 0.03, 0.0), 0.32);
+    for (column, run) in [&off, &on].into_iter().enumerate() {
+        for (row, positions) in [&run.sweeping, &run.end].into_iter().enumerate() {
+            let (a, b) = positions.split_at(run.a_particles);
+            let at = (column as u32, row as u32);
+            picture.strands(at, b, 16, [40, 90, 200]);
+            picture.strands(at, a, 16, [230, 120, 20]);
+        }
+    }
+    println!("wrote {}", picture.save("volume-locks").display());
+    assert!(off.inside > 0.7 && off.passed < 1e-3, "without volume: {}, {}", off.inside, off.passed);
+    assert!(on.inside <= 0.25 && on.passed >= 0.02, "with volume: {}, {}", on.inside, on.passed);
 }
 
 /// How far the hair stands off the scalp: per strand, the largest reach of its particles

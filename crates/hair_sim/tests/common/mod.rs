@@ -1,6 +1,8 @@
 //! Fixtures shared by the integration tests.
 #![allow(dead_code)] // each test binary uses a different part
 
+pub mod picture;
+
 use hair_sim::prelude::*;
 use proptest::prelude::*;
 
