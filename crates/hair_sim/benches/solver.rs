@@ -115,7 +115,8 @@ fn strand_step(c: &mut Criterion) {
 /// A settled groom on a turning head (2,048 × 16 and 4,096 × 32), stepped on one thread
 /// and on two (the chunks split between them, as the plugin's pool does), with and without
 /// hair volume (and without its pressure solve), and the volume's serial grid work alone
-/// (splat, cell values and pressure: `apply_volume`; the chunks feed it back as they step).
+/// (splat, cell values and pressure: `apply_volume`; the chunks feed it back as they step),
+/// and the same groom asleep under a still head.
 fn volume(c: &mut Criterion) {
     for (guides, particles) in [(2048, 16), (4096, 32)] {
         let (collider, rest) = settled_groom_of(guides, particles, 60);
@@ -142,6 +143,27 @@ fn volume(c: &mut Criterion) {
                     })
                 });
             }
+        }
+        // A groom asleep under a still head, the most common state: with volume the grid
+        // is not worked out again while nothing moves.
+        for (name, params) in [("volume off", SimParams::default()), ("volume on", on)] {
+            let mut strands = Strands::new(rest.clone(), head_pose(0));
+            let still = |frame| StepInput {
+                head_from: head_pose(0),
+                head_to: head_pose(0),
+                ..input_at(frame, &collider, &params)
+            };
+            let mut frame = 0u64;
+            while strands.sleeping(&params) < strands.strand_count() && frame < 1200 {
+                step_on_threads(&mut strands, &still(frame), 1);
+                frame += 1;
+            }
+            group.bench_function(format!("step asleep, {name}"), |b| {
+                b.iter(|| {
+                    frame += 1;
+                    step_on_threads(&mut strands, black_box(&still(frame)), 1)
+                })
+            });
         }
         let mut strands = Strands::new(rest.clone(), head_pose(0));
         let mut frame = 0u64;

@@ -492,3 +492,44 @@ fn under_motion_the_volume_keeps_the_groom_it_settled_into() {
         off.2
     );
 }
+
+/// A groom on the shipped head (1,024 × 16) settled without volume, 10 s under a still
+/// head, then 3 steps of a slow turn (1 mrad a step), with and without volume: asleep with
+/// volume, the strands keep still velocities (the grid's feedback reaches only the strands
+/// that step), and they wake as they do without volume. The feedback once built up in
+/// sleeping strands (1.3 m/s after 10 s; 56 m/s in a groom settled with volume) and threw
+/// the hair when the head moved (33 mm and 396 mm in the 3 steps, against 7 mm).
+#[test]
+fn a_sleeping_groom_with_volume_wakes_as_without() {
+    let (_, collider, _, grown) = grown_on_the_shipped_head();
+    let rest = settle(grown, Some(&collider), &SimParams::default(), 180, Vec3::ZERO).expect("settle");
+    let turn = |k: usize| Pose::new(Quat::from_rotation_y(0.001 * k.saturating_sub(600) as f32), Vec3::ZERO);
+    let run = |params: &SimParams| {
+        let mut strands = Strands::new(rest.clone(), Pose::IDENTITY);
+        let mut asleep = 0;
+        for k in 0..600 {
+            asleep = strands.step(&step_input(k, turn(k), turn(k + 1), Some(&collider), params)).sleeping;
+        }
+        let fastest = strands.velocities().iter().map(|v| v.length()).fold(0.0, f32::max);
+        let before: Vec<Vec3> = strands.positions().iter().map(|&x| turn(603).transform_point(x)).collect();
+        for k in 600..603 {
+            strands.step(&step_input(k, turn(k), turn(k + 1), Some(&collider), params));
+        }
+        let moved = strands.positions().iter().zip(&before).map(|(x, b)| x.distance(*b)).fold(0.0, f32::max);
+        (asleep, fastest, moved)
+    };
+    let (off, on) = (run(&SimParams::default()), run(&with_volume()));
+    println!(
+        "after 10 s still: {} and {} strands asleep, the fastest particle {:.2e} and {:.2e} m/s; 3 steps of a slow \
+         turn then move the hair at most {:.2} mm without volume and {:.2} mm with it",
+        off.0,
+        on.0,
+        off.1,
+        on.1,
+        off.2 * 1e3,
+        on.2 * 1e3
+    );
+    assert_eq!((off.0, on.0), (1024, 1024), "every strand asleep");
+    assert!(on.1 < 1e-6, "a sleeping strand took up {} m/s", on.1);
+    assert!(on.2 <= off.2 + 1e-3, "woken with volume the hair moved {} m, {} m without", on.2, off.2);
+}

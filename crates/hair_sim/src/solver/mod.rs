@@ -239,6 +239,19 @@ pub struct Strands {
     /// The step's feedback from the grid, made by [`Self::apply_volume`] for the next
     /// [`Self::chunks_mut`]'s chunks to apply.
     volume_step: Option<volume::VolumeStep>,
+    /// What the grid was last worked out from, and the feedback it gave: a step from the
+    /// same takes the same, without the grid's work (a groom asleep under a still head).
+    volume_made_from: Option<(VolumeInputs, volume::VolumeStep)>,
+}
+
+/// What a step's hair–hair grid is worked out from ([`Strands::apply_volume_on`]).
+#[derive(Clone, Debug, PartialEq)]
+struct VolumeInputs {
+    positions: Vec<Vec3>,
+    velocities: Vec<Vec3>,
+    pose: Pose,
+    dt: f32,
+    volume: Volume,
 }
 
 impl Strands {
@@ -261,6 +274,7 @@ impl Strands {
             detail: None,
             volume: None,
             volume_step: None,
+            volume_made_from: None,
         }
     }
 
@@ -454,17 +468,37 @@ impl Strands {
         let Some(dt) = step::step_length(input).filter(|_| params.volume.enabled) else {
             if !params.volume.enabled {
                 self.volume = None;
+                self.volume_made_from = None;
             }
             return;
         };
         let resolution = params.volume.resolution;
         if self.volume.as_ref().is_none_or(|grid| grid.resolution() != resolution) {
             self.volume = Some(VolumeGrid::new(&self.rest, resolution));
+            self.volume_made_from = None;
         }
         let pose = if input.head_from.is_valid() { input.head_from } else { input.head_to };
+        let unchanged = |(inputs, _): &(VolumeInputs, _)| {
+            (inputs.pose, inputs.dt, inputs.volume) == (pose, dt, params.volume)
+                && inputs.positions == self.positions
+                && inputs.velocities == self.velocities
+        };
+        if let Some((_, step)) = self.volume_made_from.as_ref().filter(|made| unchanged(made)) {
+            // Nothing moved since (every strand asleep under a still head): the same grid.
+            self.volume_step = Some(step.clone());
+            return;
+        }
         let grid = self.volume.as_mut().expect("made above");
         let (positions, velocities) = (&self.positions, &self.velocities);
         let step = volume::prepare(grid, &self.rest, positions, velocities, pose, &params.volume, dt, (parts, run));
+        let mut inputs = self.volume_made_from.take().map_or_else(
+            || VolumeInputs { positions: Vec::new(), velocities: Vec::new(), pose, dt, volume: params.volume },
+            |(inputs, _)| inputs,
+        );
+        inputs.positions.clone_from(&self.positions);
+        inputs.velocities.clone_from(&self.velocities);
+        (inputs.pose, inputs.dt, inputs.volume) = (pose, dt, params.volume);
+        self.volume_made_from = Some((inputs, step.clone()));
         self.volume_step = Some(step);
     }
 
@@ -472,6 +506,7 @@ impl Strands {
     /// `grid`'s resolution), instead of one made from the rest pose.
     pub(crate) fn use_volume_grid(&mut self, grid: VolumeGrid) {
         self.volume = Some(grid);
+        self.volume_made_from = None;
     }
 
     /// The hair–hair grid as the last step left it, while [`SimParams::volume`] is on.
@@ -647,13 +682,11 @@ impl StrandChunk<'_> {
         self.state.positions
     }
 
-    /// Advances the strands of this chunk by one step (first taking the hair–hair grid's
-    /// feedback, where [`Strands::apply_volume`] prepared it).
+    /// Advances the strands of this chunk by one step (each strand that steps first taking
+    /// the hair–hair grid's feedback, where [`Strands::apply_volume`] prepared it).
     pub fn step(&mut self, input: &StepInput) -> StepReport {
-        if let Some((grid, volume)) = self.volume.take() {
-            let first = self.first_strand * self.rest.shape.particles_per_strand;
-            grid.feed_back(&volume, first, self.state.velocities);
-        }
-        step::step_chunk(self.first_strand, self.rest, self.roles, &mut self.state, input)
+        let volume = self.volume.take();
+        let volume = volume.as_ref().map(|(grid, step)| (*grid, step));
+        step::step_chunk(self.first_strand, self.rest, self.roles, volume, &mut self.state, input)
     }
 }

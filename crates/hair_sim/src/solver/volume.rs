@@ -410,8 +410,8 @@ pub(super) fn prepare(
 }
 
 /// What [`prepare`] worked out for a step's feedback, besides the grid.
-#[derive(Clone, Debug)]
-pub(super) struct VolumeStep {
+#[derive(Clone, Debug, PartialEq)]
+pub(in crate::solver) struct VolumeStep {
     /// [`Feedback::shares`].
     shares: Vec<f32>,
     /// The head's rotation the grid's axes turn by.
@@ -425,7 +425,7 @@ impl VolumeGrid {
     /// (`volume.density_push`, m/s² per unit of excess per cell) and down the pressure
     /// (`volume.pressure` of its gradient). Roots are left alone. Each particle reads only
     /// the grid, so chunks of strands take it on their own threads, in any order.
-    pub(super) fn feed_back(&self, step: &VolumeStep, first: usize, velocities: &mut [Vec3]) {
+    pub(in crate::solver) fn feed_back(&self, step: &VolumeStep, first: usize, velocities: &mut [Vec3]) {
         let VolumeStep { shares, rotation } = step;
         let n = shares.len().max(1);
         debug_assert_eq!(first % n, 0, "whole strands");

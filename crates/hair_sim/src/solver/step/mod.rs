@@ -30,6 +30,7 @@ use super::lanes::{Baseline, M3, MAX_LANES, Mask, PoseLanes, Simd, V3, Wide};
 use super::params::{CollisionResponse, LengthMode, stiffness_per_application};
 use super::rest_lanes::{RestLanes, Row};
 use super::sleep::{self, SleepWatch, Stillness};
+use super::volume::{VolumeGrid, VolumeStep};
 use super::wind::wind_at;
 use super::{ChunkState, RestShape, StepInput, StepReport};
 #[cfg(target_arch = "x86_64")]
@@ -405,6 +406,7 @@ pub(super) fn step_chunk(
     first_strand: usize,
     rest: Rest,
     roles: Option<&[Role]>,
+    volume: Option<(&VolumeGrid, &VolumeStep)>,
     state: &mut ChunkState,
     input: &StepInput,
 ) -> StepReport {
@@ -416,11 +418,11 @@ pub(super) fn step_chunk(
     match input.params.simd.resolved() {
         #[cfg(target_arch = "x86_64")]
         // SAFETY: `resolved` picks a path only where the CPU has its instructions.
-        SimdPath::Avx512 => unsafe { step_chunk_avx512(first_strand, rest, roles, state, input) },
+        SimdPath::Avx512 => unsafe { step_chunk_avx512(first_strand, rest, roles, volume, state, input) },
         #[cfg(target_arch = "x86_64")]
         // SAFETY: as above.
-        SimdPath::Avx2 => unsafe { step_chunk_avx2(first_strand, rest, roles, state, input) },
-        _ => step_chunk_on::<Baseline>(first_strand, rest, roles, state, input),
+        SimdPath::Avx2 => unsafe { step_chunk_avx2(first_strand, rest, roles, volume, state, input) },
+        _ => step_chunk_on::<Baseline>(first_strand, rest, roles, volume, state, input),
     }
 }
 
@@ -432,10 +434,11 @@ fn step_chunk_avx512(
     first_strand: usize,
     rest: Rest,
     roles: Option<&[Role]>,
+    volume: Option<(&VolumeGrid, &VolumeStep)>,
     state: &mut ChunkState,
     input: &StepInput,
 ) -> StepReport {
-    step_chunk_on::<Avx512>(first_strand, rest, roles, state, input)
+    step_chunk_on::<Avx512>(first_strand, rest, roles, volume, state, input)
 }
 
 /// [`step_chunk_on`] compiled for AVX2.
@@ -445,10 +448,11 @@ fn step_chunk_avx2(
     first_strand: usize,
     rest: Rest,
     roles: Option<&[Role]>,
+    volume: Option<(&VolumeGrid, &VolumeStep)>,
     state: &mut ChunkState,
     input: &StepInput,
 ) -> StepReport {
-    step_chunk_on::<Avx2>(first_strand, rest, roles, state, input)
+    step_chunk_on::<Avx2>(first_strand, rest, roles, volume, state, input)
 }
 
 /// The step on path `S`. It and everything it calls on lanes are `#[inline(always)]`, so
@@ -458,6 +462,7 @@ fn step_chunk_on<S: Simd>(
     first_strand: usize,
     rest: Rest,
     roles: Option<&[Role]>,
+    volume: Option<(&VolumeGrid, &VolumeStep)>,
     state: &mut ChunkState,
     input: &StepInput,
 ) -> StepReport {
@@ -490,6 +495,11 @@ fn step_chunk_on<S: Simd>(
         } else if sleep::stays_asleep(&state.sleep[k], stillness, p, root, pinned) {
             report.sleeping += 1;
         } else {
+            // The hair–hair grid's feedback, for the strands that step: a sleeping one
+            // keeps its velocity as it fell asleep with.
+            if let Some((grid, step)) = volume {
+                grid.feed_back(step, (first_strand + k) * n, &mut state.velocities[k * n..][..n]);
+            }
             group[lanes] = k;
             lanes += 1;
         }
