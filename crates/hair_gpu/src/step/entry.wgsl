@@ -110,7 +110,13 @@ fn begin_step(strand: u32, first: u32, n: u32) -> bool {
         return false;
     }
     if asleep(first) && step.sleep.z == 1.0 && jump <= ROOT_TOLERANCE {
-        // Left where it is: the step's other passes pass it by, as one started over.
+        // Left where it is: the step's other passes pass it by, as one started over. It
+        // keeps the still velocities it fell asleep with: the volume's feedback, which
+        // reaches every particle before the step, is for the strands that step (on the
+        // CPU it reaches only those).
+        for (var j = 0u; j < n; j++) {
+            motion[particle_slot(first, j)] = vec4<f32>(0.0);
+        }
         motion[slots() + first].w = 1.0;
         tally.sleeping = 1.0;
         add_to_report(strand);

@@ -160,3 +160,31 @@ fn the_pressure_carries_over_to_the_gpu() {
     assert!(apart_with < 1e-3, "{apart_with} m/s apart");
     assert!(apart_without > 50.0 * apart_with.max(1e-6), "the pressure carried nothing: {apart_without} m/s");
 }
+
+/// Asleep under a still head with volume on, a strand keeps the still velocities it fell
+/// asleep with on both backends: the grid's feedback is for the strands that step. (It once
+/// built up in sleeping strands and threw the hair when the head moved.)
+#[test]
+fn asleep_with_volume_the_strands_keep_still_as_on_the_cpu() {
+    let Some(gpu) = gpu() else { return };
+    let (_, collider, rest) = groom(64);
+    let params = with_volume(true);
+    let still = |_: f32| head_pose(0.0);
+    let mut cpu = Strands::new(rest.clone(), still(0.0));
+    let mut on_gpu = GpuStrands::new(&gpu, &rest, still(0.0), Some(&collider)).expect("GPU strands");
+    let (mut cpu_asleep, mut gpu_asleep) = (0, 0);
+    for k in 0..240 {
+        let input = input_at(k, still, &collider, &params);
+        cpu_asleep = cpu.step(&input).sleeping;
+        on_gpu.step(&input).expect("GPU step");
+        gpu_asleep = on_gpu.report().expect("report").sleeping;
+    }
+    let fastest = |v: &[Vec3]| v.iter().map(|v| v.length()).fold(0.0, f32::max);
+    let (cpu_fastest, gpu_fastest) = (fastest(cpu.velocities()), fastest(&on_gpu.velocities().expect("read back")));
+    eprintln!(
+        "4 s still with volume: {cpu_asleep} and {gpu_asleep} of 64 asleep; the fastest particle {cpu_fastest:.1e} \
+         and {gpu_fastest:.1e} m/s (CPU, GPU)"
+    );
+    assert_eq!((cpu_asleep, gpu_asleep), (64, 64), "every strand asleep");
+    assert!(cpu_fastest == 0.0 && gpu_fastest == 0.0, "asleep but moving: {cpu_fastest}, {gpu_fastest} m/s");
+}
