@@ -16,7 +16,8 @@
 use super::RestShape;
 use super::params::Volume;
 use crate::math::{Pose, Vec3};
-use splat::{Lattice, Splat};
+use glam::Vec3A;
+use splat::{Lattice, Splat, add_share};
 pub use splat::{SplatPart, fixed_velocity};
 
 mod splat;
@@ -58,8 +59,10 @@ pub struct VolumeGrid {
     /// The share of `rest_scale` any cell may fill up to before the pressure pushes
     /// ([`LIVE_FLOOR`], or [`SETTLING_FLOOR`] while a grown groom settles).
     floor: f32,
-    /// Each particle's splat, kept from the sums for the feedback.
+    /// Each particle's splat, kept from the sums for the feedback, and its velocity as
+    /// splatted ([`fixed_velocity`]): what [`Self::resplat`] takes away again.
     splats: Vec<Option<Splat>>,
+    fixed: Vec<[i32; 3]>,
     /// The sums of the splat's parts but the first, which adds into `sums` itself
     /// ([`Self::splat_on`]), kept for the next step.
     partials: Vec<Vec<[i64; 4]>>,
@@ -127,6 +130,7 @@ impl VolumeGrid {
             pressure: vec![0.0; cells],
             floor,
             splats: Vec::new(),
+            fixed: Vec::new(),
             partials: Vec::new(),
         };
         grid.splat(rest, &rest.positions, None, Pose::IDENTITY);
@@ -215,17 +219,18 @@ impl VolumeGrid {
         let parts = positions.len().div_ceil(size).max(1);
         self.partials.resize_with(parts - 1, || vec![[0; 4]; cells]);
         self.splats.resize(positions.len(), None);
+        self.fixed.resize(positions.len(), [0; 3]);
         if positions.is_empty() {
             // No part to clear the sums.
             self.sums.fill([0; 4]);
         }
         let (inverse, translation) = SplatPart::head_local(pose);
-        let Self { lattice, sums, partials, splats, .. } = self;
+        let Self { lattice, sums, partials, splats, fixed, .. } = self;
         let mut jobs: Vec<SplatPart> = std::iter::once(sums.as_mut_slice())
             .chain(partials.iter_mut().map(Vec::as_mut_slice))
-            .zip(splats.chunks_mut(size))
+            .zip(splats.chunks_mut(size).zip(fixed.chunks_mut(size)))
             .enumerate()
-            .map(|(k, (sums, splats))| {
+            .map(|(k, (sums, (splats, fixed)))| {
                 let range = k * size..k * size + splats.len();
                 SplatPart {
                     lattice,
@@ -236,6 +241,7 @@ impl VolumeGrid {
                     velocities: velocities.map(|v| &v[range]),
                     sums,
                     splats,
+                    fixed,
                     done: false,
                 }
             })
@@ -248,6 +254,34 @@ impl VolumeGrid {
                 *sum = std::array::from_fn(|k| sum[k] + part[k]);
             }
         }
+        self.resolve_cells();
+    }
+
+    /// The sums again after the strands `changed` (of `n` particles) moved since the last
+    /// splat, which was under the same `pose`: each of their particles' old share taken
+    /// away and its share at `positions` with `velocities` added, the same integers as a
+    /// whole splat ([`Self::splat_on`]) of them all.
+    pub(super) fn resplat(&mut self, n: usize, changed: &[usize], positions: &[Vec3], velocities: &[Vec3], pose: Pose) {
+        let (inverse, translation) = SplatPart::head_local(pose);
+        let dims = self.lattice.dims;
+        for &strand in changed {
+            for i in strand * n + 1..(strand + 1) * n {
+                if let Some(old) = self.splats[i] {
+                    add_share(&mut self.sums, dims, &old, self.fixed[i], -1);
+                }
+                let splat = self.lattice.splat_of((inverse * (Vec3A::from(positions[i]) - translation)).into());
+                let fixed = velocities[i].to_array().map(fixed_velocity);
+                (self.splats[i], self.fixed[i]) = (splat, fixed);
+                if let Some(splat) = splat {
+                    add_share(&mut self.sums, dims, &splat, fixed, 1);
+                }
+            }
+        }
+        self.resolve_cells();
+    }
+
+    /// Each cell's mean and excess, and whether it overflows, from the sums.
+    fn resolve_cells(&mut self) {
         // Each cell's mean and excess, once, for every particle that reads it.
         let units = PARTICLE_MASS_UNITS as f32;
         let cells = self.sums.iter().zip(&self.rest_mass).zip(self.values.iter_mut().zip(&mut self.field));
@@ -384,27 +418,14 @@ pub const LIVE_FLOOR: f32 = 0.5;
 /// sparse enough that the hair keeps a body instead of lying in one layer on the skull.
 pub const SETTLING_FLOOR: f32 = 4.0;
 
-/// The volume's part of one step of `dt` seconds, before the strands move: splats
-/// `positions` and `velocities` (head-local by `pose`, the head's pose at the step's start)
-/// into `grid` in up to `parts` parts that `run` may take on threads of their own
-/// ([`VolumeGrid::splat_on`]), and solves its pressure (`volume.pressure_iterations`
-/// sweeps). The answer then reaches each particle's velocity through
-/// [`VolumeGrid::feed_back`], chunk by chunk.
-#[allow(clippy::too_many_arguments)]
-pub(super) fn prepare(
-    grid: &mut VolumeGrid,
-    rest: &RestShape,
-    positions: &[Vec3],
-    velocities: &[Vec3],
-    pose: Pose,
-    volume: &Volume,
-    dt: f32,
-    (parts, run): (usize, impl FnOnce(&mut [SplatPart<'_>])),
-) -> VolumeStep {
-    grid.splat_on(rest, positions, Some(velocities), pose, parts, run);
+/// The rest of the volume's part of one step of `dt` seconds, before the strands move,
+/// once `grid` holds the splat of the step's start ([`VolumeGrid::splat_on`] or
+/// [`VolumeGrid::resplat`], head-local by `pose`, the head's pose then): solves its
+/// pressure (`volume.pressure_iterations` sweeps) and each cell's potential. The answer then
+/// reaches each particle's velocity through [`VolumeGrid::feed_back`], strand by strand.
+pub(super) fn prepare(grid: &mut VolumeGrid, n: usize, pose: Pose, volume: &Volume, dt: f32) -> VolumeStep {
     grid.solve_pressure(volume.pressure_iterations, dt);
-    let n = rest.particles_per_strand.max(1);
-    let feedback = Feedback::new(grid, volume, n, dt);
+    let feedback = Feedback::new(grid, volume, n.max(1), dt);
     grid.resolve_potential(feedback.push, volume.pressure);
     VolumeStep { shares: feedback.shares, rotation: pose.rotation }
 }

@@ -85,6 +85,8 @@ pub struct SplatPart<'a> {
     pub(super) velocities: Option<&'a [Vec3]>,
     pub(super) sums: &'a mut [[i64; 4]],
     pub(super) splats: &'a mut [Option<Splat>],
+    /// Each particle's velocity as splatted ([`fixed_velocity`]).
+    pub(super) fixed: &'a mut [[i32; 3]],
     pub(super) done: bool,
 }
 
@@ -103,24 +105,34 @@ impl SplatPart<'_> {
         self.done = true;
         self.sums.fill([0; 4]);
         let n = self.n.max(1);
-        let strands = self.positions.chunks(n).zip(self.splats.chunks_mut(n));
-        for (s, (strand, splats)) in strands.enumerate() {
+        let len = self.positions.len();
+        for root in (0..len).step_by(n) {
             // Roots are pinned: they neither count nor move.
-            splats[0] = None;
-            for j in 1..strand.len() {
-                let local = self.inverse * (Vec3A::from(strand[j]) - self.translation);
+            self.splats[root] = None;
+            for i in root + 1..(root + n).min(len) {
+                let local = self.inverse * (Vec3A::from(self.positions[i]) - self.translation);
                 let splat = self.lattice.splat_of(local.into());
-                splats[j] = splat;
-                let Some(splat) = splat else { continue };
-                let [vx, vy, vz] = self.velocities.map_or([0; 3], |v| v[s * n + j].to_array().map(fixed_velocity));
-                for (c, w) in splat.corners(self.lattice.dims) {
-                    // Each product fits an `i32` (see `MAX_FIXED_VELOCITY`).
-                    let share = [w, w * vx, w * vy, w * vz].map(i64::from);
-                    let sum = &mut self.sums[c];
-                    *sum = std::array::from_fn(|k| sum[k] + share[k]);
+                let fixed = self.velocities.map_or([0; 3], |v| v[i].to_array().map(fixed_velocity));
+                (self.splats[i], self.fixed[i]) = (splat, fixed);
+                if let Some(splat) = splat {
+                    add_share(self.sums, self.lattice.dims, &splat, fixed, 1);
                 }
             }
         }
+    }
+}
+
+/// Adds to `sums` (`sign` 1) or takes away from them (−1) a particle's share: in each of
+/// the eight cells around it, its weight there times one and times each component of its
+/// fixed-point velocity `fixed`.
+#[inline]
+pub(super) fn add_share(sums: &mut [[i64; 4]], dims: [usize; 3], splat: &Splat, fixed: [i32; 3], sign: i64) {
+    let [vx, vy, vz] = fixed;
+    for (c, w) in splat.corners(dims) {
+        // Each product fits an `i32` (see `MAX_FIXED_VELOCITY`).
+        let share = [w, w * vx, w * vy, w * vz].map(|s| sign * i64::from(s));
+        let sum = &mut sums[c];
+        *sum = std::array::from_fn(|k| sum[k] + share[k]);
     }
 }
 
