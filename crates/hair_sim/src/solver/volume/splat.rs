@@ -71,7 +71,7 @@ impl Splat {
 
 /// A run of whole strands' share of a step's splat, which a thread of its own can take
 /// ([`Self::run`]): its particles' weights and momenta, summed into sums of its own, and
-/// each particle's [`Splat`] for the feedback. Made by
+/// where each particle splats, for the feedback. Made by
 /// [`Strands::apply_volume_on`](crate::solver::Strands::apply_volume_on).
 pub struct SplatPart<'a> {
     pub(super) lattice: &'a Lattice,
