@@ -239,23 +239,8 @@ pub struct Strands {
     /// The step's feedback from the grid, made by [`Self::apply_volume`] for the next
     /// [`Self::chunks_mut`]'s chunks to apply.
     volume_step: Option<volume::VolumeStep>,
-    /// What the grid was last worked out from, and the feedback it gave: a step from the
-    /// same takes the same, without the grid's work (a groom asleep under a still head).
-    volume_made_from: Option<(VolumeInputs, volume::VolumeStep)>,
-}
-
-/// Up to one strand in this many moved since the last step: the grid takes theirs out and
-/// puts them back ([`VolumeGrid::resplat`]) instead of splatting every strand again.
-const RESPLAT_SHARE: usize = 8;
-
-/// What a step's hair–hair grid is worked out from ([`Strands::apply_volume_on`]).
-#[derive(Clone, Debug, PartialEq)]
-struct VolumeInputs {
-    positions: Vec<Vec3>,
-    velocities: Vec<Vec3>,
-    pose: Pose,
-    dt: f32,
-    volume: Volume,
+    /// What the grid was last worked out from, and the feedback it gave.
+    volume_made_from: Option<volume::MadeFrom>,
 }
 
 impl Strands {
@@ -482,44 +467,11 @@ impl Strands {
             self.volume_made_from = None;
         }
         let pose = if input.head_from.is_valid() { input.head_from } else { input.head_to };
-        let n = self.rest.particles_per_strand.max(1);
         let grid = self.volume.as_mut().expect("made above");
-        // Strands that moved since the grid was last made, where it was made under the same
-        // head, step length and settings; `None`: all of them.
-        let moved = self
-            .volume_made_from
-            .as_ref()
-            .filter(|(made, _)| (made.pose, made.dt, made.volume) == (pose, dt, params.volume))
-            .map(|(made, _)| {
-                let strands = made.positions.chunks(n).zip(made.velocities.chunks(n));
-                let now = self.positions.chunks(n).zip(self.velocities.chunks(n));
-                strands.zip(now).enumerate().filter(|(_, (was, is))| was != is).map(|(s, _)| s).collect::<Vec<_>>()
-            });
-        let step = match moved {
-            Some(moved) if moved.is_empty() => {
-                // Nothing moved (every strand asleep under a still head): the same grid.
-                let (_, step) = self.volume_made_from.as_ref().expect("compared with");
-                self.volume_step = Some(step.clone());
-                return;
-            }
-            // A few strands moved: theirs taken out of the sums and put back where they are.
-            Some(moved) if moved.len() * RESPLAT_SHARE <= self.rest.strand_count() => {
-                grid.resplat(n, &moved, &self.positions, &self.velocities, pose);
-                volume::prepare(grid, n, pose, &params.volume, dt)
-            }
-            _ => {
-                grid.splat_on(&self.rest, &self.positions, Some(&self.velocities), pose, parts, run);
-                volume::prepare(grid, n, pose, &params.volume, dt)
-            }
-        };
-        let mut inputs = self.volume_made_from.take().map_or_else(
-            || VolumeInputs { positions: Vec::new(), velocities: Vec::new(), pose, dt, volume: params.volume },
-            |(inputs, _)| inputs,
-        );
-        inputs.positions.clone_from(&self.positions);
-        inputs.velocities.clone_from(&self.velocities);
-        (inputs.pose, inputs.dt, inputs.volume) = (pose, dt, params.volume);
-        self.volume_made_from = Some((inputs, step.clone()));
+        let made_from = &mut self.volume_made_from;
+        let (positions, velocities) = (&self.positions, &self.velocities);
+        let step =
+            volume::prepare(grid, made_from, &self.rest, positions, velocities, pose, &params.volume, dt, (parts, run));
         self.volume_step = Some(step);
     }
 

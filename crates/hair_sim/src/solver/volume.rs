@@ -418,16 +418,99 @@ pub const LIVE_FLOOR: f32 = 0.5;
 /// sparse enough that the hair keeps a body instead of lying in one layer on the skull.
 pub const SETTLING_FLOOR: f32 = 4.0;
 
-/// The rest of the volume's part of one step of `dt` seconds, before the strands move,
-/// once `grid` holds the splat of the step's start ([`VolumeGrid::splat_on`] or
-/// [`VolumeGrid::resplat`], head-local by `pose`, the head's pose then): solves its
-/// pressure (`volume.pressure_iterations` sweeps) and each cell's potential. The answer then
-/// reaches each particle's velocity through [`VolumeGrid::feed_back`], strand by strand.
-pub(super) fn prepare(grid: &mut VolumeGrid, n: usize, pose: Pose, volume: &Volume, dt: f32) -> VolumeStep {
+/// The volume's part of one step of `dt` seconds, before the strands move: the grid made
+/// from `positions` and `velocities` (head-local by `pose`, the head's pose at the step's
+/// start), its pressure solved (`volume.pressure_iterations` sweeps) and each cell's
+/// potential. The answer then reaches each particle's velocity through
+/// [`VolumeGrid::feed_back`], strand by strand.
+///
+/// `made_from` is what the grid was last made from. Where nothing moved since, under the
+/// same head, step and settings (a groom asleep under a still head), the grid is left as
+/// it is and the step takes the same feedback; where a few strands moved, their shares
+/// are taken out of the sums and put back ([`VolumeGrid::resplat`]); else every strand
+/// splats again, in up to `parts` parts that `run` may take on threads of their own
+/// ([`VolumeGrid::splat_on`]). The sums are the same integers every way.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn prepare(
+    grid: &mut VolumeGrid,
+    made_from: &mut Option<MadeFrom>,
+    rest: &RestShape,
+    positions: &[Vec3],
+    velocities: &[Vec3],
+    pose: Pose,
+    volume: &Volume,
+    dt: f32,
+    (parts, run): (usize, impl FnOnce(&mut [SplatPart<'_>])),
+) -> VolumeStep {
+    let n = rest.particles_per_strand.max(1);
+    let moved = made_from.as_ref().and_then(|made| made.moved(positions, velocities, n, (pose, dt, *volume)));
+    match moved {
+        Some(moved) if moved.is_empty() => return made_from.as_ref().expect("compared with").step.clone(),
+        Some(moved) if moved.len() * RESPLAT_SHARE <= rest.strand_count() => {
+            grid.resplat(n, &moved, positions, velocities, pose)
+        }
+        _ => grid.splat_on(rest, positions, Some(velocities), pose, parts, run),
+    }
     grid.solve_pressure(volume.pressure_iterations, dt);
-    let feedback = Feedback::new(grid, volume, n.max(1), dt);
+    let feedback = Feedback::new(grid, volume, n, dt);
     grid.resolve_potential(feedback.push, volume.pressure);
-    VolumeStep { shares: feedback.shares, rotation: pose.rotation }
+    let step = VolumeStep { shares: feedback.shares, rotation: pose.rotation };
+    MadeFrom::remember(made_from, positions, velocities, (pose, dt, *volume), &step);
+    step
+}
+
+/// Up to one strand in this many moved since the last step: the grid takes their shares
+/// out and puts them back ([`VolumeGrid::resplat`]) instead of splatting every strand.
+const RESPLAT_SHARE: usize = 8;
+
+/// What a step's grid was last made from ([`prepare`]), and the feedback it gave.
+#[derive(Clone, Debug)]
+pub(super) struct MadeFrom {
+    positions: Vec<Vec3>,
+    velocities: Vec<Vec3>,
+    /// The head's pose, the step's length and the settings.
+    under: (Pose, f32, Volume),
+    step: VolumeStep,
+}
+
+impl MadeFrom {
+    /// The strands (of `n` particles) whose positions or velocities changed since; `None`
+    /// where the head, the step or the settings did (every strand then).
+    fn moved(
+        &self,
+        positions: &[Vec3],
+        velocities: &[Vec3],
+        n: usize,
+        under: (Pose, f32, Volume),
+    ) -> Option<Vec<usize>> {
+        if self.under != under || self.positions.len() != positions.len() {
+            return None;
+        }
+        let was = self.positions.chunks(n).zip(self.velocities.chunks(n));
+        let is = positions.chunks(n).zip(velocities.chunks(n));
+        Some(was.zip(is).enumerate().filter(|(_, (was, is))| was != is).map(|(s, _)| s).collect())
+    }
+
+    /// Keeps in `slot` what the grid was made from, reusing its buffers.
+    fn remember(
+        slot: &mut Option<MadeFrom>,
+        positions: &[Vec3],
+        velocities: &[Vec3],
+        under: (Pose, f32, Volume),
+        step: &VolumeStep,
+    ) {
+        let made = slot.get_or_insert_with(|| MadeFrom {
+            positions: Vec::new(),
+            velocities: Vec::new(),
+            under,
+            step: step.clone(),
+        });
+        made.positions.clear();
+        made.positions.extend_from_slice(positions);
+        made.velocities.clear();
+        made.velocities.extend_from_slice(velocities);
+        (made.under, made.step) = (under, step.clone());
+    }
 }
 
 /// What [`prepare`] worked out for a step's feedback, besides the grid.

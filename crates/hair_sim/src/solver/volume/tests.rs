@@ -21,8 +21,7 @@ fn apply(
     volume: &Volume,
     dt: f32,
 ) {
-    grid.splat(rest, positions, Some(velocities), pose);
-    let step = prepare(grid, rest.particles_per_strand, pose, volume, dt);
+    let step = prepare(grid, &mut None, rest, positions, velocities, pose, volume, dt, (1, |_: &mut [SplatPart]| {}));
     grid.feed_back(&step, 0, velocities);
 }
 
@@ -149,4 +148,42 @@ fn a_resplat_of_the_strands_that_moved_sums_what_a_whole_splat_does() {
     whole.splat(&rest, &after, Some(&moving), pose);
     assert_eq!((grid.mass(), grid.momentum()), (whole.mass(), whole.momentum()));
     assert!(grid.mass() != grid.rest_mass(), "the strand moved the grid");
+}
+
+#[test]
+fn a_step_makes_the_grid_again_only_from_what_moved() {
+    // Sixteen strands of 5 particles, 2 cm apart.
+    let positions: Vec<Vec3> = (0..16)
+        .flat_map(|s| (0..5).map(move |j| Vec3::new(0.02 * (s % 4) as f32, -0.01 * j as f32, 0.02 * (s / 4) as f32)))
+        .collect();
+    let rest = RestShape::new(positions.clone(), 5).unwrap();
+    let (volume, dt, still) = (Volume { enabled: true, ..Volume::default() }, 1.0 / 60.0, vec![Vec3::ZERO; 80]);
+    let mut grid = VolumeGrid::new(&rest, 16);
+    let mut made_from = None;
+    // Whether `prepare` splatted every strand (it hands the parts to the caller then).
+    let mut step = |positions: &[Vec3], grid: &mut VolumeGrid| {
+        let splatted = std::cell::Cell::new(false);
+        let step = prepare(
+            grid,
+            &mut made_from,
+            &rest,
+            positions,
+            &still,
+            Pose::IDENTITY,
+            &volume,
+            dt,
+            (1, |_: &mut [SplatPart]| splatted.set(true)),
+        );
+        (step, splatted.get())
+    };
+    let (first, splatted) = step(&positions, &mut grid);
+    assert!(splatted, "the first step splats every strand");
+    assert_eq!(step(&positions, &mut grid), (first, false), "nothing moved: the same feedback, no splat");
+    // One strand of sixteen moves: its shares go out of the sums and back in.
+    let mut moved = positions.clone();
+    moved[5 * 6 + 3] += Vec3::new(0.004, 0.001, -0.002);
+    let (_, splatted) = step(&moved, &mut grid);
+    let mut whole = VolumeGrid::new(&rest, 16);
+    whole.splat(&rest, &moved, Some(&still), Pose::IDENTITY);
+    assert!(!splatted && grid.mass() == whole.mass() && grid.mass() != grid.rest_mass(), "resplatted as a whole splat");
 }
