@@ -25,6 +25,21 @@ fn with_volume() -> SimParams {
     SimParams { volume: Volume { enabled: true, ..Volume::default() }, ..SimParams::default() }
 }
 
+/// The 1 cm cube that `p` lies in.
+fn cube(p: Vec3) -> [i32; 3] {
+    (p / 0.01).floor().as_ivec3().to_array()
+}
+
+/// How many particles of strands of `n` (roots left out) each 1 cm cube holds, the
+/// positions head-local by `pose`: a density counted independently of the grid.
+fn particles_per_cube(positions: &[Vec3], n: usize, pose: Pose) -> std::collections::HashMap<[i32; 3], u32> {
+    let mut cubes = std::collections::HashMap::new();
+    for (_, &x) in positions.iter().enumerate().filter(|(i, _)| i % n != 0) {
+        *cubes.entry(cube(pose.inverse_transform_point(x))).or_default() += 1;
+    }
+    cubes
+}
+
 /// A settled groom under a still head, volume on: the first step finds the hair exactly at
 /// its rest density (every cell's integer sum equal), every particle counted whole, and
 /// over 2 s it moves less than 0.5 mm further than it does with volume off.
@@ -229,16 +244,7 @@ fn grown_on_the_shipped_head() -> (HeadMesh, HeadCollider, Vec<RootBinding>, Res
 /// percentile, counted independently of the grid: particles (roots left out) in head-local
 /// 1 cm cubes, over the cubes that hold at least 8 at rest.
 fn density_after_a_shake(rest: &RestShape, collider: &HeadCollider, params: &SimParams) -> (f32, f32) {
-    let count = |positions: &[Vec3], pose: Pose| {
-        let mut cubes = std::collections::HashMap::<(i32, i32, i32), u32>::new();
-        for (i, &x) in positions.iter().enumerate() {
-            if i % rest.particles_per_strand != 0 {
-                let p = pose.inverse_transform_point(x) / 0.01;
-                *cubes.entry((p.x.floor() as i32, p.y.floor() as i32, p.z.floor() as i32)).or_default() += 1;
-            }
-        }
-        cubes
-    };
+    let count = |positions: &[Vec3], pose: Pose| particles_per_cube(positions, rest.particles_per_strand, pose);
     let at_rest = count(&rest.positions, Pose::IDENTITY);
     let yaw = |k: usize| {
         let t = k as f32 / 60.0 - 2.0;
@@ -324,14 +330,8 @@ fn locks_crossing(volume: Volume) -> Locks {
         a_most = a_most.max(momentum(va));
         b_most = b_most.max(momentum(vb));
     }
-    let cube = |p: Vec3| ((p.x / 0.01).floor() as i32, (p.y / 0.01).floor() as i32, (p.z / 0.01).floor() as i32);
     let (xa, xb) = strands.positions().split_at(a_particles);
-    let mut b_cubes = std::collections::HashMap::<(i32, i32, i32), u32>::new();
-    for (i, &p) in xb.iter().enumerate() {
-        if i % n != 0 {
-            *b_cubes.entry(cube(p)).or_default() += 1;
-        }
-    }
+    let b_cubes = particles_per_cube(xb, n, Pose::IDENTITY);
     let a_counted = xa.iter().enumerate().filter(|(i, _)| i % n != 0);
     let inside = a_counted.clone().filter(|(_, p)| b_cubes.get(&cube(**p)).is_some_and(|&c| c >= 4)).count();
     Locks {
@@ -433,9 +433,7 @@ fn the_thickness_of_a_groom_settled_with_and_without_volume() {
 
 /// The head-local 1 cm cubes that hold particles (roots left out) of strands of `n`.
 fn occupied_cubes(positions: &[Vec3], n: usize, pose: Pose) -> usize {
-    let cube = |p: Vec3| (p / 0.01).floor().as_ivec3().to_array();
-    let particles = positions.iter().enumerate().filter(|(i, _)| i % n != 0);
-    particles.map(|(_, &x)| cube(pose.inverse_transform_point(x))).collect::<std::collections::HashSet<_>>().len()
+    particles_per_cube(positions, n, pose).len()
 }
 
 /// The mean angle, radians, between each strand's consecutive segments: how far the

@@ -16,7 +16,6 @@
 use super::RestShape;
 use super::params::Volume;
 use crate::math::{Pose, Vec3};
-use glam::Vec3A;
 use splat::{Lattice, Splat, add_share};
 pub use splat::{SplatPart, fixed_velocity};
 
@@ -224,7 +223,7 @@ impl VolumeGrid {
             // No part to clear the sums.
             self.sums.fill([0; 4]);
         }
-        let (inverse, translation) = SplatPart::head_local(pose);
+        let head_local = SplatPart::head_local(pose);
         let Self { lattice, sums, partials, splats, fixed, .. } = self;
         let mut jobs: Vec<SplatPart> = std::iter::once(sums.as_mut_slice())
             .chain(partials.iter_mut().map(Vec::as_mut_slice))
@@ -234,8 +233,7 @@ impl VolumeGrid {
                 let range = k * size..k * size + splats.len();
                 SplatPart {
                     lattice,
-                    inverse,
-                    translation,
+                    head_local,
                     n,
                     positions: &positions[range.clone()],
                     velocities: velocities.map(|v| &v[range]),
@@ -262,19 +260,14 @@ impl VolumeGrid {
     /// away and its share at `positions` with `velocities` added, the same integers as a
     /// whole splat ([`Self::splat_on`]) of them all.
     pub(super) fn resplat(&mut self, n: usize, changed: &[usize], positions: &[Vec3], velocities: &[Vec3], pose: Pose) {
-        let (inverse, translation) = SplatPart::head_local(pose);
-        let dims = self.lattice.dims;
+        let head_local = SplatPart::head_local(pose);
         for &strand in changed {
             for i in strand * n + 1..(strand + 1) * n {
                 if let Some(old) = self.splats[i] {
-                    add_share(&mut self.sums, dims, &old, self.fixed[i], -1);
+                    add_share(&mut self.sums, self.lattice.dims, &old, self.fixed[i], -1);
                 }
-                let splat = self.lattice.splat_of((inverse * (Vec3A::from(positions[i]) - translation)).into());
-                let fixed = velocities[i].to_array().map(fixed_velocity);
-                (self.splats[i], self.fixed[i]) = (splat, fixed);
-                if let Some(splat) = splat {
-                    add_share(&mut self.sums, dims, &splat, fixed, 1);
-                }
+                (self.splats[i], self.fixed[i]) =
+                    self.lattice.add_particle(&mut self.sums, head_local, positions[i], Some(velocities[i]));
             }
         }
         self.resolve_cells();

@@ -42,6 +42,25 @@ impl Lattice {
         let fixed = fraction.to_array().map(|f| ((f * WEIGHT_ONE as f32 + 0.5) as i32).clamp(0, WEIGHT_ONE) as u8);
         Some(Splat { base: (i + dx * (j + dy * k)) as u32, fixed, fraction })
     }
+
+    /// Adds to `sums` the share of the particle at world `x` moving at `v` (none: at rest),
+    /// head-local by `head_local` ([`SplatPart::head_local`]); returns where it splats and
+    /// its velocity in fixed point, for [`add_share`] to take the share away again.
+    #[inline]
+    pub fn add_particle(
+        &self,
+        sums: &mut [[i64; 4]],
+        (inverse, translation): (Mat3A, Vec3A),
+        x: Vec3,
+        v: Option<Vec3>,
+    ) -> (Option<Splat>, [i32; 3]) {
+        let splat = self.splat_of((inverse * (Vec3A::from(x) - translation)).into());
+        let fixed = v.map_or([0; 3], |v| v.to_array().map(fixed_velocity));
+        if let Some(splat) = &splat {
+            add_share(sums, self.dims, splat, fixed, 1);
+        }
+        (splat, fixed)
+    }
 }
 
 /// Where a point splats: its cell (the lowest of the eight around it), its fixed-point
@@ -75,10 +94,8 @@ impl Splat {
 /// [`Strands::apply_volume_on`](crate::solver::Strands::apply_volume_on).
 pub struct SplatPart<'a> {
     pub(super) lattice: &'a Lattice,
-    /// World → head-local, as a matrix (as the GPU's splat does), not a quaternion per
-    /// particle.
-    pub(super) inverse: Mat3A,
-    pub(super) translation: Vec3A,
+    /// World → head-local ([`Self::head_local`]).
+    pub(super) head_local: (Mat3A, Vec3A),
     /// Particles per strand.
     pub(super) n: usize,
     pub(super) positions: &'a [Vec3],
@@ -91,7 +108,8 @@ pub struct SplatPart<'a> {
 }
 
 impl SplatPart<'_> {
-    /// The world → head-local transform of `pose`, as the parts apply it.
+    /// The world → head-local transform of `pose` as the splat applies it: a matrix (as
+    /// the GPU's splat does), not a quaternion per particle.
     pub(super) fn head_local(pose: Pose) -> (Mat3A, Vec3A) {
         (Mat3A::from_quat(pose.rotation).transpose(), Vec3A::from(pose.translation))
     }
@@ -110,13 +128,9 @@ impl SplatPart<'_> {
             // Roots are pinned: they neither count nor move.
             self.splats[root] = None;
             for i in root + 1..(root + n).min(len) {
-                let local = self.inverse * (Vec3A::from(self.positions[i]) - self.translation);
-                let splat = self.lattice.splat_of(local.into());
-                let fixed = self.velocities.map_or([0; 3], |v| v[i].to_array().map(fixed_velocity));
-                (self.splats[i], self.fixed[i]) = (splat, fixed);
-                if let Some(splat) = splat {
-                    add_share(self.sums, self.lattice.dims, &splat, fixed, 1);
-                }
+                let v = self.velocities.map(|v| v[i]);
+                (self.splats[i], self.fixed[i]) =
+                    self.lattice.add_particle(self.sums, self.head_local, self.positions[i], v);
             }
         }
     }
