@@ -250,8 +250,9 @@ impl Phases {
 }
 
 /// Bytes per slot in `motion`: velocity, substep start, FTL correction, position before
-/// collision, sleep anchor and step start (the step shader's `PLANES`).
-const MOTION_BYTES: u64 = 6 * 16;
+/// collision, sleep anchor, step start, and the grid's friction and push for the spring
+/// model (the step shader's `PLANES`).
+const MOTION_BYTES: u64 = 8 * 16;
 /// Bytes per strand of the step report after the particles in `motion` (the step shader's
 /// `Tally`, added up).
 const REPORT_BYTES: u64 = 2 * 16;
@@ -638,7 +639,7 @@ impl GpuStrands {
         // What the next step may remember: this one's spring memory, or none.
         self.springs_remembered = springs;
         if p.volume.enabled {
-            self.record_volume(&p.volume, constants.poses[0], constants.dt);
+            self.record_volume(&p.volume, constants.poses[0], constants.dt, springs);
         }
         let recorder = recording(&mut self.recorder);
         recorder.upload(&self.uniform, bytemuck::bytes_of(&uniform));
@@ -679,11 +680,11 @@ impl GpuStrands {
 
     /// Records the volume's effect on a step of `dt` ([`GpuVolume`]), the head at `pose` at
     /// its start, making the grid first where there is none at `volume`'s resolution.
-    fn record_volume(&mut self, volume: &hair_sim::solver::Volume, pose: Pose, dt: f32) {
+    fn record_volume(&mut self, volume: &hair_sim::solver::Volume, pose: Pose, dt: f32, springs: bool) {
         self.make_volume(volume.resolution);
         let grid = self.volume.as_ref().expect("made above");
         let counts = (self.strands, self.particles_per_strand, self.slots.count() as u32);
-        grid.record(&self.volume_passes, recording(&mut self.recorder), volume, pose, dt, counts);
+        grid.record(&self.volume_passes, recording(&mut self.recorder), volume, pose, dt, springs, counts);
     }
 
     /// Makes the hair–hair grid at `resolution` where there is none at it.
@@ -768,6 +769,7 @@ impl GpuStrands {
             skin: [0; 4],
             bvh: grid.map_or([0; 4], |g| g.bvh),
             sleep: [p.sleep_distance, p.sleep_time, f32::from(u8::from(still)), input.dt],
+            volume: [u32::from(p.volume.enabled && p.length_mode == LengthMode::Springs), 0, 0, 0],
         };
         (uniform, tables)
     }

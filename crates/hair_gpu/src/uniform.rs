@@ -32,6 +32,7 @@ pub(crate) struct StepUniform {
     pub(crate) skin: [u32; 4],
     pub(crate) bvh: [u32; 4],
     pub(crate) sleep: [f32; 4],
+    pub(crate) volume: [u32; 4],
 }
 
 /// The head as the shader reads it: its distance grid, and where the exact near query's

@@ -145,7 +145,9 @@ impl GpuVolume {
 
     /// Records the volume's effect on one step of `dt` seconds under `volume`'s settings,
     /// the head at `pose` at the step's start, for `strands` strands of `n` particles in
-    /// `slots` slots.
+    /// `slots` slots; with `implicit`, the friction is left for the spring model's solve
+    /// (as [`hair_sim::solver::Feedback::rates`] says).
+    #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
         passes: &VolumePasses,
@@ -153,6 +155,7 @@ impl GpuVolume {
         volume: &hair_sim::solver::Volume,
         pose: Pose,
         dt: f32,
+        implicit: bool,
         (strands, n, slots): (u32, u32, u32),
     ) {
         let feedback = Feedback::new(&self.grid, volume, n as usize, dt);
@@ -170,10 +173,11 @@ impl GpuVolume {
             translation: [t.x, t.y, t.z, 0.0],
             rotation: columns(rotation),
             feedback: [feedback.push, self.grid.rest_scale(), volume.pressure, self.grid.cell() * self.grid.cell()],
-            solve: [1.0 / dt.max(1e-6), 0.0, 0.0, 0.0],
+            solve: [1.0 / dt.max(1e-6), f32::from(u8::from(implicit)), 0.0, 0.0],
         };
         recorder.upload(&self.uniform, bytemuck::bytes_of(&uniform));
-        recorder.upload(&self.shares, bytemuck::cast_slice(&feedback.shares));
+        let friction = if implicit { &feedback.rates } else { &feedback.shares };
+        recorder.upload(&self.shares, bytemuck::cast_slice(friction));
         recorder.encoder().clear_buffer(&self.sums, 0, None);
         let [splat, resolve, red, black, feed_back] = std::array::from_fn(|k| &passes.pipelines[k]);
         recorder.dispatch("hair_gpu volume splat", splat, (&self.group, &[]), slots);

@@ -3,7 +3,8 @@
 // around it with integer atomics (`splat_particles`); each cell's mean velocity and density
 // excess are worked out once (`resolve_cells`); the pressure is relaxed in red and black
 // sweeps (`relax_red`, `relax_black`); each particle's velocity then moves toward the mean
-// around it, down the excess and down the pressure (`feed_back`). The splat is the CPU's, integer for
+// around it, down the excess and down the pressure (`feed_back`), or for the spring model
+// that answer is left for its implicit solve. The splat is the CPU's, integer for
 // integer: a particle adds at most 2^31 to a cell's sum, and the sums are 64-bit, held as
 // two words (low, high), so they are the same in any order.
 // `layout.wgsl` is prepended: where each particle's values live.
@@ -24,7 +25,8 @@ struct Volume {
     // share of one particle (`rest_scale`), the share of the pressure's velocity change
     // applied (`Volume::pressure`), the cell's side squared.
     feedback: vec4<f32>,
-    // 1 / the step's length (the pressure's source is an overflow per second).
+    // 1 / the step's length (the pressure's source is an overflow per second); 1 in y where
+    // the spring model takes the friction into its implicit solve (`feed_back`).
     solve: vec4<f32>,
 }
 
@@ -38,7 +40,8 @@ struct Volume {
 @group(0) @binding(4) var<storage, read_write> cells: array<vec4<f32>>;
 // Per cell, the rest pose's mass, low word then high.
 @group(0) @binding(5) var<storage, read> rest_mass: array<u32>;
-// Per particle index, root to tip, the share of the difference to the mean taken.
+// Per particle index, root to tip, the share of the difference to the mean taken; for the
+// spring model, the friction's rate per second (`Feedback::rates`).
 @group(0) @binding(6) var<storage, read> shares: array<f32>;
 // Per cell, the pressure, kept between steps as the next one's start.
 @group(0) @binding(7) var<storage, read_write> pressure: array<f32>;
@@ -138,7 +141,15 @@ fn particle_splat(i: u32) -> Splat {
 fn splat_particles(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = invocation(id, groups);
     let splat = particle_splat(i);
+    // The step shader's planes of the grid's answer for its springs (`grid_friction`,
+    // `grid_kick`).
+    let slots = slot_count(volume.counts.x, volume.counts.y);
+    let implicit = volume.solve.y == 1.0;
     if !splat.inside {
+        if implicit && i < slots {
+            motion[6u * slots + i] = vec4<f32>(0.0);
+            motion[7u * slots + i] = vec4<f32>(0.0);
+        }
         return;
     }
     let v = motion[i].xyz;
@@ -226,7 +237,15 @@ fn relax_black(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgr
 fn feed_back(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = invocation(id, groups);
     let splat = particle_splat(i);
+    // The step shader's planes of the grid's answer for its springs (`grid_friction`,
+    // `grid_kick`).
+    let slots = slot_count(volume.counts.x, volume.counts.y);
+    let implicit = volume.solve.y == 1.0;
     if !splat.inside {
+        if implicit && i < slots {
+            motion[6u * slots + i] = vec4<f32>(0.0);
+            motion[7u * slots + i] = vec4<f32>(0.0);
+        }
         return;
     }
     // `VolumeGrid::sample`: the mean velocity over the cells that hold hair, and the
@@ -261,6 +280,10 @@ fn feed_back(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgrou
     let world_push = volume.rotation[0].xyz * push.x + volume.rotation[1].xyz * push.y + volume.rotation[2].xyz * push.z;
     let j = slot_particle(i, volume.counts.y).y;
     let v = motion[i];
-    let next = v.xyz + (velocity - v.xyz) * shares[j] + world_push;
-    motion[i] = vec4<f32>(next, v.w);
+    if implicit {
+        motion[6u * slots + i] = vec4<f32>(velocity, shares[j]);
+        motion[7u * slots + i] = vec4<f32>(world_push, 0.0);
+    } else {
+        motion[i] = vec4<f32>(v.xyz + (velocity - v.xyz) * shares[j] + world_push, v.w);
+    }
 }

@@ -12,12 +12,17 @@ use hair_sim::solver::PARTICLE_MASS_UNITS;
 
 /// A settled groom of `strands` guides × 16, 25 cm, on the procedural head.
 fn settled(strands: usize) -> (HeadCollider, RestShape) {
+    settled_under(strands, &SimParams::default())
+}
+
+/// [`settled`], settled under `params`.
+fn settled_under(strands: usize, params: &SimParams) -> (HeadCollider, RestShape) {
     let head = test_head(4);
     let collider = HeadCollider::new(&head, DEFAULT_GRID_RESOLUTION).expect("a head");
     let roots = sample_roots(&head, &test_scalp(&head), strands, 7).expect("scalp");
     let grow = GuideParams { segments: 15, length: 0.25, ..GuideParams::default() };
     let rest = RestShape::new(grow_guides(&head, &roots, &grow, 7).expect("roots"), 16).expect("guides");
-    let rest = settle(rest, Some(&collider), &SimParams::default(), 180, Vec3::ZERO).expect("settle");
+    let rest = settle(rest, Some(&collider), params, 180, Vec3::ZERO).expect("settle");
     (collider, rest)
 }
 
@@ -72,18 +77,107 @@ fn at_rest_the_volume_changes_nothing() {
     assert!(apart < 5e-4, "the volume moved resting hair {apart} m");
 }
 
+/// A groom settled in the spring model, under a still head with the density push alone
+/// (no friction to calm it, no pressure): it comes to rest, as it does without volume. The
+/// push once entered the integrator's memory as a trend, 4/3 of it, and kept the hair
+/// swinging at 0.16 m/s.
+#[test]
+fn with_springs_the_density_push_lets_hair_come_to_rest() {
+    let without = SimParams { length_mode: LengthMode::Springs, ..SimParams::default() };
+    let (collider, rest) = settled_under(256, &without);
+    let volume = Volume { friction_root: 0.0, friction_tip: 0.0, pressure_iterations: 0, ..with_volume().volume };
+    let fastest_after_4_s = |params: &SimParams| {
+        let mut strands = Strands::new(rest.clone(), Pose::IDENTITY);
+        for k in 0..240 {
+            strands.step(&step_input(k, Pose::IDENTITY, Pose::IDENTITY, Some(&collider), params));
+        }
+        strands.velocities().iter().map(|v| v.length()).fold(0.0, f32::max)
+    };
+    let (on, off) = (fastest_after_4_s(&SimParams { volume, ..without }), fastest_after_4_s(&without));
+    println!("springs, 4 s under a still head: the fastest particle {on:.1e} m/s with volume, {off:.1e} without");
+    assert!(off < 1e-3, "without volume the groom still moves at {off} m/s: the test tests nothing");
+    assert!(on < 1e-3, "with volume the groom still moves at {on} m/s");
+}
+
+/// The spring model takes the grid's friction into its implicit solve, substep by
+/// substep. In a weightless bundle whose strands move sideways one way and the other in a
+/// checkerboard (the hair's mean velocity near zero everywhere), one step of 1/60 s keeps
+/// the share of each particle's velocity that the FTL model keeps, which applies the
+/// friction once a step in closed form, less what backward Euler's substeps lose of it
+/// (at this friction's rate 0.021 over 2 substeps, 0.006 over 8, 0.037 over one).
+#[test]
+fn with_springs_the_grids_friction_takes_the_share_asked() {
+    let n = 16;
+    let mut positions = Vec::new();
+    for (a, b) in (0..8).flat_map(|a| (0..8).map(move |b| (a, b))) {
+        positions.extend((0..n).map(|j| Vec3::new(a as f32 * 0.002, -(j as f32) * 0.01, b as f32 * 0.002)));
+    }
+    let rest = RestShape::new(positions, n).expect("straight strands");
+    let speed = 0.01;
+    let sign = |strand: usize| if (strand / 8 + strand % 8) % 2 == 0 { 1.0 } else { -1.0 };
+    let velocities: Vec<Vec3> = (0..rest.positions.len())
+        .map(|i| if i % n == 0 { Vec3::ZERO } else { Vec3::X * speed * sign(i / n) })
+        .collect();
+    let kept = |length_mode: LengthMode, substeps: u32, volume: Volume| {
+        let params = SimParams {
+            length_mode,
+            substeps,
+            gravity: [0.0; 3],
+            drag: 0.0,
+            collision: false,
+            global_stiffness_root: 0.0,
+            global_stiffness_tip: 0.0,
+            local_stiffness: 0.0,
+            volume,
+            ..SimParams::default()
+        };
+        let mut strands = Strands::new(rest.clone(), Pose::IDENTITY);
+        strands.set_velocities(&velocities).expect("one per particle");
+        strands.step(&step_input(0, Pose::IDENTITY, Pose::IDENTITY, None, &params));
+        let along: f32 = strands
+            .velocities()
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| i % n != 0)
+            .map(|(i, v)| v.x * sign(i / n) / speed)
+            .sum();
+        along / (rest.positions.len() - rest.strand_count()) as f32
+    };
+    let friction = Volume {
+        enabled: true,
+        friction_root: 0.3,
+        friction_tip: 0.3,
+        density_push: 0.0,
+        pressure_iterations: 0,
+        ..Volume::default()
+    };
+    let once_a_step = kept(LengthMode::Inextensible, 2, friction);
+    let without = kept(LengthMode::Springs, 8, Volume::default());
+    println!("kept after 1/60 s: {once_a_step:.4} (FTL, friction once a step), {without:.4} (springs, no volume)");
+    assert!((0.6..0.8).contains(&once_a_step), "the friction took {once_a_step} (asked 0.3 of the difference)");
+    assert!(without > 0.99, "without volume the bundle kept {without}: the springs slow it by themselves");
+    for (substeps, within) in [(1, 0.05), (2, 0.02), (8, 0.006)] {
+        let in_solve = kept(LengthMode::Springs, substeps, friction);
+        println!("springs, {substeps} substeps: kept {in_solve:.4}");
+        assert!(
+            (in_solve - once_a_step).abs() < within,
+            "{substeps} substeps: kept {in_solve}, the closed form {once_a_step}"
+        );
+    }
+}
+
 /// The head turns and nods for a second with volume on: the same bits on every SIMD path,
-/// thread count and run.
+/// thread count and run, in either length model.
 #[test]
 fn the_volume_is_deterministic_on_every_path() {
     let (collider, rest) = settled(96);
     // On this thread, or its splat's parts and chunks (each feeding the grid back into its
     // own strands) on `threads` threads.
-    let run = |simd: SimdPath, threads: usize| {
+    let run = |length_mode: LengthMode, simd: SimdPath, threads: usize| {
         // Cells few enough for the splat to split into parts here (each part's sums cost
         // a grid's size to add up).
         let coarse = Volume { resolution: 8, ..with_volume().volume };
-        let params = SimParams { simd, volume: coarse, ..SimParams::default() };
+        let params = SimParams { length_mode, simd, volume: coarse, ..SimParams::default() };
         let mut strands = Strands::new(rest.clone(), Pose::IDENTITY);
         let pose = |k: usize| {
             let t = k as f32 / 60.0;
@@ -118,14 +212,17 @@ fn the_volume_is_deterministic_on_every_path() {
         }
         (strands.positions().to_vec(), strands.volume_grid().expect("on").momentum())
     };
-    let baseline = run(SimdPath::Baseline, 1);
-    assert!(baseline.0 == run(SimdPath::Baseline, 1).0, "two runs differ");
-    for (simd, threads) in [(SimdPath::Auto, 1), (SimdPath::Avx2, 1), (SimdPath::Auto, 2), (SimdPath::Baseline, 3)] {
-        let other = run(simd, threads);
-        assert!(
-            other.0 == baseline.0 && other.1 == baseline.1,
-            "{simd} on {threads} threads differs from the baseline"
-        );
+    for mode in [LengthMode::Inextensible, LengthMode::Springs] {
+        let baseline = run(mode, SimdPath::Baseline, 1);
+        assert!(baseline.0 == run(mode, SimdPath::Baseline, 1).0, "{mode:?}: two runs differ");
+        for (simd, threads) in [(SimdPath::Auto, 1), (SimdPath::Avx2, 1), (SimdPath::Auto, 2), (SimdPath::Baseline, 3)]
+        {
+            let other = run(mode, simd, threads);
+            assert!(
+                other.0 == baseline.0 && other.1 == baseline.1,
+                "{mode:?}: {simd} on {threads} threads differs from the baseline"
+            );
+        }
     }
 }
 

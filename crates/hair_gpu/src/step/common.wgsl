@@ -70,6 +70,9 @@ struct Step {
     // may keep strands asleep (still, under the settings of the step before; 0 wakes all),
     // and the step's length.
     sleep: vec4<f32>,
+    // Hair volume: 1 in x where the spring model takes the grid's answer into its solve
+    // (`grid_friction`, `grid_kick`).
+    volume: vec4<u32>,
 }
 
 @group(0) @binding(0) var<uniform> step: Step;
@@ -81,10 +84,12 @@ struct Step {
 @group(0) @binding(2) var<storage, read_write> positions: array<vec4<f32>>;
 // `PLANES` planes: velocity, position at the substep's start, FTL correction, position
 // before collision, sleep anchor (the last two's root slots hold the strand's sleep watch),
-// position at the step's start. Then per strand two vec4: what its steps did since the
-// report was last taken (`Tally`, added up).
+// position at the step's start, and the hair–hair grid's answer for the spring model
+// (`volume.wgsl` writes them): the mean velocity around the particle with the friction's
+// rate in w, and the velocity change of the density push and the pressure. Then per
+// strand two vec4: what its steps did since the report was last taken (`Tally`, added up).
 @group(0) @binding(3) var<storage, read_write> motion: array<vec4<f32>>;
-const PLANES: u32 = 6u;
+const PLANES: u32 = 8u;
 // Two planes: head-local rest position with the rest length of the segment ending there
 // in w, and the rest direction in the parent segment's frame.
 @group(0) @binding(4) var<storage, read> rest: array<vec4<f32>>;
@@ -194,6 +199,8 @@ fn watching(first: u32) -> bool { return motion[3u * slots() + first].w == 1.0; 
 fn anchor(i: u32) -> vec3<f32> { return motion[4u * slots() + i].xyz; }
 fn quiet(first: u32) -> f32 { return motion[4u * slots() + first].w; }
 fn step_start(i: u32) -> vec3<f32> { return motion[5u * slots() + i].xyz; }
+fn grid_friction(i: u32) -> vec4<f32> { return motion[6u * slots() + i]; }
+fn grid_kick(i: u32) -> vec3<f32> { return motion[7u * slots() + i].xyz; }
 fn rest_position(i: u32) -> vec3<f32> { return rest[i].xyz; }
 fn rest_length(i: u32) -> f32 { return rest[i].w; }
 fn rest_direction(i: u32) -> vec3<f32> { return rest[slots() + i].xyz; }

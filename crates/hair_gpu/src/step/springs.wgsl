@@ -2,6 +2,8 @@
 
 fn springs_previous_position(i: u32) -> vec3<f32> { return springs[i].xyz; }
 fn springs_previous_velocity(i: u32) -> vec3<f32> { return springs[slots() + i].xyz; }
+// In w: the particle's mobility in the substep's solve (hair_sim's `GroupState::mobility`).
+fn springs_mobility(i: u32) -> f32 { return springs[slots() + i].w; }
 fn springs_base(i: u32) -> vec3<f32> { return springs[2u * slots() + i].xyz; }
 fn springs_direction(i: u32) -> vec3<f32> { return springs[3u * slots() + i].xyz; }
 // Per segment: stretch at the predicted positions, spring row's right side, tension, the
@@ -28,14 +30,29 @@ fn implicit_springs(first: u32, n: u32, h: f32, wind: vec3<f32>) -> f32 {
     let previous = select(0.0, 1.0 / 3.0, remembered);
     let step_length = select(h, h * (2.0 / 3.0), remembered);
     let drag = step.motion.x;
+    // The grid's push, in the step's first substep: a change of the velocity and of its
+    // memory alike, so that BDF2 does not read it as a trend.
+    let kick = step.volume.x == 1u && phase.x == 1u;
     for (var j = 1u; j < n; j++) {
         let i = particle_slot(first, j);
         let x = start(i);
-        let v = velocity(i);
+        var v = velocity(i);
+        var v_before = springs_previous_velocity(i);
+        if kick {
+            v += grid_kick(i);
+            v_before += grid_kick(i);
+        }
         let base = x * current - springs_previous_position(i) * previous;
-        let new_v = (v * current - springs_previous_velocity(i) * previous) * drag + acceleration(i, wind) * step_length;
+        var new_v = (v * current - v_before * previous) * drag + acceleration(i, wind) * step_length;
+        // The hair–hair grid's friction, implicit (`implicit_springs` on the CPU).
+        var keep = 1.0;
+        if step.volume.x == 1u {
+            let friction = grid_friction(i);
+            keep = 1.0 / (1.0 + step_length * friction.w);
+            new_v = new_v * keep + friction.xyz * (1.0 - keep);
+        }
         springs[i] = vec4<f32>(x, 0.0);
-        springs[slots() + i] = vec4<f32>(v, 0.0);
+        springs[slots() + i] = vec4<f32>(v, keep);
         springs[2u * slots() + i] = vec4<f32>(base, 0.0);
         motion[i] = vec4<f32>(new_v, 0.0);
         positions[i] = vec4<f32>(base + new_v * step_length, 0.0);
@@ -76,7 +93,7 @@ fn implicit_springs(first: u32, n: u32, h: f32, wind: vec3<f32>) -> f32 {
         var parent = positions[first].xyz;
         for (var j = 1u; j < n; j++) {
             let i = particle_slot(first, j);
-            let x = positions[i].xyz + pull(i, j, n) * displacement;
+            let x = positions[i].xyz + pull(i, j, n) * (displacement * springs_mobility(i));
             let stretch = length(x - parent) - rest_length(i);
             parent = x;
             let beyond = abs(stretch) > rest_length(i) * tolerance * (1.0 - BOUND_SLACK);
@@ -93,7 +110,7 @@ fn implicit_springs(first: u32, n: u32, h: f32, wind: vec3<f32>) -> f32 {
     }
     for (var j = 1u; j < n; j++) {
         let i = particle_slot(first, j);
-        let v = clamp_length_max(velocity(i) + pull(i, j, n) * (step_length * w), step.limits.x);
+        let v = clamp_length_max(velocity(i) + pull(i, j, n) * (step_length * w * springs_mobility(i)), step.limits.x);
         motion[i] = vec4<f32>(v, 0.0);
         positions[i] = vec4<f32>(springs_base(i) + v * step_length, 0.0);
     }
@@ -114,14 +131,15 @@ fn solve_tensions(first: u32, n: u32, coupling: f32, displacement: f32) {
     var upper_before = 0.0;
     for (var j = 1u; j < n; j++) {
         let i = particle_slot(first, j);
-        let own = select(2.0, 1.0, j == 1u);
+        var own = springs_mobility(i);
         var lower = 0.0;
         if j > 1u {
-            lower = -dot(springs_direction(i), springs_direction(i - LANES));
+            own += springs_mobility(i - LANES);
+            lower = -dot(springs_direction(i), springs_direction(i - LANES)) * springs_mobility(i - LANES);
         }
         var upper = 0.0;
         if j + 1u < n {
-            upper = -dot(springs_direction(i), springs_direction(i + LANES));
+            upper = -dot(springs_direction(i), springs_direction(i + LANES)) * springs_mobility(i);
         }
         let rigid = springs_rigid(i);
         let to_bound = springs_bound(i) - springs_stretch(i);

@@ -19,8 +19,8 @@ use rest_lanes::RestLanes;
 
 pub use step::{MIN_STEP, StepConstants};
 pub use volume::{
-    Feedback, LIVE_FLOOR, MAX_FIXED_VELOCITY, PARTICLE_MASS_UNITS, PRESSURE_SLACK, SETTLING_FLOOR, SplatPart,
-    VELOCITY_BITS, VolumeGrid, WEIGHT_BITS, fixed_velocity,
+    Feedback, LIVE_FLOOR, MAX_FIXED_VELOCITY, MIN_FRICTION_KEPT, PARTICLE_MASS_UNITS, PRESSURE_SLACK, SETTLING_FLOOR,
+    SplatPart, VELOCITY_BITS, VolumeGrid, WEIGHT_BITS, fixed_velocity,
 };
 mod volume;
 mod wind;
@@ -57,16 +57,21 @@ pub enum StrandsError {
         /// Its index.
         index: usize,
     },
-    /// [`Strands::set_positions`] was given a different number of positions than there
-    /// are particles.
+    /// [`Strands::set_positions`] or [`Strands::set_velocities`] was given a different
+    /// number of values than there are particles.
     PositionCount {
-        /// Positions given.
+        /// Values given.
         given: usize,
         /// Particles in the strands.
         expected: usize,
     },
     /// A position given to [`Strands::set_positions`] is NaN or infinite.
     NonFinitePosition {
+        /// Its index.
+        index: usize,
+    },
+    /// A velocity given to [`Strands::set_velocities`] is NaN or infinite.
+    NonFiniteVelocity {
         /// Its index.
         index: usize,
     },
@@ -86,9 +91,10 @@ impl fmt::Display for StrandsError {
                 write!(f, "rest position {index} is NaN or infinite")
             }
             StrandsError::PositionCount { given, expected } => {
-                write!(f, "{given} positions were given for {expected} particles")
+                write!(f, "{given} values were given for {expected} particles")
             }
             StrandsError::NonFinitePosition { index } => write!(f, "position {index} is NaN or infinite"),
+            StrandsError::NonFiniteVelocity { index } => write!(f, "velocity {index} is NaN or infinite"),
         }
     }
 }
@@ -338,6 +344,23 @@ impl Strands {
         if let Some(detail) = &mut self.detail {
             detail.placed(positions);
         }
+        Ok(())
+    }
+
+    /// Gives every particle the velocity in `velocities` (strand-major, as
+    /// [`Self::velocities`]), after [`Self::set_positions`] to restore a moving state.
+    /// Every strand wakes, and the spring model starts its memory again. Roots take the
+    /// head's velocity at the next step.
+    pub fn set_velocities(&mut self, velocities: &[Vec3]) -> Result<(), StrandsError> {
+        if velocities.len() != self.velocities.len() {
+            return Err(StrandsError::PositionCount { given: velocities.len(), expected: self.velocities.len() });
+        }
+        if let Some(index) = velocities.iter().position(|v| !v.is_finite()) {
+            return Err(StrandsError::NonFiniteVelocity { index });
+        }
+        self.velocities.copy_from_slice(velocities);
+        self.history_step.fill(0.0);
+        self.wake();
         Ok(())
     }
 

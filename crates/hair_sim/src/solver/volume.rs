@@ -447,7 +447,7 @@ pub(super) fn prepare(
     grid.solve_pressure(volume.pressure_iterations, dt);
     let feedback = Feedback::new(grid, volume, n, dt);
     grid.resolve_potential(feedback.push, volume.pressure);
-    let step = VolumeStep { shares: feedback.shares, rotation: pose.rotation };
+    let step = VolumeStep { shares: feedback.shares, rates: feedback.rates, rotation: pose.rotation };
     MadeFrom::remember(made_from, positions, velocities, (pose, dt, *volume), &step);
     step
 }
@@ -511,6 +511,8 @@ impl MadeFrom {
 pub(in crate::solver) struct VolumeStep {
     /// [`Feedback::shares`].
     shares: Vec<f32>,
+    /// [`Feedback::rates`].
+    rates: Vec<f32>,
     /// The head's rotation the grid's axes turn by.
     rotation: glam::Quat,
 }
@@ -523,18 +525,63 @@ impl VolumeGrid {
     /// (`volume.pressure` of its gradient). Roots are left alone. Each particle reads only
     /// the grid, so chunks of strands take it on their own threads, in any order.
     pub(in crate::solver) fn feed_back(&self, step: &VolumeStep, first: usize, velocities: &mut [Vec3]) {
-        let VolumeStep { shares, rotation } = step;
-        let n = shares.len().max(1);
-        debug_assert_eq!(first % n, 0, "whole strands");
-        let splats = self.splats.get(first..).unwrap_or_default();
-        for (strand, velocities) in splats.chunks(n).zip(velocities.chunks_mut(n)) {
-            for ((splat, v), share) in strand.iter().zip(velocities).zip(shares) {
-                let Some(splat) = splat else { continue };
-                let (mean, push) = self.sample(splat);
-                *v += (mean - *v) * *share + *rotation * push;
+        for (v, answer) in velocities.iter_mut().zip(self.answers(step, first)) {
+            if let Some(a) = answer {
+                *v += (a.mean - *v) * a.share + a.push;
             }
         }
     }
+
+    /// The same answer for the spring model, which takes it into its implicit solve
+    /// (`implicit_springs`) instead of into the velocities: one [`SpringFeedback`] per
+    /// particle from `first` on.
+    pub(in crate::solver) fn feed_back_to_springs(&self, step: &VolumeStep, first: usize, out: &mut [SpringFeedback]) {
+        for (f, answer) in out.iter_mut().zip(self.answers(step, first)) {
+            *f = answer.map_or(SpringFeedback::default(), |a| SpringFeedback {
+                toward: a.mean,
+                rate: a.rate,
+                kick: a.push,
+            });
+        }
+    }
+
+    /// The grid's answer for each particle from `first` on, root to tip strand after
+    /// strand: `None` for one it does not hold (a root).
+    fn answers<'a>(&'a self, step: &'a VolumeStep, first: usize) -> impl Iterator<Item = Option<Answer>> + 'a {
+        let VolumeStep { shares, rates, rotation } = step;
+        debug_assert_eq!(first % shares.len().max(1), 0, "whole strands");
+        let splats = self.splats.get(first..).unwrap_or_default();
+        let along = shares.iter().zip(rates).cycle();
+        splats.iter().zip(along).map(move |(splat, (&share, &rate))| {
+            let (mean, push) = self.sample(splat.as_ref()?);
+            Some(Answer { mean, push: *rotation * push, share, rate })
+        })
+    }
+}
+
+/// The grid's answer for one particle ([`VolumeGrid::answers`]).
+struct Answer {
+    /// The hair's mean velocity around it.
+    mean: Vec3,
+    /// The density push's and the pressure's velocity change, world axes.
+    push: Vec3,
+    /// [`Feedback::shares`] and [`Feedback::rates`] at its index.
+    share: f32,
+    rate: f32,
+}
+
+/// The grid's answer for one particle as the spring model takes it into its implicit
+/// solve: the friction as a force toward the hair's mean velocity, and the density push
+/// and the pressure as a velocity change of the step's first substep that the integrator's
+/// memory of the substep before does not carry forward (BDF2 would take it 4/3 times).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(in crate::solver) struct SpringFeedback {
+    /// The velocity the friction pulls toward (world axes).
+    pub toward: Vec3,
+    /// The share of the difference the friction takes per second, as a rate (0: none).
+    pub rate: f32,
+    /// The velocity change of the density push and the pressure.
+    pub kick: Vec3,
 }
 
 /// How much of the grid's answer a step of the volume feeds back into the velocities, the
@@ -548,19 +595,27 @@ pub struct Feedback {
     /// The velocity change per unit of density-excess gradient (per cell) in this step:
     /// `−density_push × cell × dt`.
     pub push: f32,
+    /// Per particle index, root to tip: the same friction as a rate per second, for the
+    /// spring model, whose implicit solve takes it substep by substep: over a step of
+    /// `dt` with the mean held still, `1 − e^(−rate·dt)` is `shares`. A friction of 1
+    /// (the whole difference at once) is taken as keeping [`MIN_FRICTION_KEPT`] of it
+    /// per 1/60 s, so that the rate is finite.
+    pub rates: Vec<f32>,
 }
+
+/// What a friction of 1 keeps of the difference per 1/60 s, as a rate ([`Feedback::rates`]).
+pub const MIN_FRICTION_KEPT: f32 = 1e-6;
 
 impl Feedback {
     /// The feedback of a step of `dt` seconds on `grid`, for strands of `n` particles.
     pub fn new(grid: &VolumeGrid, volume: &Volume, n: usize, dt: f32) -> Self {
-        let shares = (0..n)
-            .map(|j| {
-                let t = j as f32 / (n - 1).max(1) as f32;
-                let friction = volume.friction_root + (volume.friction_tip - volume.friction_root) * t;
-                1.0 - (1.0 - friction).powf(dt * 60.0)
-            })
-            .collect();
-        Feedback { shares, push: -volume.density_push * grid.lattice.cell * dt }
+        let friction = |j: usize| {
+            let t = j as f32 / (n - 1).max(1) as f32;
+            volume.friction_root + (volume.friction_tip - volume.friction_root) * t
+        };
+        let shares = (0..n).map(|j| 1.0 - (1.0 - friction(j)).powf(dt * 60.0)).collect();
+        let rates = (0..n).map(|j| -(1.0 - friction(j)).max(MIN_FRICTION_KEPT).ln() * 60.0).collect();
+        Feedback { shares, push: -volume.density_push * grid.lattice.cell * dt, rates }
     }
 }
 

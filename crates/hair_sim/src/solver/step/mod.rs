@@ -30,7 +30,7 @@ use super::lanes::{Baseline, M3, MAX_LANES, Mask, PoseLanes, Simd, V3, Wide};
 use super::params::{CollisionResponse, LengthMode, stiffness_per_application};
 use super::rest_lanes::{RestLanes, Row};
 use super::sleep::{self, SleepWatch, Stillness};
-use super::volume::{VolumeGrid, VolumeStep};
+use super::volume::{SpringFeedback, VolumeGrid, VolumeStep};
 use super::wind::wind_at;
 use super::{ChunkState, RestShape, StepInput, StepReport};
 #[cfg(target_arch = "x86_64")]
@@ -225,6 +225,16 @@ struct GroupState<S: Simd> {
     previous_positions: Vec<V3<S>>,
     previous_velocities: Vec<V3<S>>,
     history_step: Wide<S>,
+    /// Whether the hair–hair grid's answer enters the spring solve: then per particle
+    /// the velocity its friction pulls toward, the rate, and the push's and the
+    /// pressure's velocity change ([`SpringFeedback`]).
+    grid_feedback: bool,
+    friction_toward: Vec<V3<S>>,
+    friction_rate: Vec<Wide<S>>,
+    grid_kick: Vec<V3<S>>,
+    /// Per particle, the share of its inverse mass the spring solve moves it by: 1, or
+    /// less where the grid's friction holds it ([`implicit_springs`]).
+    mobility: Vec<Wide<S>>,
     /// The spring solve's scratch: segment directions, and the tridiagonal sweep's
     /// coefficients and unknowns per segment.
     directions: Vec<V3<S>>,
@@ -270,10 +280,12 @@ impl<S: Simd> GroupState<S> {
     }
 
     /// A group of strands of `n` particles; the spring model's memory and scratch only
-    /// with `springs` (zeroing them for nothing is a cost each chunk pays every step).
+    /// with `springs` (zeroing them for nothing is a cost each chunk pays every step), the
+    /// grid's answer in its solve with `grid_feedback` too.
     #[inline(always)]
-    fn new(n: usize, springs: bool) -> Self {
+    fn new(n: usize, springs: bool, grid_feedback: bool) -> Self {
         let spring_n = if springs { n } else { 0 };
+        let grid_n = if springs && grid_feedback { n } else { 0 };
         GroupState {
             strands: [0; MAX_LANES],
             lanes: 0,
@@ -287,6 +299,11 @@ impl<S: Simd> GroupState<S> {
             previous_positions: vec![V3::zero(); spring_n],
             previous_velocities: vec![V3::zero(); spring_n],
             history_step: Wide::zero(),
+            grid_feedback: grid_n > 0,
+            friction_toward: vec![V3::zero(); grid_n],
+            friction_rate: vec![Wide::zero(); grid_n],
+            grid_kick: vec![V3::zero(); grid_n],
+            mobility: vec![Wide::one(); spring_n],
             directions: vec![V3::zero(); spring_n],
             sweep: vec![Wide::zero(); spring_n],
             tension: vec![Wide::zero(); spring_n],
@@ -367,6 +384,21 @@ impl<S: Simd> GroupState<S> {
                     self.previous_velocities[j].set_lane(l, v);
                 }
                 self.history_step.set(l, state.history_step[k]);
+            }
+        }
+    }
+
+    /// Loads the grid's answer for the group's strands, `n` per lane in lane order (see
+    /// [`VolumeGrid::feed_back_to_springs`]); empty lanes take the first strand's.
+    #[inline(always)]
+    fn load_grid(&mut self, answers: &[SpringFeedback]) {
+        let n = self.positions.len();
+        for l in 0..Wide::<S>::LANES {
+            let strand = &answers[if l < self.lanes { l } else { 0 } * n..][..n];
+            for (j, f) in strand.iter().enumerate() {
+                self.friction_toward[j].set_lane(l, f.toward);
+                self.friction_rate[j].set(l, f.rate);
+                self.grid_kick[j].set_lane(l, f.kick);
             }
         }
     }
@@ -475,7 +507,11 @@ fn step_chunk_on<S: Simd>(
     let head_to = *c.shared.poses.last().expect("at least one pose");
     // Only the spring model integrates with memory of the substep before.
     let history = p.length_mode == LengthMode::Springs;
-    let mut group_state = GroupState::<S>::new(n, history);
+    // The spring model takes the grid's answer into its implicit solve: the feedback
+    // leaves it in `for_springs`, strand by strand in lane order, for the group to load.
+    let to_springs = history && volume.is_some();
+    let mut group_state = GroupState::<S>::new(n, history, to_springs);
+    let mut for_springs = vec![SpringFeedback::default(); if to_springs { MAX_LANES * n } else { 0 }];
 
     let stillness = Stillness::of(input);
 
@@ -498,13 +534,20 @@ fn step_chunk_on<S: Simd>(
             // The hair–hair grid's feedback, for the strands that step: a sleeping one
             // keeps its velocity as it fell asleep with.
             if let Some((grid, step)) = volume {
-                grid.feed_back(step, (first_strand + k) * n, &mut state.velocities[k * n..][..n]);
+                if to_springs {
+                    grid.feed_back_to_springs(step, (first_strand + k) * n, &mut for_springs[lanes * n..][..n]);
+                } else {
+                    grid.feed_back(step, (first_strand + k) * n, &mut state.velocities[k * n..][..n]);
+                }
             }
             group[lanes] = k;
             lanes += 1;
         }
         if lanes == Wide::<S>::LANES || (k + 1 == strands && lanes > 0) {
             group_state.load(&group[..lanes], first_strand, rest, state, history);
+            if to_springs {
+                group_state.load_grid(&for_springs[..lanes * n]);
+            }
             step_group(&mut group_state, state, &c, input, &mut report);
             group_state.store(state, history);
             for &k in &group[..lanes] {
@@ -554,6 +597,7 @@ fn step_group<S: Simd>(
             now: &c.lane_poses[s],
             now_one: &c.matrices[s],
             frame: c.shared.poses[s].rotation,
+            first: s == 1,
             last: s + 1 == c.shared.poses.len(),
         };
         let time = input.time + c.shared.h * s as f32;
@@ -575,7 +619,8 @@ struct SubstepPoses<'a, S: Simd> {
     now_one: &'a PoseMatrix,
     /// The rotation of `now`, for the root frames of local shape.
     frame: Quat,
-    /// Whether this is the step's last substep.
+    /// Whether this is the step's first substep, and its last.
+    first: bool,
     last: bool,
 }
 
@@ -621,7 +666,7 @@ fn substep<S: Simd>(
             g.base.copy_from_slice(&g.start);
             g.step = h;
         }
-        LengthMode::Springs => implicit_springs(g, c, p),
+        LengthMode::Springs => implicit_springs(g, c, p, poses.first),
     }
 
     // 3. Shape and length.

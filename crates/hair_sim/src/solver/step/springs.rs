@@ -22,23 +22,45 @@ use crate::solver::params::SimParams;
 /// A segment that this would take past the length tolerance is instead held at its bound
 /// in a second solve, its tension whatever that takes (a rigid rod): the clamp is part of
 /// the balance, and the segments below a clamped one still carry exactly their weight.
+///
+/// With hair volume, the grid's friction is a force of the same solve,
+/// `rate · m · (v̄ − v)` toward the hair's mean velocity `v̄` around a particle: implicit,
+/// it gives `v = ρ (v̂ + step · rate · v̄) + ρ · step · f/m` with `ρ = 1 / (1 + step · rate)`,
+/// so each particle's prediction moves toward `v̄` and its inverse mass is `ρ / m` in the
+/// tension solve. The springs and the friction then agree within the substep, instead of
+/// one undoing the other's work. The density push and the pressure enter `v̂` once, in the
+/// step's `first` substep.
 #[inline(always)]
-pub(super) fn implicit_springs<S: Simd>(g: &mut GroupState<S>, c: &Constants<S>, p: &SimParams) {
+pub(super) fn implicit_springs<S: Simd>(g: &mut GroupState<S>, c: &Constants<S>, p: &SimParams, first: bool) {
     let n = g.positions.len();
     let h = Wide::splat(c.shared.h);
     // BDF2 where a lane remembers a substep of the same length, else backward Euler.
-    let first = g.history_step.cmpne(h);
+    let fresh = g.history_step.cmpne(h);
     let (now, before) = (Wide::splat(4.0 / 3.0), Wide::splat(1.0 / 3.0));
-    let current = Wide::select(first, Wide::one(), now);
-    let previous = Wide::select(first, Wide::zero(), before);
-    let step = Wide::select(first, h, h * Wide::splat(2.0 / 3.0));
+    let current = Wide::select(fresh, Wide::one(), now);
+    let previous = Wide::select(fresh, Wide::zero(), before);
+    let step = Wide::select(fresh, h, h * Wide::splat(2.0 / 3.0));
     let drag = Wide::splat(c.shared.drag_factor);
+    // The grid's push, where it enters: a change of the velocity and of its memory alike,
+    // so that BDF2 does not read it as a trend to carry on.
+    let kick = g.grid_feedback && first;
     for j in 1..n {
-        let (x, v) = (g.start[j], g.velocities[j]);
+        let (x, mut v, mut v_before) = (g.start[j], g.velocities[j], g.previous_velocities[j]);
+        if kick {
+            (v, v_before) = (v + g.grid_kick[j], v_before + g.grid_kick[j]);
+        }
         g.base[j] = x * current - g.previous_positions[j] * previous;
         // Drag on the carried velocity only, so that at rest the springs carry the whole
         // weight: the static balance does not depend on the air.
-        g.velocities[j] = (v * current - g.previous_velocities[j] * previous) * drag + g.accel[j] * step;
+        let carried = (v * current - v_before * previous) * drag + g.accel[j] * step;
+        g.velocities[j] = if g.grid_feedback {
+            // `1 − ρ` rather than `ρ · step · rate`: the rate may be large.
+            let keep = (Wide::one() + step * g.friction_rate[j]).recip();
+            g.mobility[j] = keep;
+            carried * keep + g.friction_toward[j] * (Wide::one() - keep)
+        } else {
+            carried
+        };
         g.previous_positions[j] = x;
         g.previous_velocities[j] = v;
         g.positions[j] = g.base[j] + g.velocities[j] * step;
@@ -73,7 +95,7 @@ pub(super) fn implicit_springs<S: Simd>(g: &mut GroupState<S>, c: &Constants<S>,
         let mut added = 0;
         let mut parent = g.positions[0];
         for j in 1..n {
-            let x = g.positions[j] + pull(g, j) * (step * step * w);
+            let x = g.positions[j] + pull(g, j) * (step * step * w * g.mobility[j]);
             let stretch = (x - parent).length() - g.lengths[j];
             parent = x;
             // A segment resting on its bound, which this solve would leave there, counts too.
@@ -96,7 +118,7 @@ pub(super) fn implicit_springs<S: Simd>(g: &mut GroupState<S>, c: &Constants<S>,
     }
     let max_speed = Wide::splat(p.max_speed);
     for j in 1..n {
-        g.velocities[j] = (g.velocities[j] + pull(g, j) * (step * w)).clamp_length_max(max_speed);
+        g.velocities[j] = (g.velocities[j] + pull(g, j) * (step * w * g.mobility[j])).clamp_length_max(max_speed);
         g.positions[j] = g.base[j] + g.velocities[j] * step;
     }
 }
@@ -120,17 +142,19 @@ pub(super) fn pull<S: Simd>(g: &GroupState<S>, j: usize) -> V3<S> {
 /// root to nothing. A spring row is the implicit force law (see [`implicit_springs`]);
 /// a rigid row (`g.rigid`) asks that the segment end at its bound,
 /// `(1 ± length_tolerance) l0`, where `displacement` (step² / m) turns a tension into
-/// how far it moves a particle.
+/// how far it moves a particle of `g.mobility` 1.
 #[inline(always)]
 pub(super) fn solve_tensions<S: Simd>(g: &mut GroupState<S>, coupling: Wide<S>, displacement: Wide<S>) {
     let n = g.positions.len();
     let mut upper_before = Wide::zero();
     for j in 1..n {
-        // J M⁻¹ Jᵀ in units of 1/m: 1 on the diagonal of the first segment (its parent is
-        // pinned), 2 elsewhere, −cos(angle) to each neighbour.
-        let own = if j == 1 { Wide::one() } else { Wide::splat(2.0) };
-        let lower = if j == 1 { Wide::zero() } else { -g.directions[j].dot(g.directions[j - 1]) };
-        let upper = if j + 1 < n { -g.directions[j].dot(g.directions[j + 1]) } else { Wide::zero() };
+        // J M⁻¹ Jᵀ in units of 1/m, each particle's inverse mass its mobility: on the
+        // diagonal the two ends' (the first segment's parent is pinned), to each neighbour
+        // −cos(angle) times the shared particle's.
+        let m = &g.mobility;
+        let own = if j == 1 { m[1] } else { m[j - 1] + m[j] };
+        let lower = if j == 1 { Wide::zero() } else { -g.directions[j].dot(g.directions[j - 1]) * m[j - 1] };
+        let upper = if j + 1 < n { -g.directions[j].dot(g.directions[j + 1]) * m[j] } else { Wide::zero() };
         let rigid = g.rigid[j];
         // A rigid row: the linearised length change equals the way to the bound.
         let to_bound = g.bound[j] - g.stretch[j];

@@ -9,7 +9,7 @@ use crate::solver::Strands;
 fn one(rest_positions: Vec<Vec3>, xs: &[Vec3]) -> GroupState<Baseline> {
     let mut strands = strands_at(RestShape::new(rest_positions, xs.len()).unwrap(), xs);
     let chunks = strands.chunks_mut(1);
-    let mut g = GroupState::new(xs.len(), false);
+    let mut g = GroupState::new(xs.len(), false, false);
     g.load(&[0], 0, chunks[0].rest, &chunks[0].state, false);
     g
 }
@@ -116,7 +116,7 @@ fn empty_lanes_repeat_the_first_strand_and_are_not_stored() {
     let mut strands = strands_at(rest.clone(), &doubled);
     let mut chunks = strands.chunks_mut(2);
     let (rest, state) = (chunks[0].rest, &mut chunks[0].state);
-    let mut g = GroupState::<Baseline>::new(n, false);
+    let mut g = GroupState::<Baseline>::new(n, false, false);
     g.load(&[1], 0, rest, state, false);
     assert_eq!((g.lanes, g.strands), (1, [1; MAX_LANES]));
     assert!((0..Wide::<Baseline>::LANES).all(|l| g.positions[2].lane(l) == Vec3::new(0.0, -4.0, 0.0)));
