@@ -52,15 +52,17 @@ fn the_grids_integer_sums_are_the_cpus_bit_for_bit() {
 /// 0.1 µm, with and without collision, and stays out of the head. (The grid couples every
 /// strand to its neighbours, and a splat weight is a step function of position: rounding
 /// that moves a particle across a weight's step changes the push on all the hair around
-/// it, so the two part by more than without volume, and so do the CPU's own twins.)
+/// it, so the two part by more than without volume, and so do the CPU's own twins.) In
+/// both length models: the spring model takes the grid's answer into its implicit solve.
 #[test]
 fn with_volume_the_gpu_follows_the_cpu() {
     let Some(gpu) = gpu() else { return };
     let (_, collider, rest) = groom(256);
     let n = rest.particles_per_strand;
     let steps = 60;
-    for collision in [false, true] {
-        let params = with_volume(collision);
+    let models = [LengthMode::Inextensible, LengthMode::Springs];
+    for (collision, length_mode) in [false, true].into_iter().flat_map(|c| models.map(|m| (c, m))) {
+        let params = SimParams { length_mode, ..with_volume(collision) };
         let mut twins = Twins::new(&rest, head_pose(0.0));
         let [(cpu, _), (on_gpu, _)] =
             run_both_reporting(&gpu, &rest, &collider, &params, &[], steps, head_pose, Some(&mut twins));
@@ -68,7 +70,7 @@ fn with_volume_the_gpu_follows_the_cpu() {
         let spread = twins.spread(&cpu);
         let deepest = deepest_in_head(&on_gpu, n, &collider, head_pose(steps as f32 * DT));
         eprintln!(
-            "volume, collision {collision}, after {steps} steps: mean {:.4} mm, max {:.2} mm apart (the CPU \
+            "volume, {length_mode:?}, collision {collision}, after {steps} steps: mean {:.4} mm, max {:.2} mm apart (the CPU \
              nudged: {:.4} mm, {:.2} mm); deepest {:.3} mm",
             mean * 1e3,
             max * 1e3,
@@ -121,6 +123,46 @@ fn the_pressure_pushes_as_on_the_cpu() {
         "one step of pressure: velocities {apart:.1e} m/s apart, the pressure changed them by up to {pushed:.3} m/s"
     );
     assert!(pushed > 100.0 * apart.max(1e-6), "the pressure moved nothing measurable: {pushed} m/s");
+    assert!(apart < 1e-4, "{apart} m/s apart");
+}
+
+/// The spring model, one step from the same moving state on both (strands in turn moving
+/// one way and the other, so that each differs from the hair's mean velocity around it),
+/// with the grid's friction and density push as the volume's only effect: the velocities
+/// it leaves are the CPU's to rounding, and the volume moved them by more than a hundred
+/// times that.
+#[test]
+fn in_the_spring_model_the_grids_answer_is_the_cpus() {
+    let Some(gpu) = gpu() else { return };
+    let (_, collider, rest) = groom(256);
+    let n = rest.particles_per_strand;
+    let swinging: Vec<Vec3> = (0..rest.positions.len())
+        .map(|i| {
+            if i % n == 0 { Vec3::ZERO } else { Vec3::new(0.3, 0.1, -0.2) * if (i / n) % 2 == 0 { 1.0 } else { -1.0 } }
+        })
+        .collect();
+    let base = SimParams { length_mode: LengthMode::Springs, collision: false, ..SimParams::default() };
+    let step_both = |volume: Volume| {
+        let params = SimParams { volume, ..base };
+        let mut cpu = Strands::new(rest.clone(), Pose::IDENTITY);
+        cpu.set_velocities(&swinging).expect("one per particle");
+        let mut on_gpu = GpuStrands::new(&gpu, &rest, Pose::IDENTITY, Some(&collider)).expect("GPU strands");
+        assert!(on_gpu.set_velocities(&swinging));
+        let input = input_at(0, |_| Pose::IDENTITY, &collider, &params);
+        cpu.step(&input);
+        on_gpu.step(&input).expect("GPU step");
+        (cpu.velocities().to_vec(), on_gpu.velocities().expect("read back"))
+    };
+    let volume =
+        Volume { enabled: true, friction_root: 0.3, friction_tip: 0.2, pressure_iterations: 0, ..Volume::default() };
+    let (cpu, on_gpu) = step_both(volume);
+    let (cpu_off, _) = step_both(Volume::default());
+    let apart = cpu.iter().zip(&on_gpu).map(|(a, b)| a.distance(*b)).fold(0.0, f32::max);
+    let changed = cpu.iter().zip(&cpu_off).map(|(a, b)| a.distance(*b)).fold(0.0, f32::max);
+    eprintln!(
+        "one spring step with volume: velocities {apart:.1e} m/s apart, the volume changed them by up to {changed:.3} m/s"
+    );
+    assert!(changed > 100.0 * apart.max(1e-6), "the volume moved nothing measurable: {changed} m/s");
     assert!(apart < 1e-4, "{apart} m/s apart");
 }
 
