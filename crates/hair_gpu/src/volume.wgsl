@@ -26,7 +26,7 @@ struct Volume {
     // applied (`Volume::pressure`), the cell's side squared.
     feedback: vec4<f32>,
     // 1 / the step's length (the pressure's source is an overflow per second); 1 in y where
-    // the spring model takes the friction into its implicit solve (`feed_back`).
+    // the spring model takes the grid's answer into its implicit solve (`feed_back`).
     solve: vec4<f32>,
 }
 
@@ -141,15 +141,7 @@ fn particle_splat(i: u32) -> Splat {
 fn splat_particles(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = invocation(id, groups);
     let splat = particle_splat(i);
-    // The step shader's planes of the grid's answer for its springs (`grid_friction`,
-    // `grid_kick`).
-    let slots = slot_count(volume.counts.x, volume.counts.y);
-    let implicit = volume.solve.y == 1.0;
     if !splat.inside {
-        if implicit && i < slots {
-            motion[6u * slots + i] = vec4<f32>(0.0);
-            motion[7u * slots + i] = vec4<f32>(0.0);
-        }
         return;
     }
     let v = motion[i].xyz;
