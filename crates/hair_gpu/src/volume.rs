@@ -35,8 +35,8 @@ struct VolumeUniform {
     solve: [f32; 4],
 }
 
-/// The volume shader's passes (`splat_particles`, `resolve_cells`, `relax_red`,
-/// `relax_black`, `feed_back`) on one layout: compiled with the strands, so that a step
+/// The volume shader's passes (`splat_particles`, `resolve_cells`, `predict_overflow`,
+/// `relax_red`, `relax_black`, `feed_back`) on one layout: compiled with the strands, so that a step
 /// that first asks for volume does not wait for a compiler.
 pub(crate) struct VolumePasses {
     layout: SharedLayout,
@@ -60,7 +60,7 @@ impl VolumePasses {
             "hair_gpu volume",
             VOLUME_SHADER,
             &bindings,
-            ["splat_particles", "resolve_cells", "relax_red", "relax_black", "feed_back"],
+            ["splat_particles", "resolve_cells", "predict_overflow", "relax_red", "relax_black", "feed_back"],
         );
         VolumePasses { layout, pipelines }
     }
@@ -173,18 +173,20 @@ impl GpuVolume {
             translation: [t.x, t.y, t.z, 0.0],
             rotation: columns(rotation),
             feedback: [feedback.push, self.grid.rest_scale(), volume.pressure, self.grid.cell() * self.grid.cell()],
-            solve: [1.0 / dt.max(1e-6), f32::from(u8::from(implicit)), 0.0, 0.0],
+            solve: [1.0 / dt.max(1e-6), f32::from(u8::from(implicit)), dt, 0.0],
         };
         recorder.upload(&self.uniform, bytemuck::bytes_of(&uniform));
         let friction = if implicit { &feedback.rates } else { &feedback.shares };
         recorder.upload(&self.shares, bytemuck::cast_slice(friction));
         recorder.encoder().clear_buffer(&self.sums, 0, None);
-        let [splat, resolve, red, black, feed_back] = std::array::from_fn(|k| &passes.pipelines[k]);
+        let [splat, resolve, predict, red, black, feed_back] = std::array::from_fn(|k| &passes.pipelines[k]);
         recorder.dispatch("hair_gpu volume splat", splat, (&self.group, &[]), slots);
         recorder.dispatch("hair_gpu volume cells", resolve, (&self.group, &[]), cells);
         if volume.pressure_iterations == 0 {
             // Off: nothing left over from when it was on (`VolumeGrid::solve_pressure`).
             recorder.encoder().clear_buffer(&self.pressure, 0, None);
+        } else {
+            recorder.dispatch("hair_gpu volume overflow", predict, (&self.group, &[]), cells);
         }
         for _ in 0..volume.pressure_iterations {
             recorder.dispatch("hair_gpu volume pressure, red", red, (&self.group, &[]), cells);

@@ -1,7 +1,8 @@
 // Hair with volume: hair_sim's `VolumeGrid` (`solver/volume.rs`) on the GPU, once a step
 // before its substeps. Every particle splats its mass and momentum into the eight cells
 // around it with integer atomics (`splat_particles`); each cell's mean velocity and density
-// excess are worked out once (`resolve_cells`); the pressure is relaxed in red and black
+// excess are worked out once (`resolve_cells`), and where it overflows (`predict_overflow`);
+// the pressure is relaxed in red and black
 // sweeps (`relax_red`, `relax_black`); each particle's velocity then moves toward the mean
 // around it, down the excess and down the pressure (`feed_back`), or for the spring model
 // that answer is left for its implicit solve. The splat is the CPU's, integer for
@@ -26,7 +27,8 @@ struct Volume {
     // applied (`Volume::pressure`), the cell's side squared.
     feedback: vec4<f32>,
     // 1 / the step's length (the pressure's source is an overflow per second); 1 in y where
-    // the spring model takes the grid's answer into its implicit solve (`feed_back`).
+    // the spring model takes the grid's answer into its implicit solve (`feed_back`); the
+    // step's length.
     solve: vec4<f32>,
 }
 
@@ -36,7 +38,8 @@ struct Volume {
 @group(0) @binding(2) var<storage, read_write> motion: array<vec4<f32>>;
 // Per cell, eight words: mass, then momentum along x, y and z, each low word then high.
 @group(0) @binding(3) var<storage, read_write> sums: array<atomic<u32>>;
-// Per cell, two vec4: the mean velocity and the density excess; the mass (0: empty).
+// Per cell, two vec4: the mean velocity and the density excess; the mass (0: empty), the
+// mass over the pressure's target and the overflow (`predict_overflow`).
 @group(0) @binding(4) var<storage, read_write> cells: array<vec4<f32>>;
 // Per cell, the rest pose's mass, low word then high.
 @group(0) @binding(5) var<storage, read> rest_mass: array<u32>;
@@ -178,11 +181,48 @@ fn resolve_cells(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_work
         let pz = loaded(at + 6u);
         mean = vec3<f32>(wide_f32(px.x, px.y), wide_f32(py.x, py.y), wide_f32(pz.x, pz.y)) * scale;
     }
-    // The density beyond the target, per second, as `VolumeGrid::splat` works it out.
+    // The mass over the pressure's target, as `VolumeGrid::resolve_cells` works it out.
     let wanted = max(wide_f32(rest.x, rest.y) / PARTICLE_MASS_UNITS, volume.feedback.y * LIVE_FLOOR) * (1.0 + PRESSURE_SLACK);
-    let overflow = max((m / PARTICLE_MASS_UNITS - wanted) / wanted, 0.0);
     cells[2u * c] = vec4<f32>(mean, excess);
-    cells[2u * c + 1u] = vec4<f32>(m, overflow, 0.0, 0.0);
+    cells[2u * c + 1u] = vec4<f32>(m, m / PARTICLE_MASS_UNITS / wanted, 0.0, 0.0);
+}
+
+// The mean velocity of the cell `step` from `c` along an axis, or `own` where that is
+// beyond the grid or holds no hair (`VolumeGrid::resolve_divergence`).
+fn mean_beside(c: u32, inside: bool, step: i32, own: vec3<f32>) -> vec3<f32> {
+    if !inside {
+        return own;
+    }
+    let n = u32(i32(c) + step);
+    return select(own, cells[2u * n].xyz, cells[2u * n + 1u].x > 0.0);
+}
+
+// Cell `c`'s overflow: the density beyond its target the step would leave were the hair
+// to go on spreading or packing as it does (hair_sim's `VolumeGrid::solve_pressure`), from
+// the divergence of the mean velocity along the head's axes.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn predict_overflow(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let c = invocation(id, groups);
+    if c >= volume.counts.z {
+        return;
+    }
+    let cell = cells[2u * c + 1u];
+    if !(cell.x > 0.0) {
+        cells[2u * c + 1u].z = 0.0;
+        return;
+    }
+    let d = volume.dims.xyz;
+    let at = vec3<u32>(c % d.x, (c / d.x) % d.y, c / (d.x * d.y));
+    let strides = vec3<i32>(1, i32(d.x), i32(d.x * d.y));
+    let own = cells[2u * c].xyz;
+    let inverse_2h = 0.5 * volume.origin.w;
+    var divergence = 0.0;
+    for (var a = 0u; a < 3u; a++) {
+        let below = mean_beside(c, at[a] > 0u, -strides[a], own);
+        let above = mean_beside(c, at[a] + 1u < d[a], strides[a], own);
+        divergence += dot(above - below, volume.rotation[a].xyz) * inverse_2h;
+    }
+    cells[2u * c + 1u].z = max(cell.y * (1.0 - volume.solve.z * divergence) - 1.0, 0.0);
 }
 
 // One Gauss–Seidel update of cell `c`'s pressure if it is of `colour` (its coordinates'
@@ -212,7 +252,7 @@ fn relax(c: u32, colour: u32) {
     around += select(0.0, pressure[c + sy], at.y + 1u < d.y);
     around += select(0.0, pressure[c - sz], at.z > 0u);
     around += select(0.0, pressure[c + sz], at.z + 1u < d.z);
-    pressure[c] = max((around + volume.feedback.w * cell.y * volume.solve.x) / 6.0, 0.0);
+    pressure[c] = max((around + volume.feedback.w * cell.z * volume.solve.x) / 6.0, 0.0);
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)

@@ -138,7 +138,11 @@ fn in_the_spring_model_the_grids_answer_is_the_cpus() {
     let n = rest.particles_per_strand;
     let swinging: Vec<Vec3> = (0..rest.positions.len())
         .map(|i| {
-            if i % n == 0 { Vec3::ZERO } else { Vec3::new(0.3, 0.1, -0.2) * if (i / n) % 2 == 0 { 1.0 } else { -1.0 } }
+            if i % n == 0 {
+                Vec3::ZERO
+            } else {
+                Vec3::new(0.3, 0.1, -0.2) * if (i / n).is_multiple_of(2) { 1.0 } else { -1.0 }
+            }
         })
         .collect();
     let base = SimParams { length_mode: LengthMode::Springs, collision: false, ..SimParams::default() };

@@ -73,8 +73,14 @@ pub struct VolumeGrid {
 struct CellValue {
     occupied: bool,
     excess: f32,
-    /// The density beyond the cell's target to take away per second
-    /// ([`VolumeGrid::solve_pressure`]), as a share of the target.
+    /// The mass over the pressure's target ([`VolumeGrid::resolve_cells`]).
+    fill: f32,
+    /// The divergence of the hair's mean velocity, per second: how fast the hair in the
+    /// cell spreads out (or, below 0, packs together).
+    divergence: f32,
+    /// The density the step would leave beyond the target, were the hair to go on as it
+    /// moves, as a share of the target: what the pressure takes away in the step
+    /// ([`VolumeGrid::solve_pressure`]).
     overflow: f32,
 }
 
@@ -252,7 +258,7 @@ impl VolumeGrid {
                 *sum = std::array::from_fn(|k| sum[k] + part[k]);
             }
         }
-        self.resolve_cells();
+        self.resolve_cells(pose.rotation);
     }
 
     /// The sums again after the strands `changed` (of `n` particles) moved since the last
@@ -270,11 +276,12 @@ impl VolumeGrid {
                     self.lattice.add_particle(&mut self.sums, head_local, positions[i], Some(velocities[i]));
             }
         }
-        self.resolve_cells();
+        self.resolve_cells(pose.rotation);
     }
 
-    /// Each cell's mean and excess, and whether it overflows, from the sums.
-    fn resolve_cells(&mut self) {
+    /// Each cell's mean velocity, excess, fill and divergence from the sums, the head
+    /// turned by `rotation`.
+    fn resolve_cells(&mut self, rotation: glam::Quat) {
         // Each cell's mean and excess, once, for every particle that reads it.
         let units = PARTICLE_MASS_UNITS as f32;
         let cells = self.sums.iter().zip(&self.rest_mass).zip(self.values.iter_mut().zip(&mut self.field));
@@ -297,16 +304,53 @@ impl VolumeGrid {
             // from its rest pose, may fill up to it), with a little room, so that hair
             // settling about its rest pose is left alone.
             let target = (r as f32 / units).max(self.rest_scale * self.floor) * (1.0 + PRESSURE_SLACK);
-            let overflow = ((m as f32 / units - target) / target).max(0.0);
-            *value = CellValue { occupied: m > 0, excess, overflow };
+            let fill = m as f32 / units / target;
+            *value = CellValue { occupied: m > 0, excess, fill, divergence: 0.0, overflow: 0.0 };
             *field = FieldCell { mean_velocity, occupied: if m > 0 { 1.0 } else { 0.0 }, potential: 0.0 };
+        }
+        let turn = glam::Mat3::from_quat(rotation);
+        self.resolve_divergence([turn.x_axis, turn.y_axis, turn.z_axis]);
+    }
+
+    /// Each cell's divergence of the hair's mean velocity, by central differences along
+    /// the grid's axes (`axes`, the head's, in world axes: the means are world velocities),
+    /// a neighbour without hair taken as moving with the cell: the edge of a lock that
+    /// moves as one does not spread or pack.
+    fn resolve_divergence(&mut self, axes: [Vec3; 3]) {
+        let [dx, dy, dz] = self.lattice.dims;
+        let strides = [1, dx, dx * dy];
+        let inverse_2h = 0.5 * self.lattice.inverse_cell;
+        for k in 0..dz {
+            for j in 0..dy {
+                for i in 0..dx {
+                    let c = i + dx * (j + dy * k);
+                    if !self.values[c].occupied {
+                        continue;
+                    }
+                    let own = self.field[c].mean_velocity;
+                    let at = [i, j, k];
+                    let mut divergence = 0.0;
+                    for a in 0..3 {
+                        let side = |c: Option<usize>| {
+                            c.filter(|&c| self.values[c].occupied).map_or(own, |c| self.field[c].mean_velocity)
+                        };
+                        let below = side((at[a] > 0).then(|| c - strides[a]));
+                        let above = side((at[a] + 1 < self.lattice.dims[a]).then(|| c + strides[a]));
+                        divergence += (above - below).dot(axes[a]) * inverse_2h;
+                    }
+                    self.values[c].divergence = divergence;
+                }
+            }
         }
     }
 
     /// Each cell's pressure: `sweeps` red–black Gauss–Seidel sweeps of `−∇²p = overflow / dt`
     /// from the last step's answer, 0 in cells without hair (the air does not push back) and
-    /// clamped at 0 (it only pushes apart). Its gradient, taken off a particle's velocity,
-    /// spreads the overflow out of the cell in the step of `dt` seconds.
+    /// clamped at 0 (it only pushes apart). The overflow is the density beyond the cell's
+    /// target that the step would leave, were the hair to go on spreading or packing as it
+    /// does (`fill × (1 − dt × divergence) − 1`, as a share of the target). The pressure's
+    /// gradient, taken off a particle's velocity, spreads that out of the cell in the step
+    /// of `dt` seconds.
     pub fn solve_pressure(&mut self, sweeps: u32, dt: f32) {
         if sweeps == 0 {
             // Off: nothing left over from when it was on.
@@ -316,6 +360,12 @@ impl VolumeGrid {
         let [dx, dy, dz] = self.lattice.dims;
         let h2 = self.lattice.cell * self.lattice.cell;
         let inverse_dt = 1.0 / dt.max(1e-6);
+        // Hair already spreading out of a full cell needs less push, and hair packing into
+        // one more: a push for the density as it stands overshoots, and where springs pull
+        // the hair back the two swing against each other.
+        for value in &mut self.values {
+            value.overflow = (value.fill * (1.0 - dt * value.divergence) - 1.0).max(0.0);
+        }
         for _ in 0..sweeps {
             for colour in 0..2 {
                 for k in 0..dz {
