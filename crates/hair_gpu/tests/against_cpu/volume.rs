@@ -104,26 +104,46 @@ fn the_pressure_pushes_as_on_the_cpu() {
     let pressure_only =
         Volume { enabled: true, friction_root: 0.0, friction_tip: 0.0, density_push: 0.0, ..Volume::default() };
     let base = SimParams { collision: false, global_stiffness_root: 0.0, local_stiffness: 0.0, ..SimParams::default() };
-    let step_both = |volume: Volume| {
-        let params = SimParams { volume, ..base };
-        let mut cpu = Strands::new(rest.clone(), Pose::IDENTITY);
-        cpu.set_positions(&pressed).expect("finite");
-        let mut on_gpu = GpuStrands::new(&gpu, &rest, Pose::IDENTITY, Some(&collider)).expect("GPU strands");
-        assert!(on_gpu.set_positions(&pressed));
-        let input = input_at(0, |_| Pose::IDENTITY, &collider, &params);
-        cpu.step(&input);
-        on_gpu.step(&input).expect("GPU step");
-        (cpu.velocities().to_vec(), on_gpu.velocities().expect("read back"))
-    };
-    let (cpu, on_gpu) = step_both(pressure_only);
-    let (cpu_off, _) = step_both(Volume::default());
-    let apart = cpu.iter().zip(&on_gpu).map(|(a, b)| a.distance(*b)).fold(0.0, f32::max);
-    let pushed = cpu.iter().zip(&cpu_off).map(|(a, b)| a.distance(*b)).fold(0.0, f32::max);
+    let (apart, pushed) =
+        one_step_beside_the_cpu(&gpu, (&rest, &collider), base, pressure_only, (Some(&pressed), None));
     eprintln!(
         "one step of pressure: velocities {apart:.1e} m/s apart, the pressure changed them by up to {pushed:.3} m/s"
     );
     assert!(pushed > 100.0 * apart.max(1e-6), "the pressure moved nothing measurable: {pushed} m/s");
     assert!(apart < 1e-4, "{apart} m/s apart");
+}
+
+/// A groom stepped once from `start` (its positions and its velocities where given, else
+/// at rest) under `base` with `volume`, on the CPU and on the GPU: how far apart the two
+/// leave the velocities, and how far `volume` moved the CPU's from where the same step
+/// without volume leaves them (m/s, the largest of each).
+fn one_step_beside_the_cpu(
+    gpu: &GpuContext,
+    (rest, collider): (&RestShape, &HeadCollider),
+    base: SimParams,
+    volume: Volume,
+    start: (Option<&[Vec3]>, Option<&[Vec3]>),
+) -> (f32, f32) {
+    let step_both = |volume: Volume| {
+        let params = SimParams { volume, ..base };
+        let mut cpu = Strands::new(rest.clone(), Pose::IDENTITY);
+        let mut on_gpu = GpuStrands::new(gpu, rest, Pose::IDENTITY, Some(collider)).expect("GPU strands");
+        if let Some(positions) = start.0 {
+            cpu.set_positions(positions).expect("one finite position per particle");
+            assert!(on_gpu.set_positions(positions));
+        }
+        if let Some(velocities) = start.1 {
+            cpu.set_velocities(velocities).expect("one finite velocity per particle");
+            assert!(on_gpu.set_velocities(velocities));
+        }
+        let input = input_at(0, |_| Pose::IDENTITY, collider, &params);
+        cpu.step(&input);
+        on_gpu.step(&input).expect("GPU step");
+        (cpu.velocities().to_vec(), on_gpu.velocities().expect("read back"))
+    };
+    let ((cpu, on_gpu), (cpu_off, _)) = (step_both(volume), step_both(Volume::default()));
+    let largest = |a: &[Vec3], b: &[Vec3]| a.iter().zip(b).map(|(a, b)| a.distance(*b)).fold(0.0, f32::max);
+    (largest(&cpu, &on_gpu), largest(&cpu, &cpu_off))
 }
 
 /// The spring model, one step from the same moving state on both (strands in turn moving
@@ -146,23 +166,9 @@ fn in_the_spring_model_the_grids_answer_is_the_cpus() {
         })
         .collect();
     let base = SimParams { length_mode: LengthMode::Springs, collision: false, ..SimParams::default() };
-    let step_both = |volume: Volume| {
-        let params = SimParams { volume, ..base };
-        let mut cpu = Strands::new(rest.clone(), Pose::IDENTITY);
-        cpu.set_velocities(&swinging).expect("one per particle");
-        let mut on_gpu = GpuStrands::new(&gpu, &rest, Pose::IDENTITY, Some(&collider)).expect("GPU strands");
-        assert!(on_gpu.set_velocities(&swinging));
-        let input = input_at(0, |_| Pose::IDENTITY, &collider, &params);
-        cpu.step(&input);
-        on_gpu.step(&input).expect("GPU step");
-        (cpu.velocities().to_vec(), on_gpu.velocities().expect("read back"))
-    };
     let volume =
         Volume { enabled: true, friction_root: 0.3, friction_tip: 0.2, pressure_iterations: 0, ..Volume::default() };
-    let (cpu, on_gpu) = step_both(volume);
-    let (cpu_off, _) = step_both(Volume::default());
-    let apart = cpu.iter().zip(&on_gpu).map(|(a, b)| a.distance(*b)).fold(0.0, f32::max);
-    let changed = cpu.iter().zip(&cpu_off).map(|(a, b)| a.distance(*b)).fold(0.0, f32::max);
+    let (apart, changed) = one_step_beside_the_cpu(&gpu, (&rest, &collider), base, volume, (None, Some(&swinging)));
     eprintln!(
         "one spring step with volume: velocities {apart:.1e} m/s apart, the volume changed them by up to {changed:.3} m/s"
     );

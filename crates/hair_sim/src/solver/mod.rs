@@ -328,12 +328,7 @@ impl Strands {
     /// motionless: to restore a saved state or start from a pose of one's own. Roots are
     /// pinned again by the next step.
     pub fn set_positions(&mut self, positions: &[Vec3]) -> Result<(), StrandsError> {
-        if positions.len() != self.positions.len() {
-            return Err(StrandsError::PositionCount { given: positions.len(), expected: self.positions.len() });
-        }
-        if let Some(index) = positions.iter().position(|p| !p.is_finite()) {
-            return Err(StrandsError::NonFinitePosition { index });
-        }
+        self.check_one_each(positions, |index| StrandsError::NonFinitePosition { index })?;
         self.positions.copy_from_slice(positions);
         self.velocities.fill(Vec3::ZERO);
         self.hints.fill(ContactHint::NONE);
@@ -352,16 +347,20 @@ impl Strands {
     /// Every strand wakes, and the spring model starts its memory again. Roots take the
     /// head's velocity at the next step.
     pub fn set_velocities(&mut self, velocities: &[Vec3]) -> Result<(), StrandsError> {
-        if velocities.len() != self.velocities.len() {
-            return Err(StrandsError::PositionCount { given: velocities.len(), expected: self.velocities.len() });
-        }
-        if let Some(index) = velocities.iter().position(|v| !v.is_finite()) {
-            return Err(StrandsError::NonFiniteVelocity { index });
-        }
+        self.check_one_each(velocities, |index| StrandsError::NonFiniteVelocity { index })?;
         self.velocities.copy_from_slice(velocities);
         self.history_step.fill(0.0);
         self.wake();
         Ok(())
+    }
+
+    /// Whether `values` hold one finite value per particle; else what is wrong, the first
+    /// value that is not finite by `non_finite`.
+    fn check_one_each(&self, values: &[Vec3], non_finite: fn(usize) -> StrandsError) -> Result<(), StrandsError> {
+        if values.len() != self.positions.len() {
+            return Err(StrandsError::PositionCount { given: values.len(), expected: self.positions.len() });
+        }
+        values.iter().position(|v| !v.is_finite()).map_or(Ok(()), |index| Err(non_finite(index)))
     }
 
     /// Puts every strand back at rest under `pose`, motionless.
