@@ -1,13 +1,13 @@
 // Hair with volume: hair_sim's `VolumeGrid` (`solver/volume.rs`) on the GPU, once a step
 // before its substeps. Every particle splats its mass and momentum into the eight cells
 // around it with integer atomics (`splat_particles`); each cell's mean velocity and density
-// excess are worked out once (`resolve_cells`), and where it overflows (`predict_overflow`);
-// the pressure is relaxed in red and black
-// sweeps (`relax_red`, `relax_black`); each particle's velocity then moves toward the mean
-// around it, down the excess and down the pressure (`feed_back`), or for the spring model
-// that answer is left for its implicit solve. The splat is the CPU's, integer for
-// integer: a particle adds at most 2^31 to a cell's sum, and the sums are 64-bit, held as
-// two words (low, high), so they are the same in any order.
+// excess are worked out once (`resolve_cells`), and how far it would overflow
+// (`predict_overflow`); the pressure is relaxed in red and black sweeps (`relax_red`,
+// `relax_black`); each particle's velocity then moves toward the mean around it, down the
+// excess and down the pressure (`feed_back`), or for the spring model that answer is left
+// for its implicit solve. The splat is the CPU's, integer for integer: a particle adds at
+// most 2^31 to a cell's sum, and the sums are 64-bit, held as two words (low, high), so
+// they are the same in any order.
 // `layout.wgsl` is prepended: where each particle's values live.
 
 struct Volume {
