@@ -75,9 +75,6 @@ struct CellValue {
     excess: f32,
     /// The mass over the pressure's target ([`VolumeGrid::resolve_cells`]).
     fill: f32,
-    /// The divergence of the hair's mean velocity, per second: how fast the hair in the
-    /// cell spreads out (or, below 0, packs together).
-    divergence: f32,
     /// The density the step would leave beyond the target, were the hair to go on as it
     /// moves, as a share of the target: what the pressure takes away in the step
     /// ([`VolumeGrid::solve_pressure`]).
@@ -258,7 +255,7 @@ impl VolumeGrid {
                 *sum = std::array::from_fn(|k| sum[k] + part[k]);
             }
         }
-        self.resolve_cells(pose.rotation);
+        self.resolve_cells();
     }
 
     /// The sums again after the strands `changed` (of `n` particles) moved since the last
@@ -276,12 +273,11 @@ impl VolumeGrid {
                     self.lattice.add_particle(&mut self.sums, head_local, positions[i], Some(velocities[i]));
             }
         }
-        self.resolve_cells(pose.rotation);
+        self.resolve_cells();
     }
 
-    /// Each cell's mean velocity, excess, fill and divergence from the sums, the head
-    /// turned by `rotation`.
-    fn resolve_cells(&mut self, rotation: glam::Quat) {
+    /// Each cell's mean velocity, excess and fill from the sums.
+    fn resolve_cells(&mut self) {
         // Each cell's mean and excess, once, for every particle that reads it.
         let units = PARTICLE_MASS_UNITS as f32;
         let cells = self.sums.iter().zip(&self.rest_mass).zip(self.values.iter_mut().zip(&mut self.field));
@@ -305,53 +301,39 @@ impl VolumeGrid {
             // settling about its rest pose is left alone.
             let target = (r as f32 / units).max(self.rest_scale * self.floor) * (1.0 + PRESSURE_SLACK);
             let fill = m as f32 / units / target;
-            *value = CellValue { occupied: m > 0, excess, fill, divergence: 0.0, overflow: 0.0 };
+            *value = CellValue { occupied: m > 0, excess, fill, overflow: 0.0 };
             *field = FieldCell { mean_velocity, occupied: if m > 0 { 1.0 } else { 0.0 }, potential: 0.0 };
         }
-        let turn = glam::Mat3::from_quat(rotation);
-        self.resolve_divergence([turn.x_axis, turn.y_axis, turn.z_axis]);
     }
 
-    /// Each cell's divergence of the hair's mean velocity, by central differences along
-    /// the grid's axes (`axes`, the head's, in world axes: the means are world velocities),
-    /// a neighbour without hair taken as moving with the cell: the edge of a lock that
-    /// moves as one does not spread or pack.
-    fn resolve_divergence(&mut self, axes: [Vec3; 3]) {
-        let [dx, dy, dz] = self.lattice.dims;
+    /// The divergence of the hair's mean velocity in cell `c` (at `at`), per second: how
+    /// fast the hair there spreads out (below 0, packs together). Central differences
+    /// along the grid's axes (`axes`, the head's, in world axes: the means are world
+    /// velocities), a neighbour without hair taken as moving with the cell: the edge of a
+    /// lock that moves as one does not spread or pack.
+    fn divergence(&self, c: usize, at: [usize; 3], axes: &[Vec3; 3]) -> f32 {
+        let [dx, dy, _] = self.lattice.dims;
         let strides = [1, dx, dx * dy];
-        let inverse_2h = 0.5 * self.lattice.inverse_cell;
-        for k in 0..dz {
-            for j in 0..dy {
-                for i in 0..dx {
-                    let c = i + dx * (j + dy * k);
-                    if !self.values[c].occupied {
-                        continue;
-                    }
-                    let own = self.field[c].mean_velocity;
-                    let at = [i, j, k];
-                    let mut divergence = 0.0;
-                    for a in 0..3 {
-                        let side = |c: Option<usize>| {
-                            c.filter(|&c| self.values[c].occupied).map_or(own, |c| self.field[c].mean_velocity)
-                        };
-                        let below = side((at[a] > 0).then(|| c - strides[a]));
-                        let above = side((at[a] + 1 < self.lattice.dims[a]).then(|| c + strides[a]));
-                        divergence += (above - below).dot(axes[a]) * inverse_2h;
-                    }
-                    self.values[c].divergence = divergence;
-                }
-            }
+        let own = self.field[c].mean_velocity;
+        let side =
+            |c: Option<usize>| c.filter(|&c| self.values[c].occupied).map_or(own, |c| self.field[c].mean_velocity);
+        let mut divergence = 0.0;
+        for a in 0..3 {
+            let below = side((at[a] > 0).then(|| c - strides[a]));
+            let above = side((at[a] + 1 < self.lattice.dims[a]).then(|| c + strides[a]));
+            divergence += (above - below).dot(axes[a]) * (0.5 * self.lattice.inverse_cell);
         }
+        divergence
     }
 
     /// Each cell's pressure: `sweeps` red–black Gauss–Seidel sweeps of `−∇²p = overflow / dt`
     /// from the last step's answer, 0 in cells without hair (the air does not push back) and
     /// clamped at 0 (it only pushes apart). The overflow is the density beyond the cell's
     /// target that the step would leave, were the hair to go on spreading or packing as it
-    /// does (`fill × (1 − dt × divergence) − 1`, as a share of the target). The pressure's
-    /// gradient, taken off a particle's velocity, spreads that out of the cell in the step
-    /// of `dt` seconds.
-    pub fn solve_pressure(&mut self, sweeps: u32, dt: f32) {
+    /// does (`fill × (1 − dt × divergence) − 1`, as a share of the target; the head turned
+    /// by `rotation`, which turns the grid's axes). The pressure's gradient, taken off a
+    /// particle's velocity, spreads that out of the cell in the step of `dt` seconds.
+    pub fn solve_pressure(&mut self, sweeps: u32, dt: f32, rotation: glam::Quat) {
         if sweeps == 0 {
             // Off: nothing left over from when it was on.
             self.pressure.fill(0.0);
@@ -363,8 +345,18 @@ impl VolumeGrid {
         // Hair already spreading out of a full cell needs less push, and hair packing into
         // one more: a push for the density as it stands overshoots, and where springs pull
         // the hair back the two swing against each other.
-        for value in &mut self.values {
-            value.overflow = (value.fill * (1.0 - dt * value.divergence) - 1.0).max(0.0);
+        let turn = glam::Mat3::from_quat(rotation);
+        let axes = [turn.x_axis, turn.y_axis, turn.z_axis];
+        for k in 0..dz {
+            for j in 0..dy {
+                for i in 0..dx {
+                    let c = i + dx * (j + dy * k);
+                    if self.values[c].occupied {
+                        let spreading = self.divergence(c, [i, j, k], &axes);
+                        self.values[c].overflow = (self.values[c].fill * (1.0 - dt * spreading) - 1.0).max(0.0);
+                    }
+                }
+            }
         }
         for _ in 0..sweeps {
             for colour in 0..2 {
@@ -494,7 +486,7 @@ pub(super) fn prepare(
         }
         _ => grid.splat_on(rest, positions, Some(velocities), pose, parts, run),
     }
-    grid.solve_pressure(volume.pressure_iterations, dt);
+    grid.solve_pressure(volume.pressure_iterations, dt, pose.rotation);
     let feedback = Feedback::new(grid, volume, n, dt);
     grid.resolve_potential(feedback.push, volume.pressure);
     let step = VolumeStep { shares: feedback.shares, rates: feedback.rates, rotation: pose.rotation };
