@@ -81,7 +81,7 @@ fn at_rest_the_volume_changes_nothing() {
 /// and with the pressure alone (no friction to calm either): within 10 s it comes to rest,
 /// as it does without volume. The push once entered the integrator's memory as a trend,
 /// 4/3 of it, and kept the hair swinging at 0.16 m/s; the pressure, made for the density
-/// as it stood rather than where the hair was going, swung it at 0.25 m/s. (With both
+/// as it stood rather than where the hair was going, swung it at 0.23 m/s. (With both
 /// and the friction it does not come to rest: docs/simulation.md, limits.)
 #[test]
 fn with_springs_the_push_and_the_pressure_each_let_hair_come_to_rest() {
