@@ -174,6 +174,10 @@ fn resolve_cells(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_work
     let excess = wide_f32(low, high) / PARTICLE_MASS_UNITS / volume.feedback.y;
     let m = wide_f32(mass.x, mass.y);
     var mean = vec3<f32>(0.0);
+    if !(m > 0.0) {
+        // No hair, no pressure: the sweeps read it as such from their first pass.
+        pressure[c] = 0.0;
+    }
     if m > 0.0 {
         let scale = 1.0 / (m * VELOCITY_SCALE);
         let px = loaded(at + 2u);

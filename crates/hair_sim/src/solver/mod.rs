@@ -489,11 +489,12 @@ impl Strands {
             self.volume_made_from = None;
         }
         let pose = if input.head_from.is_valid() { input.head_from } else { input.head_to };
+        let head = (pose, input.head_to);
         let grid = self.volume.as_mut().expect("made above");
         let made_from = &mut self.volume_made_from;
         let (positions, velocities) = (&self.positions, &self.velocities);
         let step =
-            volume::prepare(grid, made_from, &self.rest, positions, velocities, pose, &params.volume, dt, (parts, run));
+            volume::prepare(grid, made_from, &self.rest, positions, velocities, head, &params.volume, dt, (parts, run));
         self.volume_step = Some(step);
     }
 

@@ -16,7 +16,7 @@
 use super::RestShape;
 use super::params::Volume;
 use crate::math::{Pose, Vec3};
-use splat::{Lattice, Splat, add_share};
+use splat::{CellSums, Lattice, Splat, add_share};
 pub use splat::{SplatPart, fixed_velocity};
 
 mod splat;
@@ -39,10 +39,9 @@ pub struct VolumeGrid {
     /// Cells along the longest side, as asked ([`Volume::resolution`]).
     resolution: u32,
     lattice: Lattice,
-    /// Per cell, side by side (a particle adds to all four at once): the particles'
-    /// weights, summed (units of [`PARTICLE_MASS_UNITS`]), then weight × velocity (world
-    /// axes, [`VELOCITY_BITS`] fixed point), summed.
-    sums: Vec<[i64; 4]>,
+    /// Per cell: the particles' weights, summed (units of [`PARTICLE_MASS_UNITS`]), then
+    /// weight × velocity (world axes, [`VELOCITY_BITS`] fixed point), summed.
+    sums: Vec<CellSums>,
     /// Per cell: the rest pose's mass.
     rest_mass: Vec<i64>,
     /// The mean rest mass over the cells the rest pose reaches, what the push compares
@@ -55,6 +54,9 @@ pub struct VolumeGrid {
     field: Vec<FieldCell>,
     /// Per cell, the pressure solve's answer, kept between steps as the next one's start.
     pressure: Vec<f32>,
+    /// The cells that hold hair and their coordinates, by colour (the parity of the
+    /// coordinates' sum): the pressure's red–black sweeps visit no other cell.
+    occupied: [Vec<(usize, [usize; 3])>; 2],
     /// The share of `rest_scale` any cell may fill up to before the pressure pushes
     /// ([`LIVE_FLOOR`], or [`SETTLING_FLOOR`] while a grown groom settles).
     floor: f32,
@@ -64,7 +66,7 @@ pub struct VolumeGrid {
     fixed: Vec<[i32; 3]>,
     /// The sums of the splat's parts but the first, which adds into `sums` itself
     /// ([`Self::splat_on`]), kept for the next step.
-    partials: Vec<Vec<[i64; 4]>>,
+    partials: Vec<Vec<CellSums>>,
 }
 
 /// What the pressure solve reads of a cell: whether it holds hair and its density excess
@@ -124,12 +126,13 @@ impl VolumeGrid {
         let mut grid = VolumeGrid {
             resolution,
             lattice: Lattice { origin: min, inverse_cell: 1.0 / cell, cell, dims },
-            sums: vec![[0; 4]; cells],
+            sums: vec![[0.0; 4]; cells],
             rest_mass: vec![0; cells],
             rest_scale: 1.0,
             values: vec![CellValue::default(); cells],
             field: vec![FieldCell::default(); cells],
             pressure: vec![0.0; cells],
+            occupied: Default::default(),
             floor,
             splats: Vec::new(),
             fixed: Vec::new(),
@@ -176,7 +179,7 @@ impl VolumeGrid {
 
     /// Each cell's mass, in units of [`PARTICLE_MASS_UNITS`] per particle (copied out).
     pub fn mass(&self) -> Vec<i64> {
-        self.sums.iter().map(|s| s[0]).collect()
+        self.sums.iter().map(|s| s[0] as i64).collect()
     }
 
     /// Each cell's mass in the rest pose.
@@ -187,7 +190,7 @@ impl VolumeGrid {
     /// Each cell's momentum sums (fixed point: velocity × 2^[`VELOCITY_BITS`] × weight;
     /// copied out).
     pub fn momentum(&self) -> Vec<[i64; 3]> {
-        self.sums.iter().map(|&[_, x, y, z]| [x, y, z]).collect()
+        self.sums.iter().map(|&[_, x, y, z]| [x, y, z].map(|s| s as i64)).collect()
     }
 
     /// Clears the grid and splats the particles at `positions` (their velocities
@@ -219,12 +222,12 @@ impl VolumeGrid {
         let useful = ((SPLAT_PER_CELL_ADD * positions.len()) as f64 / cells.max(1) as f64).sqrt() as usize;
         let size = strands.div_ceil(parts.min(useful).clamp(1, strands.max(1))).max(1) * n;
         let parts = positions.len().div_ceil(size).max(1);
-        self.partials.resize_with(parts - 1, || vec![[0; 4]; cells]);
+        self.partials.resize_with(parts - 1, || vec![[0.0; 4]; cells]);
         self.splats.resize(positions.len(), None);
         self.fixed.resize(positions.len(), [0; 3]);
         if positions.is_empty() {
             // No part to clear the sums.
-            self.sums.fill([0; 4]);
+            self.sums.fill([0.0; 4]);
         }
         let head_local = SplatPart::head_local(pose);
         let Self { lattice, sums, partials, splats, fixed, .. } = self;
@@ -267,7 +270,7 @@ impl VolumeGrid {
         for &strand in changed {
             for i in strand * n + 1..(strand + 1) * n {
                 if let Some(old) = self.splats[i] {
-                    add_share(&mut self.sums, self.lattice.dims, &old, self.fixed[i], -1);
+                    add_share(&mut self.sums, self.lattice.dims, &old, self.fixed[i], -1.0);
                 }
                 (self.splats[i], self.fixed[i]) =
                     self.lattice.add_particle(&mut self.sums, head_local, positions[i], Some(velocities[i]));
@@ -276,12 +279,22 @@ impl VolumeGrid {
         self.resolve_cells();
     }
 
-    /// Each cell's mean velocity, excess and fill from the sums.
+    /// Each cell's mean velocity, excess and fill from the sums, and the cells that hold
+    /// hair; a cell without hair has no pressure.
     fn resolve_cells(&mut self) {
         // Each cell's mean and excess, once, for every particle that reads it.
         let units = PARTICLE_MASS_UNITS as f32;
+        let [dx, dy, _] = self.lattice.dims;
+        self.occupied.iter_mut().for_each(Vec::clear);
         let cells = self.sums.iter().zip(&self.rest_mass).zip(self.values.iter_mut().zip(&mut self.field));
-        for ((&[m, mx, my, mz], &r), (value, field)) in cells {
+        for (c, ((sums, &r), (value, field))) in cells.enumerate() {
+            let [m, mx, my, mz] = sums.map(|s| s as i64);
+            if m > 0 {
+                let at = [c % dx, c / dx % dy, c / (dx * dy)];
+                self.occupied[(at[0] + at[1] + at[2]) % 2].push((c, at));
+            } else {
+                self.pressure[c] = 0.0;
+            }
             if m == 0 && r == 0 {
                 // No hair, now or at rest: what the general case below gives.
                 (*value, *field) = Default::default();
@@ -339,7 +352,6 @@ impl VolumeGrid {
             self.pressure.fill(0.0);
             return;
         }
-        let [dx, dy, dz] = self.lattice.dims;
         let h2 = self.lattice.cell * self.lattice.cell;
         let inverse_dt = 1.0 / dt.max(1e-6);
         // Hair already spreading out of a full cell needs less push, and hair packing into
@@ -347,40 +359,27 @@ impl VolumeGrid {
         // the hair back the two swing against each other.
         let turn = glam::Mat3::from_quat(rotation);
         let axes = [turn.x_axis, turn.y_axis, turn.z_axis];
-        for k in 0..dz {
-            for j in 0..dy {
-                for i in 0..dx {
-                    let c = i + dx * (j + dy * k);
-                    if self.values[c].occupied {
-                        let spreading = self.divergence(c, [i, j, k], &axes);
-                        self.values[c].overflow = (self.values[c].fill * (1.0 - dt * spreading) - 1.0).max(0.0);
-                    }
-                }
-            }
+        let occupied = std::mem::take(&mut self.occupied);
+        for &(c, at) in occupied.iter().flatten() {
+            let spreading = self.divergence(c, at, &axes);
+            self.values[c].overflow = (self.values[c].fill * (1.0 - dt * spreading) - 1.0).max(0.0);
         }
+        // Each colour's cells read only the other colour's: in any order, the same answer.
         for _ in 0..sweeps {
-            for colour in 0..2 {
-                for k in 0..dz {
-                    for j in 0..dy {
-                        let first = (j + k + colour) % 2;
-                        for i in (first..dx).step_by(2) {
-                            let c = i + dx * (j + dy * k);
-                            self.pressure[c] = self.relaxed(c, [i, j, k], h2, inverse_dt);
-                        }
-                    }
+            for cells in &occupied {
+                for &(c, at) in cells {
+                    self.pressure[c] = self.relaxed(c, at, h2, inverse_dt);
                 }
             }
         }
+        self.occupied = occupied;
     }
 
-    /// Cell `c`'s (at `at`) pressure from its six neighbours' (0 beyond the grid) and its
-    /// overflow, `h2` the cell's side squared: one Gauss–Seidel update.
+    /// Cell `c`'s (at `at`, holding hair) pressure from its six neighbours' (0 beyond the
+    /// grid) and its overflow, `h2` the cell's side squared: one Gauss–Seidel update.
     #[inline]
     fn relaxed(&self, c: usize, at: [usize; 3], h2: f32, inverse_dt: f32) -> f32 {
         let value = self.values[c];
-        if !value.occupied {
-            return 0.0;
-        }
         let [dx, dy, dz] = self.lattice.dims;
         let [i, j, k] = at;
         let p = |c: usize| self.pressure[c];
@@ -455,7 +454,7 @@ pub const SETTLING_FLOOR: f32 = 4.0;
 
 /// The volume's part of one step of `dt` seconds, before the strands move: the grid made
 /// from `positions` and `velocities` (head-local by `pose`, the head's pose at the step's
-/// start), its pressure solved (`volume.pressure_iterations` sweeps) and each cell's
+/// start; `next` is its pose at the step's end), its pressure solved (`volume.pressure_iterations` sweeps) and each cell's
 /// potential. The answer then reaches each particle's velocity through
 /// [`VolumeGrid::feed_back`], strand by strand.
 ///
@@ -464,7 +463,9 @@ pub const SETTLING_FLOOR: f32 = 4.0;
 /// it is and the step takes the same feedback; where a few strands moved, their shares
 /// are taken out of the sums and put back ([`VolumeGrid::resplat`]); else every strand
 /// splats again, in up to `parts` parts that `run` may take on threads of their own
-/// ([`VolumeGrid::splat_on`]). The sums are the same integers every way.
+/// ([`VolumeGrid::splat_on`]). The sums are the same integers every way. What the grid
+/// was made from is kept only where the head ends the step where it started: elsewhere the
+/// next step starts under another pose and splats every strand anyway.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn prepare(
     grid: &mut VolumeGrid,
@@ -472,7 +473,7 @@ pub(super) fn prepare(
     rest: &RestShape,
     positions: &[Vec3],
     velocities: &[Vec3],
-    pose: Pose,
+    (pose, next): (Pose, Pose),
     volume: &Volume,
     dt: f32,
     (parts, run): (usize, impl FnOnce(&mut [SplatPart<'_>])),
@@ -490,7 +491,11 @@ pub(super) fn prepare(
     let feedback = Feedback::new(grid, volume, n, dt);
     grid.resolve_potential(feedback.push, volume.pressure);
     let step = VolumeStep { shares: feedback.shares, rates: feedback.rates, rotation: pose.rotation };
-    MadeFrom::remember(made_from, positions, velocities, (pose, dt, *volume), &step);
+    if next == pose {
+        MadeFrom::remember(made_from, positions, velocities, (pose, dt, *volume), &step);
+    } else {
+        *made_from = None;
+    }
     step
 }
 

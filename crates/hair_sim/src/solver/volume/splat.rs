@@ -2,12 +2,21 @@
 //! it in fixed point. A groom's strands split into parts that splat on threads of their
 //! own, each into sums of its own, and the parts' sums add up to the same integers in any
 //! order.
+//!
+//! The integers are held in `f64`: every share is an integer below 2^31 and every sum
+//! stays below 2^53 while a cell holds fewer than 2^22 particles, so each add is exact and
+//! the sums are the same in any order; and a CPU multiplies and adds `f64` lanes in SIMD,
+//! where 64-bit integer products are scalar.
 
 use super::{MAX_FIXED_VELOCITY, VELOCITY_BITS, WEIGHT_BITS};
 use crate::math::{Pose, Vec3};
 use glam::{Mat3A, Vec3A};
 
 const WEIGHT_ONE: i32 = 1 << WEIGHT_BITS;
+
+/// A cell's sums, side by side (a particle adds to all four at once): the particles'
+/// weights, then weight × velocity per world axis; integers, held in `f64` (see above).
+pub(super) type CellSums = [f64; 4];
 
 /// Where the grid's cells lie: in head space, from `origin`, `dims` cells of side `cell`.
 #[derive(Clone, Debug)]
@@ -30,9 +39,9 @@ impl Lattice {
         if !(within(g.x, dx) && within(g.y, dy) && within(g.z, dz)) {
             return None;
         }
-        // Non-negative here, so truncation is the floor (without SSE4.1, `floor` is a
-        // library call).
-        let [i, j, k] = g.to_array().map(|g| g as usize);
+        // Non-negative and below a grid side here, so truncation is the floor (without
+        // SSE4.1, `floor` is a library call), and to `i32` one instruction.
+        let [i, j, k] = g.to_array().map(|g| g as i32 as usize);
         if i + 1 >= dx || j + 1 >= dy || k + 1 >= dz {
             return None;
         }
@@ -49,7 +58,7 @@ impl Lattice {
     #[inline]
     pub fn add_particle(
         &self,
-        sums: &mut [[i64; 4]],
+        sums: &mut [CellSums],
         (inverse, translation): (Mat3A, Vec3A),
         x: Vec3,
         v: Option<Vec3>,
@@ -57,7 +66,7 @@ impl Lattice {
         let splat = self.splat_of((inverse * (Vec3A::from(x) - translation)).into());
         let fixed = v.map_or([0; 3], |v| v.to_array().map(fixed_velocity));
         if let Some(splat) = &splat {
-            add_share(sums, self.dims, splat, fixed, 1);
+            add_share(sums, self.dims, splat, fixed, 1.0);
         }
         (splat, fixed)
     }
@@ -100,7 +109,7 @@ pub struct SplatPart<'a> {
     pub(super) n: usize,
     pub(super) positions: &'a [Vec3],
     pub(super) velocities: Option<&'a [Vec3]>,
-    pub(super) sums: &'a mut [[i64; 4]],
+    pub(super) sums: &'a mut [CellSums],
     pub(super) splats: &'a mut [Option<Splat>],
     /// Each particle's velocity as splatted ([`fixed_velocity`]).
     pub(super) fixed: &'a mut [[i32; 3]],
@@ -121,7 +130,7 @@ impl SplatPart<'_> {
             return;
         }
         self.done = true;
-        self.sums.fill([0; 4]);
+        self.sums.fill([0.0; 4]);
         let n = self.n.max(1);
         let len = self.positions.len();
         for root in (0..len).step_by(n) {
@@ -138,15 +147,26 @@ impl SplatPart<'_> {
 
 /// Adds to `sums` (`sign` 1) or takes away from them (−1) a particle's share: in each of
 /// the eight cells around it, its weight there times one and times each component of its
-/// fixed-point velocity `fixed`.
+/// fixed-point velocity `fixed`. Each product is an integer below 2^31 (see
+/// `MAX_FIXED_VELOCITY`), exact in `f64`.
 #[inline]
-pub(super) fn add_share(sums: &mut [[i64; 4]], dims: [usize; 3], splat: &Splat, fixed: [i32; 3], sign: i64) {
-    let [vx, vy, vz] = fixed;
-    for (c, w) in splat.corners(dims) {
-        // Each product fits an `i32` (see `MAX_FIXED_VELOCITY`).
-        let share = [w, w * vx, w * vy, w * vz].map(|s| sign * i64::from(s));
-        let sum = &mut sums[c];
-        *sum = std::array::from_fn(|k| sum[k] + share[k]);
+pub(super) fn add_share(sums: &mut [CellSums], dims: [usize; 3], splat: &Splat, fixed: [i32; 3], sign: f64) {
+    let [vx, vy, vz] = fixed.map(f64::from);
+    let velocity = [sign, sign * vx, sign * vy, sign * vz];
+    let (base, [fx, fy, fz]) = (splat.base as usize, splat.fixed.map(f64::from));
+    let one = f64::from(WEIGHT_ONE);
+    let (wx, wy, wz) = ([one - fx, fx], [one - fy, fy], [one - fz, fz]);
+    let (sy, sz) = (dims[0], dims[0] * dims[1]);
+    // Four rows of two cells side by side along x (corner bits y, z).
+    let rows = [(0, wy[0] * wz[0]), (sy, wy[1] * wz[0]), (sz, wy[0] * wz[1]), (sy + sz, wy[1] * wz[1])];
+    for (offset, weight) in rows {
+        let at = base + offset;
+        let [low, high] = &mut sums[at..at + 2] else { unreachable!("a range of two") };
+        let (w0, w1) = (wx[0] * weight, wx[1] * weight);
+        for k in 0..4 {
+            low[k] += w0 * velocity[k];
+            high[k] += w1 * velocity[k];
+        }
     }
 }
 
@@ -157,9 +177,11 @@ pub fn fixed_velocity(v: f32) -> i32 {
     if !v.is_finite() {
         return 0;
     }
-    let x = v * (1u32 << VELOCITY_BITS) as f32 + 0.5;
+    // Clamped before the floor, the same as after it (the bounds are whole), and then
+    // within an `i32`.
+    let most = MAX_FIXED_VELOCITY as f32;
+    let x = (v * (1u32 << VELOCITY_BITS) as f32 + 0.5).clamp(-most, most);
     // The floor without a library call: truncation, one less below zero where it cut.
-    let t = x as i64;
-    let floor = if (t as f32) > x { t - 1 } else { t };
-    floor.clamp(-i64::from(MAX_FIXED_VELOCITY), i64::from(MAX_FIXED_VELOCITY)) as i32
+    let t = x as i32;
+    if (t as f32) > x { t - 1 } else { t }
 }

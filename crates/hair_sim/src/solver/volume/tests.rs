@@ -21,7 +21,8 @@ fn apply(
     volume: &Volume,
     dt: f32,
 ) {
-    let step = prepare(grid, &mut None, rest, positions, velocities, pose, volume, dt, (1, |_: &mut [SplatPart]| {}));
+    let step =
+        prepare(grid, &mut None, rest, positions, velocities, (pose, pose), volume, dt, (1, |_: &mut [SplatPart]| {}));
     grid.feed_back(&step, 0, velocities);
 }
 
@@ -169,7 +170,7 @@ fn a_step_makes_the_grid_again_only_from_what_moved() {
             &rest,
             positions,
             &still,
-            Pose::IDENTITY,
+            (Pose::IDENTITY, Pose::IDENTITY),
             &volume,
             dt,
             (1, |_: &mut [SplatPart]| splatted.set(true)),
@@ -186,6 +187,15 @@ fn a_step_makes_the_grid_again_only_from_what_moved() {
     let mut whole = VolumeGrid::new(&rest, 16);
     whole.splat(&rest, &moved, Some(&still), Pose::IDENTITY);
     assert!(!splatted && grid.mass() == whole.mass() && grid.mass() != grid.rest_mass(), "resplatted as a whole splat");
+    // Under a head that moves in the step, the next step starts under another pose: no
+    // copy of the particles is kept for it.
+    let turned = Pose::new(glam::Quat::from_rotation_y(0.1), Vec3::ZERO);
+    let mut made_from = None;
+    let nothing = (1, |_: &mut [SplatPart]| {});
+    prepare(&mut grid, &mut made_from, &rest, &moved, &still, (Pose::IDENTITY, turned), &volume, dt, nothing);
+    assert!(made_from.is_none(), "nothing kept under a moving head");
+    prepare(&mut grid, &mut made_from, &rest, &moved, &still, (turned, turned), &volume, dt, nothing);
+    assert!(made_from.is_some(), "kept under a still one");
 }
 
 /// A dense block of hair, the head turned: moving as one it neither spreads nor packs
