@@ -416,13 +416,14 @@ impl VolumeGrid {
         let (mut velocity, mut weight) = (Vec3::ZERO, 0.0f32);
         let mut potential = [0.0f32; 8];
         for (corner, (c, w)) in splat.corners(self.lattice.dims).into_iter().enumerate() {
-            let cell = self.field[c];
-            let w = w as f32 / PARTICLE_MASS_UNITS as f32 * cell.occupied;
+            let cell = &self.field[c];
+            // The integer weight as it is: its unit cancels in the mean.
+            let w = w as f32 * cell.occupied;
             velocity += cell.mean_velocity * w;
             weight += w;
             potential[corner] = cell.potential;
         }
-        let velocity = if weight > 0.0 { velocity / weight } else { Vec3::ZERO };
+        let velocity = if weight > 0.0 { velocity * weight.recip() } else { Vec3::ZERO };
         // The trilinear interpolant's gradient: along each axis, the differences across the
         // cell weighted by where the point lies along the other two (corner bits x, y, z).
         let ([x0, x1], [y0, y1], [z0, z1]) = ([1.0 - f.x, f.x], [1.0 - f.y, f.y], [1.0 - f.z, f.z]);
@@ -599,9 +600,11 @@ impl VolumeGrid {
         debug_assert_eq!(first % shares.len().max(1), 0, "whole strands");
         let splats = self.splats.get(first..).unwrap_or_default();
         let along = shares.iter().zip(rates).cycle();
+        // A matrix turns a vector in half the arithmetic of a quaternion.
+        let turn = glam::Mat3A::from_quat(*rotation);
         splats.iter().zip(along).map(move |(splat, (&share, &rate))| {
             let (mean, push) = self.sample(splat.as_ref()?);
-            Some(Answer { mean, push: *rotation * push, share, rate })
+            Some(Answer { mean, push: (turn * glam::Vec3A::from(push)).into(), share, rate })
         })
     }
 }
