@@ -16,6 +16,7 @@
 use super::RestShape;
 use super::params::Volume;
 use crate::math::{Pose, Vec3};
+use glam::Vec4;
 use splat::{CellSums, Lattice, Splat, add_share};
 pub use splat::{SplatPart, fixed_velocity};
 
@@ -86,10 +87,10 @@ struct CellValue {
 /// What the feedback reads of a cell, in one place for the eight reads per particle.
 #[derive(Clone, Copy, Debug, Default)]
 struct FieldCell {
-    /// The hair's mean velocity (zero in an empty cell).
-    mean_velocity: Vec3,
-    /// 1 where the cell holds hair, else 0: the mean velocity is averaged over those.
-    occupied: f32,
+    /// The hair's mean velocity (zero in an empty cell), then 1 where the cell holds hair,
+    /// else 0: the mean velocity is averaged over those. One vector, so that a corner's
+    /// weight scales both in one SIMD multiply.
+    motion: Vec4,
     /// The velocity change whose gradient (per cell) pushes a particle: the density
     /// push's share of the excess less the pressure's share of the pressure, so that one
     /// gradient serves both ([`VolumeGrid::resolve_potential`]).
@@ -315,7 +316,7 @@ impl VolumeGrid {
             let target = (r as f32 / units).max(self.rest_scale * self.floor) * (1.0 + PRESSURE_SLACK);
             let fill = m as f32 / units / target;
             *value = CellValue { occupied: m > 0, excess, fill, overflow: 0.0 };
-            *field = FieldCell { mean_velocity, occupied: if m > 0 { 1.0 } else { 0.0 }, potential: 0.0 };
+            *field = FieldCell { motion: mean_velocity.extend(if m > 0 { 1.0 } else { 0.0 }), potential: 0.0 };
         }
     }
 
@@ -327,9 +328,9 @@ impl VolumeGrid {
     fn divergence(&self, c: usize, at: [usize; 3], axes: &[Vec3; 3]) -> f32 {
         let [dx, dy, _] = self.lattice.dims;
         let strides = [1, dx, dx * dy];
-        let own = self.field[c].mean_velocity;
+        let own = self.field[c].motion.truncate();
         let side =
-            |c: Option<usize>| c.filter(|&c| self.values[c].occupied).map_or(own, |c| self.field[c].mean_velocity);
+            |c: Option<usize>| c.filter(|&c| self.values[c].occupied).map_or(own, |c| self.field[c].motion.truncate());
         let mut divergence = 0.0;
         for a in 0..3 {
             let below = side((at[a] > 0).then(|| c - strides[a]));
@@ -411,19 +412,21 @@ impl VolumeGrid {
 
     /// The mean velocity of the hair where `splat` lies, and the gradient (per metre, head
     /// axes) of the potential there: the velocity change the density and the pressure push by.
+    #[inline]
     fn sample(&self, splat: &Splat) -> (Vec3, Vec3) {
         let f = splat.fraction;
-        let (mut velocity, mut weight) = (Vec3::ZERO, 0.0f32);
+        // The weighted sums of the mean velocities and of the weights where there is hair
+        // (an empty cell's mean is zero), the integer weights as they are: their unit
+        // cancels in the mean.
+        let mut motion = Vec4::ZERO;
         let mut potential = [0.0f32; 8];
         for (corner, (c, w)) in splat.corners(self.lattice.dims).into_iter().enumerate() {
             let cell = &self.field[c];
-            // The integer weight as it is: its unit cancels in the mean.
-            let w = w as f32 * cell.occupied;
-            velocity += cell.mean_velocity * w;
-            weight += w;
+            motion += cell.motion * w as f32;
             potential[corner] = cell.potential;
         }
-        let velocity = if weight > 0.0 { velocity * weight.recip() } else { Vec3::ZERO };
+        let weight = motion.w;
+        let velocity = if weight > 0.0 { motion.truncate() * weight.recip() } else { Vec3::ZERO };
         // The trilinear interpolant's gradient: along each axis, the differences across the
         // cell weighted by where the point lies along the other two (corner bits x, y, z).
         let ([x0, x1], [y0, y1], [z0, z1]) = ([1.0 - f.x, f.x], [1.0 - f.y, f.y], [1.0 - f.z, f.z]);
@@ -573,43 +576,48 @@ impl VolumeGrid {
     /// (`volume.pressure` of its gradient). Roots are left alone. Each particle reads only
     /// the grid, so chunks of strands take it on their own threads, in any order.
     pub(in crate::solver) fn feed_back(&self, step: &VolumeStep, first: usize, velocities: &mut [Vec3]) {
-        for (v, answer) in velocities.iter_mut().zip(self.answers(step, first)) {
-            if let Some(a) = answer {
-                *v += (a.mean - *v) * a.share + a.push;
-            }
-        }
+        self.answer_each(step, first, velocities.len(), |j, a| {
+            let v = &mut velocities[j];
+            *v += (a.mean - *v) * a.share + a.push;
+        });
     }
 
     /// The same answer for the spring model, which takes it into its implicit solve
     /// (`implicit_springs`) instead of into the velocities: one [`SpringFeedback`] per
     /// particle from `first` on.
     pub(in crate::solver) fn feed_back_to_springs(&self, step: &VolumeStep, first: usize, out: &mut [SpringFeedback]) {
-        for (f, answer) in out.iter_mut().zip(self.answers(step, first)) {
-            *f = answer.map_or(SpringFeedback::default(), |a| SpringFeedback {
-                toward: a.mean,
-                rate: a.rate,
-                kick: a.push,
-            });
-        }
+        out.fill(SpringFeedback::default());
+        self.answer_each(step, first, out.len(), |j, a| {
+            out[j] = SpringFeedback { toward: a.mean, rate: a.rate, kick: a.push };
+        });
     }
 
-    /// The grid's answer for each particle from `first` on, root to tip strand after
-    /// strand: `None` for one it does not hold (a root).
-    fn answers<'a>(&'a self, step: &'a VolumeStep, first: usize) -> impl Iterator<Item = Option<Answer>> + 'a {
+    /// Hands `then` the grid's answer for each of the `count` particles from `first` on
+    /// (whole strands, root to tip), with its index from `first`; a particle the grid does
+    /// not hold (a root) gets none. Inlined into each caller, so that no answer goes
+    /// through memory.
+    #[inline(always)]
+    fn answer_each(&self, step: &VolumeStep, first: usize, count: usize, mut then: impl FnMut(usize, Answer)) {
         let VolumeStep { shares, rates, rotation } = step;
-        debug_assert_eq!(first % shares.len().max(1), 0, "whole strands");
+        let n = shares.len().max(1);
+        debug_assert_eq!(first % n, 0, "whole strands");
         let splats = self.splats.get(first..).unwrap_or_default();
-        let along = shares.iter().zip(rates).cycle();
+        let splats = &splats[..count.min(splats.len())];
         // A matrix turns a vector in half the arithmetic of a quaternion.
         let turn = glam::Mat3A::from_quat(*rotation);
-        splats.iter().zip(along).map(move |(splat, (&share, &rate))| {
-            let (mean, push) = self.sample(splat.as_ref()?);
-            Some(Answer { mean, push: (turn * glam::Vec3A::from(push)).into(), share, rate })
-        })
+        for (s, strand) in splats.chunks(n).enumerate() {
+            for (j, ((splat, &share), &rate)) in strand.iter().zip(shares).zip(rates).enumerate() {
+                if let Some(splat) = splat {
+                    let (mean, push) = self.sample(splat);
+                    let push = (turn * glam::Vec3A::from(push)).into();
+                    then(s * n + j, Answer { mean, push, share, rate });
+                }
+            }
+        }
     }
 }
 
-/// The grid's answer for one particle ([`VolumeGrid::answers`]).
+/// The grid's answer for one particle ([`VolumeGrid::answer_each`]).
 struct Answer {
     /// The hair's mean velocity around it.
     mean: Vec3,
