@@ -248,3 +248,66 @@ fn the_divergence_is_the_hairs_spreading_along_the_head_axes() {
     }
     assert!(inner >= 8, "{inner} cells within the block: the test tests too little");
 }
+
+/// The sweeps visit only the cells that hold hair, each colour's in the order they were
+/// found: bit for bit the pressure of red–black sweeps over every cell in the grid's
+/// order with a cell without hair held at 0. Between the two steps the squeezed block
+/// moves two cells along, so cells that held pressure lose their hair: they must read 0
+/// from the first sweep on, not what the last step left.
+#[test]
+fn the_sweeps_over_the_cells_with_hair_are_the_sweeps_over_every_cell() {
+    let n = 24;
+    let positions: Vec<Vec3> = (0..24 * 24 * n)
+        .map(|i| {
+            let (s, j) = (i / n, i % n);
+            Vec3::new((s % 24) as f32, -(j as f32), (s / 24) as f32) * 0.002
+        })
+        .collect();
+    let rest = RestShape::new(positions.clone(), n).unwrap();
+    let mut grid = VolumeGrid::new(&rest, 12);
+    // Squeezed to half its width, and packing on.
+    let centre = Vec3::new(0.023, -0.023, 0.023);
+    let squeezed: Vec<Vec3> = positions.iter().map(|&p| centre + (p - centre) * Vec3::new(0.5, 1.0, 0.5)).collect();
+    let packing: Vec<Vec3> = squeezed.iter().map(|&p| (centre - p) * 0.5).collect();
+    let (dt, turn, sweeps) = (1.0 / 60.0, glam::Quat::IDENTITY, 8);
+    grid.splat(&rest, &squeezed, Some(&packing), Pose::IDENTITY);
+    grid.solve_pressure(sweeps, dt, turn);
+    let before = grid.pressure().to_vec();
+    let shifted: Vec<Vec3> = squeezed.iter().map(|&p| p + Vec3::X * 2.0 * grid.cell()).collect();
+    grid.splat(&rest, &shifted, Some(&packing), Pose::IDENTITY);
+    let lost: Vec<usize> = (0..before.len()).filter(|&c| before[c] > 0.0 && !grid.values[c].occupied).collect();
+    assert!(!lost.is_empty(), "no cell with pressure lost its hair: the test tests too little");
+
+    // The reference: the last step's answer, 0 where there is no hair, then every cell.
+    let mut every_cell = grid.clone();
+    let [dx, dy, dz] = grid.dims();
+    let at = |c: usize| [c % dx, (c / dx) % dy, c / (dx * dy)];
+    let axes = [Vec3::X, Vec3::Y, Vec3::Z];
+    every_cell.pressure = before.clone();
+    for c in 0..before.len() {
+        let value = every_cell.values[c];
+        if !value.occupied {
+            every_cell.pressure[c] = 0.0;
+            continue;
+        }
+        let spreading = every_cell.divergence(c, at(c), &axes);
+        every_cell.values[c].overflow = (value.fill * (1.0 - dt * spreading) - 1.0).max(0.0);
+    }
+    let (h2, inverse_dt) = (grid.cell() * grid.cell(), 1.0 / dt);
+    for _ in 0..sweeps {
+        for colour in 0..2 {
+            for c in 0..before.len() {
+                let [i, j, k] = at(c);
+                if (i + j + k) % 2 == colour && every_cell.values[c].occupied {
+                    every_cell.pressure[c] = every_cell.relaxed(c, [i, j, k], h2, inverse_dt);
+                }
+            }
+        }
+    }
+
+    grid.solve_pressure(sweeps, dt, turn);
+    let bits = |p: &[f32]| p.iter().map(|p| p.to_bits()).collect::<Vec<_>>();
+    assert!(grid.pressure().iter().any(|&p| p > 0.0), "no pressure: the test tests too little");
+    assert!(lost.iter().all(|&c| grid.pressure()[c] == 0.0), "a cell that lost its hair keeps no pressure");
+    assert_eq!(bits(grid.pressure()), bits(every_cell.pressure()), "the same pressure as sweeping every cell");
+}
