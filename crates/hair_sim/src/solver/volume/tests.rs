@@ -280,7 +280,7 @@ fn the_sweeps_over_the_cells_with_hair_are_the_sweeps_over_every_cell() {
 
     // The reference: the last step's answer, 0 where there is no hair, then every cell.
     let mut every_cell = grid.clone();
-    let [dx, dy, dz] = grid.dims();
+    let [dx, dy, _] = grid.dims();
     let at = |c: usize| [c % dx, (c / dx) % dy, c / (dx * dy)];
     let axes = [Vec3::X, Vec3::Y, Vec3::Z];
     every_cell.pressure = before.clone();
