@@ -174,16 +174,15 @@ fn resolve_cells(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_work
     let excess = wide_f32(low, high) / PARTICLE_MASS_UNITS / volume.feedback.y;
     let m = wide_f32(mass.x, mass.y);
     var mean = vec3<f32>(0.0);
-    if !(m > 0.0) {
-        // No hair, no pressure: the sweeps read it as such from their first pass.
-        pressure[c] = 0.0;
-    }
     if m > 0.0 {
         let scale = 1.0 / (m * VELOCITY_SCALE);
         let px = loaded(at + 2u);
         let py = loaded(at + 4u);
         let pz = loaded(at + 6u);
         mean = vec3<f32>(wide_f32(px.x, px.y), wide_f32(py.x, py.y), wide_f32(pz.x, pz.y)) * scale;
+    } else {
+        // No hair, no pressure: the sweeps read it as such from their first pass.
+        pressure[c] = 0.0;
     }
     // The mass over the pressure's target, as `VolumeGrid::resolve_cells` works it out.
     let wanted = max(wide_f32(rest.x, rest.y) / PARTICLE_MASS_UNITS, volume.feedback.y * LIVE_FLOOR) * (1.0 + PRESSURE_SLACK);
@@ -202,7 +201,7 @@ fn mean_beside(c: u32, inside: bool, step: i32, own: vec3<f32>) -> vec3<f32> {
 }
 
 // Cell `c`'s overflow: the density beyond its target the step would leave were the hair
-// to go on spreading or packing as it does (hair_sim's `VolumeGrid::solve_pressure`), from
+// to go on spreading or packing as it does (hair_sim's `VolumeGrid::resolve_overflow`), from
 // the divergence of the mean velocity along the head's axes.
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn predict_overflow(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {

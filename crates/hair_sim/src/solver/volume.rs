@@ -285,13 +285,12 @@ impl VolumeGrid {
     fn resolve_cells(&mut self) {
         // Each cell's mean and excess, once, for every particle that reads it.
         let units = PARTICLE_MASS_UNITS as f32;
-        let [dx, dy, _] = self.lattice.dims;
         self.occupied.iter_mut().for_each(Vec::clear);
         let cells = self.sums.iter().zip(&self.rest_mass).zip(self.values.iter_mut().zip(&mut self.field));
         for (c, ((sums, &r), (value, field))) in cells.enumerate() {
             let [m, mx, my, mz] = sums.map(|s| s as i64);
             if m > 0 {
-                let at = [c % dx, c / dx % dy, c / (dx * dy)];
+                let at = self.lattice.coordinates(c);
                 self.occupied[(at[0] + at[1] + at[2]) % 2].push((c, at));
             } else {
                 self.pressure[c] = 0.0;
@@ -353,18 +352,10 @@ impl VolumeGrid {
             self.pressure.fill(0.0);
             return;
         }
+        self.resolve_overflow(dt, rotation);
         let h2 = self.lattice.cell * self.lattice.cell;
         let inverse_dt = 1.0 / dt.max(1e-6);
-        // Hair already spreading out of a full cell needs less push, and hair packing into
-        // one more: a push for the density as it stands overshoots, and where springs pull
-        // the hair back the two swing against each other.
-        let turn = glam::Mat3::from_quat(rotation);
-        let axes = [turn.x_axis, turn.y_axis, turn.z_axis];
         let occupied = std::mem::take(&mut self.occupied);
-        for &(c, at) in occupied.iter().flatten() {
-            let spreading = self.divergence(c, at, &axes);
-            self.values[c].overflow = (self.values[c].fill * (1.0 - dt * spreading) - 1.0).max(0.0);
-        }
         // Each colour's cells read only the other colour's: in any order, the same answer.
         for _ in 0..sweeps {
             for cells in &occupied {
@@ -372,6 +363,21 @@ impl VolumeGrid {
                     self.pressure[c] = self.relaxed(c, at, h2, inverse_dt);
                 }
             }
+        }
+        self.occupied = occupied;
+    }
+
+    /// Each cell's overflow ([`CellValue::overflow`]) over a step of `dt` seconds, the head
+    /// turned by `rotation`. Hair already spreading out of a full cell needs less push,
+    /// and hair packing into one more: a push for the density as it stands overshoots,
+    /// and where springs pull the hair back the two swing against each other.
+    fn resolve_overflow(&mut self, dt: f32, rotation: glam::Quat) {
+        let turn = glam::Mat3::from_quat(rotation);
+        let axes = [turn.x_axis, turn.y_axis, turn.z_axis];
+        let occupied = std::mem::take(&mut self.occupied);
+        for &(c, at) in occupied.iter().flatten() {
+            let spreading = self.divergence(c, at, &axes);
+            self.values[c].overflow = (self.values[c].fill * (1.0 - dt * spreading) - 1.0).max(0.0);
         }
         self.occupied = occupied;
     }
@@ -458,8 +464,8 @@ pub const SETTLING_FLOOR: f32 = 4.0;
 
 /// The volume's part of one step of `dt` seconds, before the strands move: the grid made
 /// from `positions` and `velocities` (head-local by `pose`, the head's pose at the step's
-/// start; `next` is its pose at the step's end), its pressure solved (`volume.pressure_iterations` sweeps) and each cell's
-/// potential. The answer then reaches each particle's velocity through
+/// start; `next` is its pose at the step's end), its pressure solved
+/// (`volume.pressure_iterations` sweeps) and each cell's potential. The answer then reaches each particle's velocity through
 /// [`VolumeGrid::feed_back`], strand by strand.
 ///
 /// `made_from` is what the grid was last made from. Where nothing moved since, under the

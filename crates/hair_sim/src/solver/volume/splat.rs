@@ -29,6 +29,12 @@ pub(super) struct Lattice {
 }
 
 impl Lattice {
+    /// Cell `c`'s coordinates along the three axes (x fastest in the cell arrays).
+    pub fn coordinates(&self, c: usize) -> [usize; 3] {
+        let [dx, dy, _] = self.dims;
+        [c % dx, c / dx % dy, c / (dx * dy)]
+    }
+
     /// The eight cells around head-local `p` and their weights; `None` outside the grid.
     pub fn splat_of(&self, p: Vec3) -> Option<Splat> {
         let g = (p - self.origin) * self.inverse_cell;

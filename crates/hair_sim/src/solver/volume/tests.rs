@@ -198,13 +198,9 @@ fn a_step_makes_the_grid_again_only_from_what_moved() {
     assert!(made_from.is_some(), "kept under a still one");
 }
 
-/// A dense block of hair, the head turned: moving as one it neither spreads nor packs
-/// (divergence exactly 0 in every cell that holds hair), and swelling at `rate` per second about its
-/// middle it spreads at three times that in the cells within it, whatever the head's turn.
-#[test]
-fn the_divergence_is_the_hairs_spreading_along_the_head_axes() {
-    // 24 × 24 strands 2 mm apart, 24 particles 2 mm apart: a block 4.6 cm across, its
-    // cells about 6 mm.
+/// A dense block of hair: 24 × 24 strands 2 mm apart, 24 particles 2 mm apart, 4.6 cm
+/// across; its positions, its rest shape, and its middle.
+fn block() -> (Vec<Vec3>, RestShape, Vec3) {
     let n = 24;
     let positions: Vec<Vec3> = (0..24 * 24 * n)
         .map(|i| {
@@ -213,15 +209,24 @@ fn the_divergence_is_the_hairs_spreading_along_the_head_axes() {
         })
         .collect();
     let rest = RestShape::new(positions.clone(), n).unwrap();
+    (positions, rest, Vec3::new(0.023, -0.023, 0.023))
+}
+
+/// A dense block of hair ([`block`]), the head turned: moving as one it neither spreads nor packs
+/// (divergence exactly 0 in every cell that holds hair), and swelling at `rate` per second about its
+/// middle it spreads at three times that in the cells within it, whatever the head's turn.
+#[test]
+fn the_divergence_is_the_hairs_spreading_along_the_head_axes() {
+    // Its cells about 6 mm.
+    let (positions, rest, centre) = block();
     let mut grid = VolumeGrid::new(&rest, 12);
     let pose = Pose::new(glam::Quat::from_euler(glam::EulerRot::YXZ, 0.7, -0.4, 0.2), Vec3::new(0.1, 0.2, 0.0));
     let world: Vec<Vec3> = positions.iter().map(|&p| pose.transform_point(p)).collect();
-    let centre = Vec3::new(0.023, -0.023, 0.023);
     let middle = pose.transform_point(centre);
     let turn = glam::Mat3::from_quat(pose.rotation);
     let axes = [turn.x_axis, turn.y_axis, turn.z_axis];
-    let [dx, dy, dz] = grid.dims();
-    let spreading = |grid: &VolumeGrid, c: usize| grid.divergence(c, [c % dx, (c / dx) % dy, c / (dx * dy)], &axes);
+    let dz = grid.dims()[2];
+    let spreading = |grid: &VolumeGrid, c: usize| grid.divergence(c, grid.lattice.coordinates(c), &axes);
 
     let moving = vec![Vec3::new(0.3, -0.2, 0.1); world.len()];
     grid.splat(&rest, &world, Some(&moving), pose);
@@ -235,7 +240,7 @@ fn the_divergence_is_the_hairs_spreading_along_the_head_axes() {
     let (cell, origin) = (grid.cell(), grid.origin());
     let mut inner = 0;
     for c in 0..grid.values.len() {
-        let at = Vec3::new((c % dx) as f32, ((c / dx) % dy) as f32, (c / (dx * dy)) as f32);
+        let at = Vec3::from_array(grid.lattice.coordinates(c).map(|a| a as f32));
         if (origin + at * cell - centre).abs().max_element() + 2.0 * cell < 0.023 && dz > 0 {
             let divergence = spreading(&grid, c);
             assert!(
@@ -256,17 +261,9 @@ fn the_divergence_is_the_hairs_spreading_along_the_head_axes() {
 /// from the first sweep on, not what the last step left.
 #[test]
 fn the_sweeps_over_the_cells_with_hair_are_the_sweeps_over_every_cell() {
-    let n = 24;
-    let positions: Vec<Vec3> = (0..24 * 24 * n)
-        .map(|i| {
-            let (s, j) = (i / n, i % n);
-            Vec3::new((s % 24) as f32, -(j as f32), (s / 24) as f32) * 0.002
-        })
-        .collect();
-    let rest = RestShape::new(positions.clone(), n).unwrap();
+    let (positions, rest, centre) = block();
     let mut grid = VolumeGrid::new(&rest, 12);
     // Squeezed to half its width, and packing on.
-    let centre = Vec3::new(0.023, -0.023, 0.023);
     let squeezed: Vec<Vec3> = positions.iter().map(|&p| centre + (p - centre) * Vec3::new(0.5, 1.0, 0.5)).collect();
     let packing: Vec<Vec3> = squeezed.iter().map(|&p| (centre - p) * 0.5).collect();
     let (dt, turn, sweeps) = (1.0 / 60.0, glam::Quat::IDENTITY, 8);
@@ -280,26 +277,20 @@ fn the_sweeps_over_the_cells_with_hair_are_the_sweeps_over_every_cell() {
 
     // The reference: the last step's answer, 0 where there is no hair, then every cell.
     let mut every_cell = grid.clone();
-    let [dx, dy, _] = grid.dims();
-    let at = |c: usize| [c % dx, (c / dx) % dy, c / (dx * dy)];
-    let axes = [Vec3::X, Vec3::Y, Vec3::Z];
     every_cell.pressure = before.clone();
     for c in 0..before.len() {
-        let value = every_cell.values[c];
-        if !value.occupied {
+        if !every_cell.values[c].occupied {
             every_cell.pressure[c] = 0.0;
-            continue;
         }
-        let spreading = every_cell.divergence(c, at(c), &axes);
-        every_cell.values[c].overflow = (value.fill * (1.0 - dt * spreading) - 1.0).max(0.0);
     }
+    every_cell.resolve_overflow(dt, turn);
     let (h2, inverse_dt) = (grid.cell() * grid.cell(), 1.0 / dt);
     for _ in 0..sweeps {
         for colour in 0..2 {
             for c in 0..before.len() {
-                let [i, j, k] = at(c);
-                if (i + j + k) % 2 == colour && every_cell.values[c].occupied {
-                    every_cell.pressure[c] = every_cell.relaxed(c, [i, j, k], h2, inverse_dt);
+                let at = every_cell.lattice.coordinates(c);
+                if at.iter().sum::<usize>() % 2 == colour && every_cell.values[c].occupied {
+                    every_cell.pressure[c] = every_cell.relaxed(c, at, h2, inverse_dt);
                 }
             }
         }
