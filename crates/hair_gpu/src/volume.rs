@@ -9,7 +9,7 @@ use crate::pass::{SharedLayout, storage};
 use crate::recorder::Recorder;
 use bytemuck::{Pod, Zeroable};
 use hair_sim::math::Pose;
-use hair_sim::solver::{Feedback, RestShape, VolumeGrid};
+use hair_sim::solver::{Feedback, LengthMode, RestShape, VolumeGrid};
 
 /// The volume shader's source: `layout.wgsl`, then `volume.wgsl`.
 pub(crate) const VOLUME_SHADER: &str = concat!(include_str!("layout.wgsl"), "\n", include_str!("volume.wgsl"));
@@ -158,7 +158,8 @@ impl GpuVolume {
         implicit: bool,
         (strands, n, slots): (u32, u32, u32),
     ) {
-        let feedback = Feedback::new(&self.grid, volume, n as usize, dt);
+        let mode = if implicit { LengthMode::Springs } else { LengthMode::Inextensible };
+        let feedback = Feedback::new(&self.grid, volume, mode, n as usize, dt);
         let cells = self.grid.rest_mass().len() as u32;
         let [dx, dy, dz] = self.grid.dims();
         let columns = |m: glam::Mat3| [m.x_axis, m.y_axis, m.z_axis].map(|c| [c.x, c.y, c.z, 0.0]);
@@ -173,7 +174,7 @@ impl GpuVolume {
             translation: [t.x, t.y, t.z, 0.0],
             rotation: columns(rotation),
             feedback: [feedback.push, self.grid.rest_scale(), volume.pressure, self.grid.cell() * self.grid.cell()],
-            solve: [1.0 / dt.max(1e-6), f32::from(u8::from(implicit)), dt, 0.0],
+            solve: [1.0 / dt.max(1e-6), f32::from(u8::from(implicit)), dt, feedback.catch_up],
         };
         recorder.upload(&self.uniform, bytemuck::bytes_of(&uniform));
         let friction = if implicit { &feedback.rates } else { &feedback.shares };

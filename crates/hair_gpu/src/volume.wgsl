@@ -28,7 +28,8 @@ struct Volume {
     feedback: vec4<f32>,
     // 1 / the step's length (the pressure's source is an overflow per second); 1 in y where
     // the spring model takes the grid's answer into its implicit solve (`feed_back`); the
-    // step's length.
+    // step's length; the share of the density beyond a cell's target the pressure takes
+    // away in the step (`Feedback::catch_up`).
     solve: vec4<f32>,
 }
 
@@ -191,7 +192,7 @@ fn resolve_cells(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_work
 }
 
 // The mean velocity of the cell `step` from `c` along an axis, or `own` where that is
-// beyond the grid or holds no hair (`VolumeGrid::resolve_divergence`).
+// beyond the grid or holds no hair (`VolumeGrid::divergence`).
 fn mean_beside(c: u32, inside: bool, step: i32, own: vec3<f32>) -> vec3<f32> {
     if !inside {
         return own;
@@ -201,8 +202,9 @@ fn mean_beside(c: u32, inside: bool, step: i32, own: vec3<f32>) -> vec3<f32> {
 }
 
 // Cell `c`'s overflow: the density beyond its target the step would leave were the hair
-// to go on spreading or packing as it does (hair_sim's `VolumeGrid::resolve_overflow`), from
-// the divergence of the mean velocity along the head's axes.
+// to go on spreading or packing as it does, `catch_up` of what is beyond it now taken away
+// (hair_sim's `VolumeGrid::resolve_overflow`), from the divergence of the mean velocity
+// along the head's axes.
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn predict_overflow(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let c = invocation(id, groups);
@@ -225,7 +227,7 @@ fn predict_overflow(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_w
         let above = mean_beside(c, at[a] + 1u < d[a], strides[a], own);
         divergence += dot(above - below, volume.rotation[a].xyz) * inverse_2h;
     }
-    cells[2u * c + 1u].z = max(cell.y * (1.0 - volume.solve.z * divergence) - 1.0, 0.0);
+    cells[2u * c + 1u].z = max(volume.solve.w * (cell.y - 1.0) - cell.y * volume.solve.z * divergence, 0.0);
 }
 
 // One Gauss–Seidel update of cell `c`'s pressure if it is of `colour` (its coordinates'

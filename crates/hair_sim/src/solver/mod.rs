@@ -20,7 +20,7 @@ use rest_lanes::RestLanes;
 pub use step::{MIN_STEP, StepConstants};
 pub use volume::{
     Feedback, LIVE_FLOOR, MAX_FIXED_VELOCITY, MIN_FRICTION_KEPT, PARTICLE_MASS_UNITS, PRESSURE_SLACK, SETTLING_FLOOR,
-    SplatPart, VELOCITY_BITS, VolumeGrid, WEIGHT_BITS, fixed_velocity,
+    SPRINGS_CATCH_UP, SplatPart, VELOCITY_BITS, VolumeGrid, WEIGHT_BITS, fixed_velocity,
 };
 mod volume;
 mod wind;
@@ -493,8 +493,9 @@ impl Strands {
         let grid = self.volume.as_mut().expect("made above");
         let made_from = &mut self.volume_made_from;
         let (positions, velocities) = (&self.positions, &self.velocities);
+        let settings = (&params.volume, params.length_mode);
         let step =
-            volume::prepare(grid, made_from, &self.rest, positions, velocities, head, &params.volume, dt, (parts, run));
+            volume::prepare(grid, made_from, &self.rest, positions, velocities, head, settings, dt, (parts, run));
         self.volume_step = Some(step);
     }
 

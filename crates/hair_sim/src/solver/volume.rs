@@ -14,7 +14,7 @@
 //! at rest the push is exactly zero.
 
 use super::RestShape;
-use super::params::Volume;
+use super::params::{LengthMode, Volume};
 use crate::math::{Pose, Vec3};
 use glam::Vec4;
 use splat::{CellSums, Lattice, Splat, add_share};
@@ -343,16 +343,18 @@ impl VolumeGrid {
     /// from the last step's answer, 0 in cells without hair (the air does not push back) and
     /// clamped at 0 (it only pushes apart). The overflow is the density beyond the cell's
     /// target that the step would leave, were the hair to go on spreading or packing as it
-    /// does (`fill × (1 − dt × divergence) − 1`, as a share of the target; the head turned
-    /// by `rotation`, which turns the grid's axes). The pressure's gradient, taken off a
-    /// particle's velocity, spreads that out of the cell in the step of `dt` seconds.
-    pub fn solve_pressure(&mut self, sweeps: u32, dt: f32, rotation: glam::Quat) {
+    /// does, `catch_up` of what is beyond it now taken away
+    /// (`catch_up × (fill − 1) − fill × dt × divergence`, as a share of the target;
+    /// [`Feedback::catch_up`]; the head turned by `rotation`, which turns the grid's axes).
+    /// The pressure's gradient, taken off a particle's velocity, spreads that out of the
+    /// cell in the step of `dt` seconds.
+    pub fn solve_pressure(&mut self, sweeps: u32, dt: f32, rotation: glam::Quat, catch_up: f32) {
         if sweeps == 0 {
             // Off: nothing left over from when it was on.
             self.pressure.fill(0.0);
             return;
         }
-        self.resolve_overflow(dt, rotation);
+        self.resolve_overflow(dt, rotation, catch_up);
         let h2 = self.lattice.cell * self.lattice.cell;
         let inverse_dt = 1.0 / dt.max(1e-6);
         let occupied = std::mem::take(&mut self.occupied);
@@ -368,16 +370,19 @@ impl VolumeGrid {
     }
 
     /// Each cell's overflow ([`CellValue::overflow`]) over a step of `dt` seconds, the head
-    /// turned by `rotation`. Hair already spreading out of a full cell needs less push,
-    /// and hair packing into one more: a push for the density as it stands overshoots,
-    /// and where springs pull the hair back the two swing against each other.
-    fn resolve_overflow(&mut self, dt: f32, rotation: glam::Quat) {
+    /// turned by `rotation`, `catch_up` of the density beyond the target taken away. Hair
+    /// already spreading out of a full cell needs less push, and hair packing into one
+    /// more: a push for the density as it stands overshoots, and where springs pull the
+    /// hair back the two swing against each other.
+    fn resolve_overflow(&mut self, dt: f32, rotation: glam::Quat, catch_up: f32) {
         let turn = glam::Mat3::from_quat(rotation);
         let axes = [turn.x_axis, turn.y_axis, turn.z_axis];
         let occupied = std::mem::take(&mut self.occupied);
         for &(c, at) in occupied.iter().flatten() {
             let spreading = self.divergence(c, at, &axes);
-            self.values[c].overflow = (self.values[c].fill * (1.0 - dt * spreading) - 1.0).max(0.0);
+            let fill = self.values[c].fill;
+            // In the GPU's order (`predict_overflow`).
+            self.values[c].overflow = (catch_up * (fill - 1.0) - fill * dt * spreading).max(0.0);
         }
         self.occupied = occupied;
     }
@@ -484,12 +489,13 @@ pub(super) fn prepare(
     positions: &[Vec3],
     velocities: &[Vec3],
     (pose, next): (Pose, Pose),
-    volume: &Volume,
+    (volume, mode): (&Volume, LengthMode),
     dt: f32,
     (parts, run): (usize, impl FnOnce(&mut [SplatPart<'_>])),
 ) -> VolumeStep {
     let n = rest.particles_per_strand.max(1);
-    let moved = made_from.as_ref().and_then(|made| made.moved(positions, velocities, n, (pose, dt, *volume)));
+    let under = (pose, dt, *volume, mode);
+    let moved = made_from.as_ref().and_then(|made| made.moved(positions, velocities, n, under));
     match moved {
         Some(moved) if moved.is_empty() => return made_from.as_ref().expect("compared with").step.clone(),
         Some(moved) if moved.len() * RESPLAT_SHARE <= rest.strand_count() => {
@@ -497,12 +503,12 @@ pub(super) fn prepare(
         }
         _ => grid.splat_on(rest, positions, Some(velocities), pose, parts, run),
     }
-    grid.solve_pressure(volume.pressure_iterations, dt, pose.rotation);
-    let feedback = Feedback::new(grid, volume, n, dt);
+    let feedback = Feedback::new(grid, volume, mode, n, dt);
+    grid.solve_pressure(volume.pressure_iterations, dt, pose.rotation, feedback.catch_up);
     grid.resolve_potential(feedback.push, volume.pressure);
     let step = VolumeStep { shares: feedback.shares, rates: feedback.rates, rotation: pose.rotation };
     if next == pose {
-        MadeFrom::remember(made_from, positions, velocities, (pose, dt, *volume), &step);
+        MadeFrom::remember(made_from, positions, velocities, under, &step);
     } else {
         *made_from = None;
     }
@@ -518,20 +524,20 @@ const RESPLAT_SHARE: usize = 8;
 pub(super) struct MadeFrom {
     positions: Vec<Vec3>,
     velocities: Vec<Vec3>,
-    /// The head's pose, the step's length and the settings.
-    under: (Pose, f32, Volume),
+    /// The head's pose, the step's length, the settings and the length model.
+    under: (Pose, f32, Volume, LengthMode),
     step: VolumeStep,
 }
 
 impl MadeFrom {
     /// The strands (of `n` particles) whose positions or velocities changed since; `None`
-    /// where the head, the step or the settings did (every strand then).
+    /// where the head, the step, the settings or the length model did (every strand then).
     fn moved(
         &self,
         positions: &[Vec3],
         velocities: &[Vec3],
         n: usize,
-        under: (Pose, f32, Volume),
+        under: (Pose, f32, Volume, LengthMode),
     ) -> Option<Vec<usize>> {
         if self.under != under || self.positions.len() != positions.len() {
             return None;
@@ -554,7 +560,7 @@ impl MadeFrom {
         slot: &mut Option<MadeFrom>,
         positions: &[Vec3],
         velocities: &[Vec3],
-        under: (Pose, f32, Volume),
+        under: (Pose, f32, Volume, LengthMode),
         step: &VolumeStep,
     ) {
         let made = slot.get_or_insert_with(|| MadeFrom {
@@ -673,21 +679,38 @@ pub struct Feedback {
     /// (the whole difference at once) is taken as keeping [`MIN_FRICTION_KEPT`] of it
     /// per 1/60 s, so that the rate is finite.
     pub rates: Vec<f32>,
+    /// The share of a cell's density beyond its target that the pressure takes away in
+    /// this step ([`VolumeGrid::solve_pressure`]): all of it under Follow-The-Leader, whose
+    /// brake takes away the speed that the push out leaves; [`SPRINGS_CATCH_UP`] in the
+    /// spring model, which keeps that speed.
+    pub catch_up: f32,
 }
+
+/// [`Feedback::catch_up`] in the spring model. Its integrator keeps every speed the
+/// pressure gives, so hair pushed out of a full cell in one step flies on past its target
+/// until the springs pull it back into the cell, and is pushed out again: the groom never
+/// comes to rest. Taken half a step at a time (Baumgarte's stabilisation of a contact's
+/// overlap) it arrives as it slows down.
+pub const SPRINGS_CATCH_UP: f32 = 0.5;
 
 /// What a friction of 1 keeps of the difference per 1/60 s, as a rate ([`Feedback::rates`]).
 pub const MIN_FRICTION_KEPT: f32 = 1e-6;
 
 impl Feedback {
-    /// The feedback of a step of `dt` seconds on `grid`, for strands of `n` particles.
-    pub fn new(grid: &VolumeGrid, volume: &Volume, n: usize, dt: f32) -> Self {
+    /// The feedback of a step of `dt` seconds on `grid`, for strands of `n` particles
+    /// stepped in the length model `mode`.
+    pub fn new(grid: &VolumeGrid, volume: &Volume, mode: LengthMode, n: usize, dt: f32) -> Self {
         let friction = |j: usize| {
             let t = j as f32 / (n - 1).max(1) as f32;
             volume.friction_root + (volume.friction_tip - volume.friction_root) * t
         };
         let shares = (0..n).map(|j| 1.0 - (1.0 - friction(j)).powf(dt * 60.0)).collect();
         let rates = (0..n).map(|j| -(1.0 - friction(j)).max(MIN_FRICTION_KEPT).ln() * 60.0).collect();
-        Feedback { shares, push: -volume.density_push * grid.lattice.cell * dt, rates }
+        let catch_up = match mode {
+            LengthMode::Inextensible => 1.0,
+            LengthMode::Springs => SPRINGS_CATCH_UP,
+        };
+        Feedback { shares, push: -volume.density_push * grid.lattice.cell * dt, rates, catch_up }
     }
 }
 

@@ -21,8 +21,17 @@ fn apply(
     volume: &Volume,
     dt: f32,
 ) {
-    let step =
-        prepare(grid, &mut None, rest, positions, velocities, (pose, pose), volume, dt, (1, |_: &mut [SplatPart]| {}));
+    let step = prepare(
+        grid,
+        &mut None,
+        rest,
+        positions,
+        velocities,
+        (pose, pose),
+        (volume, LengthMode::Inextensible),
+        dt,
+        (1, |_: &mut [SplatPart]| {}),
+    );
     grid.feed_back(&step, 0, velocities);
 }
 
@@ -171,7 +180,7 @@ fn a_step_makes_the_grid_again_only_from_what_moved() {
             positions,
             &still,
             (Pose::IDENTITY, Pose::IDENTITY),
-            &volume,
+            (&volume, LengthMode::Inextensible),
             dt,
             (1, |_: &mut [SplatPart]| splatted.set(true)),
         );
@@ -192,9 +201,29 @@ fn a_step_makes_the_grid_again_only_from_what_moved() {
     let turned = Pose::new(glam::Quat::from_rotation_y(0.1), Vec3::ZERO);
     let mut made_from = None;
     let nothing = (1, |_: &mut [SplatPart]| {});
-    prepare(&mut grid, &mut made_from, &rest, &moved, &still, (Pose::IDENTITY, turned), &volume, dt, nothing);
+    prepare(
+        &mut grid,
+        &mut made_from,
+        &rest,
+        &moved,
+        &still,
+        (Pose::IDENTITY, turned),
+        (&volume, LengthMode::Inextensible),
+        dt,
+        nothing,
+    );
     assert!(made_from.is_none(), "nothing kept under a moving head");
-    prepare(&mut grid, &mut made_from, &rest, &moved, &still, (turned, turned), &volume, dt, nothing);
+    prepare(
+        &mut grid,
+        &mut made_from,
+        &rest,
+        &moved,
+        &still,
+        (turned, turned),
+        (&volume, LengthMode::Inextensible),
+        dt,
+        nothing,
+    );
     assert!(made_from.is_some(), "kept under a still one");
 }
 
@@ -268,7 +297,7 @@ fn the_sweeps_over_the_cells_with_hair_are_the_sweeps_over_every_cell() {
     let packing: Vec<Vec3> = squeezed.iter().map(|&p| (centre - p) * 0.5).collect();
     let (dt, turn, sweeps) = (1.0 / 60.0, glam::Quat::IDENTITY, 8);
     grid.splat(&rest, &squeezed, Some(&packing), Pose::IDENTITY);
-    grid.solve_pressure(sweeps, dt, turn);
+    grid.solve_pressure(sweeps, dt, turn, 1.0);
     let before = grid.pressure().to_vec();
     let shifted: Vec<Vec3> = squeezed.iter().map(|&p| p + Vec3::X * 2.0 * grid.cell()).collect();
     grid.splat(&rest, &shifted, Some(&packing), Pose::IDENTITY);
@@ -283,7 +312,7 @@ fn the_sweeps_over_the_cells_with_hair_are_the_sweeps_over_every_cell() {
             every_cell.pressure[c] = 0.0;
         }
     }
-    every_cell.resolve_overflow(dt, turn);
+    every_cell.resolve_overflow(dt, turn, 1.0);
     let (h2, inverse_dt) = (grid.cell() * grid.cell(), 1.0 / dt);
     for _ in 0..sweeps {
         for colour in 0..2 {
@@ -296,7 +325,7 @@ fn the_sweeps_over_the_cells_with_hair_are_the_sweeps_over_every_cell() {
         }
     }
 
-    grid.solve_pressure(sweeps, dt, turn);
+    grid.solve_pressure(sweeps, dt, turn, 1.0);
     let bits = |p: &[f32]| p.iter().map(|p| p.to_bits()).collect::<Vec<_>>();
     assert!(grid.pressure().iter().any(|&p| p > 0.0), "no pressure: the test tests too little");
     assert!(lost.iter().all(|&c| grid.pressure()[c] == 0.0), "a cell that lost its hair keeps no pressure");
