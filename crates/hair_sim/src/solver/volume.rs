@@ -126,7 +126,7 @@ impl VolumeGrid {
         let cells = dims[0] * dims[1] * dims[2];
         let mut grid = VolumeGrid {
             resolution,
-            lattice: Lattice::new(min, cell, dims),
+            lattice: Lattice { origin: min, inverse_cell: 1.0 / cell, cell, dims },
             sums: vec![[0.0; 4]; cells],
             rest_mass: vec![0; cells],
             rest_scale: 1.0,

@@ -26,17 +26,9 @@ pub(super) struct Lattice {
     pub inverse_cell: f32,
     pub cell: f32,
     pub dims: [usize; 3],
-    /// One less than `dims`, as floats: where a point's eight cells leave the grid.
-    last: Vec3,
 }
 
 impl Lattice {
-    /// `dims` cells of side `cell` from `origin`.
-    pub fn new(origin: Vec3, cell: f32, dims: [usize; 3]) -> Self {
-        let last = Vec3::from_array(dims.map(|d| d.saturating_sub(1) as f32));
-        Lattice { origin, inverse_cell: 1.0 / cell, cell, dims, last }
-    }
-
     /// Cell `c`'s coordinates along the three axes (x fastest in the cell arrays).
     pub fn coordinates(&self, c: usize) -> [usize; 3] {
         let [dx, dy, _] = self.dims;
@@ -49,7 +41,8 @@ impl Lattice {
         let [dx, dy, dz] = self.dims;
         // Compared as floats, so that a point far outside (or not finite) never becomes
         // an index.
-        if !(g.cmpge(Vec3::ZERO) & g.cmplt(self.last)).all() {
+        let within = |g: f32, d: usize| g >= 0.0 && g < (d - 1) as f32;
+        if !(within(g.x, dx) && within(g.y, dy) && within(g.z, dz)) {
             return None;
         }
         // Non-negative and below a grid side here, so truncation is the floor (without
