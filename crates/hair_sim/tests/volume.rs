@@ -514,8 +514,9 @@ struct Locks {
 
 /// Two locks swept through each other ([`locks_crossing`]): without volume most of A ends
 /// inside B and B never moves; with it A pushes B aside, a quarter of it at most left
-/// inside (near the roots they share), and B takes up momentum. Draws the two runs side by
-/// side, while A sweeps and at the end (`docs/volume-locks.png` is this picture).
+/// inside (a few of A's strands, from root to tip), and B takes up momentum. Draws the two
+/// runs side by side, while A sweeps and at the end (`docs/volume-locks.png` is this
+/// picture).
 #[test]
 fn a_lock_swept_into_another_pushes_it_aside() {
     let off = locks_crossing(Volume::default());
