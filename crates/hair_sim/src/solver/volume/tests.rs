@@ -200,30 +200,13 @@ fn a_step_makes_the_grid_again_only_from_what_moved() {
     // copy of the particles is kept for it.
     let turned = Pose::new(glam::Quat::from_rotation_y(0.1), Vec3::ZERO);
     let mut made_from = None;
-    let nothing = (1, |_: &mut [SplatPart]| {});
-    prepare(
-        &mut grid,
-        &mut made_from,
-        &rest,
-        &moved,
-        &still,
-        (Pose::IDENTITY, turned),
-        (&volume, LengthMode::Inextensible),
-        dt,
-        nothing,
-    );
+    let mut step_under = |head: (Pose, Pose), made_from: &mut Option<MadeFrom>| {
+        let settings = (&volume, LengthMode::Inextensible);
+        prepare(&mut grid, made_from, &rest, &moved, &still, head, settings, dt, (1, |_: &mut [SplatPart]| {}));
+    };
+    step_under((Pose::IDENTITY, turned), &mut made_from);
     assert!(made_from.is_none(), "nothing kept under a moving head");
-    prepare(
-        &mut grid,
-        &mut made_from,
-        &rest,
-        &moved,
-        &still,
-        (turned, turned),
-        (&volume, LengthMode::Inextensible),
-        dt,
-        nothing,
-    );
+    step_under((turned, turned), &mut made_from);
     assert!(made_from.is_some(), "kept under a still one");
 }
 
