@@ -689,8 +689,8 @@ pub struct Feedback {
 /// [`Feedback::catch_up`] in the spring model. Its integrator keeps every speed the
 /// pressure gives, so hair pushed out of a full cell in one step flies on past its target
 /// until the springs pull it back into the cell, and is pushed out again: the groom never
-/// comes to rest. Taken half a step at a time (Baumgarte's stabilisation of a contact's
-/// overlap) it arrives as it slows down.
+/// comes to rest. Taking half of it a step, as Baumgarte's stabilisation takes a contact's
+/// overlap, the hair comes to the target slowing down.
 pub const SPRINGS_CATCH_UP: f32 = 0.5;
 
 /// What a friction of 1 keeps of the difference per 1/60 s, as a rate ([`Feedback::rates`]).
