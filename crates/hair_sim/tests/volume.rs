@@ -1,8 +1,9 @@
-//! Hair with volume ([`SimParams::volume`]): at rest it changes nothing, the grid's sums are
-//! exact, it is deterministic on every SIMD path, it holds a groom that is squeezed
-//! against itself apart, and its pressure keeps a bundle on a floor from packing into a
-//! layer and spreads the piles a shake leaves, and under motion the hair keeps the body it
-//! settled into. Run with `--nocapture` to see the figures.
+//! Hair with volume ([`SimParams::volume`]): at rest it changes nothing and lets spring
+//! hair come to rest, the grid's sums are exact, it is deterministic on every SIMD path, it
+//! holds a groom that is squeezed against itself apart, its pressure keeps a bundle on a
+//! floor from packing into a layer, it leaves the piles a shake makes no denser, and under
+//! motion the hair keeps the body it settled into. Run with `--nocapture` to see the
+//! figures.
 
 mod common;
 
