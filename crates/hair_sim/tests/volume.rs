@@ -366,9 +366,9 @@ fn particle_densities(positions: &[Vec3], n: usize, pose: Pose) -> Vec<f32> {
         bins.entry(key(x)).or_default().push(x);
     }
     let around = |x: Vec3| {
-        let mut density = 0.0;
+        let (at, mut density) = (key(x), 0.0);
         for offset in (0..27).map(|k| IVec3::new(k % 3 - 1, k / 3 % 3 - 1, k / 9 - 1)) {
-            for &y in bins.get(&(key(x) + offset)).map_or(&[][..], Vec::as_slice) {
+            for &y in bins.get(&(at + offset)).map_or(&[][..], Vec::as_slice) {
                 density += (1.0 - (y - x).length_squared() / (h * h)).max(0.0).powi(3);
             }
         }

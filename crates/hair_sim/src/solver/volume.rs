@@ -470,8 +470,9 @@ pub const SETTLING_FLOOR: f32 = 4.0;
 /// The volume's part of one step of `dt` seconds, before the strands move: the grid made
 /// from `positions` and `velocities` (head-local by `pose`, the head's pose at the step's
 /// start; `next` is its pose at the step's end), its pressure solved
-/// (`volume.pressure_iterations` sweeps) and each cell's potential. The answer then reaches each particle's velocity through
-/// [`VolumeGrid::feed_back`], strand by strand.
+/// (`volume.pressure_iterations` sweeps, as much of the overflow as the length model
+/// `mode` takes a step, [`Feedback::catch_up`]) and each cell's potential. The answer then
+/// reaches each particle's velocity through [`VolumeGrid::feed_back`], strand by strand.
 ///
 /// `made_from` is what the grid was last made from. Where nothing moved since, under the
 /// same head, step and settings (a groom asleep under a still head), the grid is left as
