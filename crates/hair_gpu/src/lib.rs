@@ -46,7 +46,7 @@
 #![warn(missing_docs)]
 
 use bytemuck::Zeroable;
-use hair_sim::collide::HeadCollider;
+use hair_sim::collide::{HeadCollider, HeadInterior};
 use hair_sim::math::{Pose, Vec3};
 use hair_sim::solver::{LengthMode, RestShape, StepConstants, StepInput, StepReport, Stillness};
 use layout::Slots;
@@ -160,6 +160,9 @@ pub struct GpuStrands {
     /// (and again when it asks for another resolution).
     volume_passes: VolumePasses,
     volume: Option<GpuVolume>,
+    /// The head's inside, whose cells the hair–hair grid makes walls
+    /// ([`hair_sim::collide::HeadInterior`]).
+    head_interior: Option<HeadInterior>,
     /// The calls' commands since the last submission (locked by the calls that take
     /// `&self` and submit them: the copies, the waits, a [`GpuDrawing`]).
     recorder: std::sync::Mutex<Recorder>,
@@ -412,6 +415,7 @@ impl GpuStrands {
             roots: None,
             volume_passes: VolumePasses::new(device),
             volume: None,
+            head_interior: collider.map(HeadCollider::interior),
             recorder: std::sync::Mutex::new(Recorder::new(device)),
             staging: StagingPool::default(),
             _alive: Alive::new(&LIVE_STRANDS),
@@ -694,7 +698,8 @@ impl GpuStrands {
             let n = self.particles_per_strand as usize;
             let rest = RestShape::new(self.rest_positions.clone(), n).expect("uploaded from a valid rest shape");
             let (positions, motion) = (&self.positions, &self.motion);
-            self.volume = Some(GpuVolume::new(&self.device, &self.volume_passes, &rest, resolution, positions, motion));
+            let head = (&rest, self.head_interior.as_ref());
+            self.volume = Some(GpuVolume::new(&self.device, &self.volume_passes, head, resolution, positions, motion));
         }
     }
 

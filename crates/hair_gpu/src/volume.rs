@@ -8,6 +8,7 @@
 use crate::pass::{SharedLayout, storage};
 use crate::recorder::Recorder;
 use bytemuck::{Pod, Zeroable};
+use hair_sim::collide::HeadInterior;
 use hair_sim::math::Pose;
 use hair_sim::solver::{Feedback, LengthMode, RestShape, VolumeGrid};
 
@@ -36,7 +37,8 @@ struct VolumeUniform {
 }
 
 /// The volume shader's passes (`splat_particles`, `resolve_cells`, `predict_overflow`,
-/// `relax_red`, `relax_black`, `feed_back`) on one layout: compiled with the strands, so
+/// `relax_red`, `relax_black`, `resolve_potential`, `extend_potential`, `feed_back`) on one
+/// layout: compiled with the strands, so
 /// that a step that first asks for volume does not wait for a compiler.
 pub(crate) struct VolumePasses {
     layout: SharedLayout,
@@ -54,13 +56,23 @@ impl VolumePasses {
             (storage(true), false),
             (storage(true), false),
             (storage(false), false),
+            (storage(true), false),
         ];
         let (layout, pipelines) = SharedLayout::compile(
             device,
             "hair_gpu volume",
             VOLUME_SHADER,
             &bindings,
-            ["splat_particles", "resolve_cells", "predict_overflow", "relax_red", "relax_black", "feed_back"],
+            [
+                "splat_particles",
+                "resolve_cells",
+                "predict_overflow",
+                "relax_red",
+                "relax_black",
+                "resolve_potential",
+                "extend_potential",
+                "feed_back",
+            ],
         );
         VolumePasses { layout, pipelines }
     }
@@ -81,19 +93,21 @@ pub(crate) struct GpuVolume {
     /// Buffers made for it (kept alive with the bind group).
     _cells: wgpu::Buffer,
     _rest_mass: wgpu::Buffer,
+    _solid: wgpu::Buffer,
 }
 
 impl GpuVolume {
-    /// The grid of `rest` at `resolution`, over the solver's `positions` and `motion`.
+    /// The grid of `rest` at `resolution`, its cells inside `head` walls, over the
+    /// solver's `positions` and `motion`.
     pub fn new(
         device: &wgpu::Device,
         passes: &VolumePasses,
-        rest: &RestShape,
+        (rest, head): (&RestShape, Option<&HeadInterior>),
         resolution: u32,
         positions: &wgpu::Buffer,
         motion: &wgpu::Buffer,
     ) -> Self {
-        let grid = VolumeGrid::new(rest, resolution);
+        let grid = VolumeGrid::new(rest, resolution, head);
         let cells = grid.rest_mass().len();
         let buffer = |label: &str, size: usize, usage: wgpu::BufferUsages| {
             device.create_buffer(&wgpu::BufferDescriptor {
@@ -117,6 +131,13 @@ impl GpuVolume {
             bytemuck::cast_slice(&words),
             wgpu::BufferUsages::empty(),
         );
+        let walls: Vec<u32> = grid.solid().iter().map(|&s| u32::from(s)).collect();
+        let solid = crate::storage_buffer(
+            device,
+            "hair_gpu volume walls",
+            bytemuck::cast_slice(&walls),
+            wgpu::BufferUsages::empty(),
+        );
         let uniform = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("hair_gpu volume"),
             size: std::mem::size_of::<VolumeUniform>() as u64,
@@ -126,7 +147,7 @@ impl GpuVolume {
         let group = passes.layout.bind(
             device,
             "hair_gpu volume",
-            [&uniform, positions, motion, &sums, &cell_values, &rest_mass, &shares, &pressure]
+            [&uniform, positions, motion, &sums, &cell_values, &rest_mass, &shares, &pressure, &solid]
                 .map(|b| b.as_entire_binding())
                 .to_vec(),
         );
@@ -140,6 +161,7 @@ impl GpuVolume {
             group,
             _cells: cell_values,
             _rest_mass: rest_mass,
+            _solid: solid,
         }
     }
 
@@ -180,7 +202,8 @@ impl GpuVolume {
         let friction = if implicit { &feedback.rates } else { &feedback.shares };
         recorder.upload(&self.shares, bytemuck::cast_slice(friction));
         recorder.encoder().clear_buffer(&self.sums, 0, None);
-        let [splat, resolve, predict, red, black, feed_back] = std::array::from_fn(|k| &passes.pipelines[k]);
+        let [splat, resolve, predict, red, black, potential, walls, feed_back] =
+            std::array::from_fn(|k| &passes.pipelines[k]);
         recorder.dispatch("hair_gpu volume splat", splat, (&self.group, &[]), slots);
         recorder.dispatch("hair_gpu volume cells", resolve, (&self.group, &[]), cells);
         if volume.pressure_iterations == 0 {
@@ -193,6 +216,8 @@ impl GpuVolume {
             recorder.dispatch("hair_gpu volume pressure, red", red, (&self.group, &[]), cells);
             recorder.dispatch("hair_gpu volume pressure, black", black, (&self.group, &[]), cells);
         }
+        recorder.dispatch("hair_gpu volume potential", potential, (&self.group, &[]), cells);
+        recorder.dispatch("hair_gpu volume potential in the walls", walls, (&self.group, &[]), cells);
         recorder.dispatch("hair_gpu volume feedback", feed_back, (&self.group, &[]), slots);
     }
 

@@ -3,9 +3,11 @@
 // around it with integer atomics (`splat_particles`); each cell's mean velocity and density
 // excess are worked out once (`resolve_cells`), and how far it would overflow
 // (`predict_overflow`); the pressure is relaxed in red and black sweeps (`relax_red`,
-// `relax_black`); each particle's velocity then moves toward the mean around it, down the
-// excess and down the pressure (`feed_back`), or for the spring model that answer is left
-// for its implicit solve. The splat is the CPU's, integer for integer: a particle adds at
+// `relax_black`); each cell's potential is worked out from its excess and pressure
+// (`resolve_potential`) and carried into the walls, the cells inside the head without hair
+// (`extend_potential`); each particle's velocity then moves toward the mean around it and
+// down the potential (`feed_back`), or for the spring model that answer is left for its
+// implicit solve. The splat is the CPU's, integer for integer: a particle adds at
 // most 2^31 to a cell's sum, and the sums are 64-bit, held as two words (low, high), so
 // they are the same in any order.
 // `layout.wgsl` is prepended: where each particle's values live.
@@ -40,7 +42,8 @@ struct Volume {
 // Per cell, eight words: mass, then momentum along x, y and z, each low word then high.
 @group(0) @binding(3) var<storage, read_write> sums: array<atomic<u32>>;
 // Per cell, two vec4: the mean velocity and the density excess; the mass (0: empty), the
-// mass over the pressure's target and the overflow (`predict_overflow`).
+// mass over the pressure's target, the overflow (`predict_overflow`) and the potential
+// (`resolve_potential`, `extend_potential`).
 @group(0) @binding(4) var<storage, read_write> cells: array<vec4<f32>>;
 // Per cell, the rest pose's mass, low word then high.
 @group(0) @binding(5) var<storage, read> rest_mass: array<u32>;
@@ -49,6 +52,9 @@ struct Volume {
 @group(0) @binding(6) var<storage, read> shares: array<f32>;
 // Per cell, the pressure, kept between steps as the next one's start.
 @group(0) @binding(7) var<storage, read_write> pressure: array<f32>;
+// Per cell, 1 where it lies inside the head (without hair, a wall: `VolumeGrid::solid`),
+// else 0.
+@group(0) @binding(8) var<storage, read> solid: array<u32>;
 
 // hair_sim's `WEIGHT_BITS` (as a weight of one), `PARTICLE_MASS_UNITS`, `VELOCITY_BITS`
 // (as a scale) and `MAX_FIXED_VELOCITY` (a test checks).
@@ -230,9 +236,29 @@ fn predict_overflow(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_w
     cells[2u * c + 1u].z = max(volume.solve.w * (cell.y - 1.0) - cell.y * volume.solve.z * divergence, 0.0);
 }
 
+// Whether cell `c` is a wall: inside the head, without hair (`VolumeGrid::is_wall`).
+fn is_wall(c: u32) -> bool {
+    return solid[c] != 0u && !(cells[2u * c + 1u].x > 0.0);
+}
+
+// Cell `c`'s neighbour below (`above` false) or above along `axis`, or `NONE` beyond the
+// grid (hair_sim's `Lattice::neighbours`).
+const NONE: u32 = 0xffffffffu;
+
+fn neighbour(c: u32, axis: u32, above: bool) -> u32 {
+    let d = volume.dims.xyz;
+    let at = vec3<u32>(c % d.x, (c / d.x) % d.y, c / (d.x * d.y));
+    var strides = array<u32, 3>(1u, d.x, d.x * d.y);
+    let stride = strides[axis];
+    if above {
+        return select(NONE, c + stride, at[axis] + 1u < d[axis]);
+    }
+    return select(NONE, c - stride, at[axis] > 0u);
+}
+
 // One Gauss–Seidel update of cell `c`'s pressure if it is of `colour` (its coordinates'
 // sum, odd or even), from its six neighbours, which are all of the other colour (hair_sim's
-// `VolumeGrid::relaxed`): 0 without hair, never below 0.
+// `VolumeGrid::relaxed`): 0 without hair, a wall beside it left out, never below 0.
 fn relax(c: u32, colour: u32) {
     if c >= volume.counts.z {
         return;
@@ -247,17 +273,23 @@ fn relax(c: u32, colour: u32) {
         pressure[c] = 0.0;
         return;
     }
-    let sy = d.x;
-    let sz = d.x * d.y;
     // In the CPU's order.
     var around = 0.0;
-    around += select(0.0, pressure[c - 1u], at.x > 0u);
-    around += select(0.0, pressure[c + 1u], at.x + 1u < d.x);
-    around += select(0.0, pressure[c - sy], at.y > 0u);
-    around += select(0.0, pressure[c + sy], at.y + 1u < d.y);
-    around += select(0.0, pressure[c - sz], at.z > 0u);
-    around += select(0.0, pressure[c + sz], at.z + 1u < d.z);
-    pressure[c] = max((around + volume.feedback.w * cell.z * volume.solve.x) / 6.0, 0.0);
+    var open = 0.0;
+    for (var k = 0u; k < 6u; k++) {
+        let n = neighbour(c, k / 2u, k % 2u == 1u);
+        if n == NONE {
+            open += 1.0;
+        } else if !is_wall(n) {
+            around += pressure[n];
+            open += 1.0;
+        }
+    }
+    if open == 0.0 {
+        pressure[c] = 0.0;
+        return;
+    }
+    pressure[c] = max((around + volume.feedback.w * cell.z * volume.solve.x) / open, 0.0);
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
@@ -268,6 +300,38 @@ fn relax_red(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgrou
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn relax_black(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     relax(invocation(id, groups), 1u);
+}
+
+// Each cell's potential, but a wall's: the density push's share of the excess less the
+// pressure's share of the pressure (`VolumeGrid::resolve_potential`).
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn resolve_potential(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let c = invocation(id, groups);
+    if c >= volume.counts.z || is_wall(c) {
+        return;
+    }
+    cells[2u * c + 1u].w = volume.feedback.x * cells[2u * c].w - volume.feedback.z * pressure[c];
+}
+
+// A wall's potential: the mean of its neighbours' that hold hair, 0 where none does, so
+// that nothing is pushed into the head (`VolumeGrid::wall_potential`).
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn extend_potential(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let c = invocation(id, groups);
+    if c >= volume.counts.z || !is_wall(c) {
+        return;
+    }
+    // In the CPU's order.
+    var sum = 0.0;
+    var count = 0.0;
+    for (var k = 0u; k < 6u; k++) {
+        let n = neighbour(c, k / 2u, k % 2u == 1u);
+        if n != NONE && cells[2u * n + 1u].x > 0.0 {
+            sum += cells[2u * n + 1u].w;
+            count += 1.0;
+        }
+    }
+    cells[2u * c + 1u].w = select(0.0, sum / count, count > 0.0);
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
@@ -286,20 +350,19 @@ fn feed_back(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgrou
         return;
     }
     // `VolumeGrid::sample`: the mean velocity over the cells that hold hair, and the
-    // trilinear interpolant's gradient of the potential (the density push's share of the
-    // excess less the pressure's share of the pressure).
+    // trilinear interpolant's gradient of the potential.
     var velocity = vec3<f32>(0.0);
     var weight = 0.0;
     var p: array<f32, 8>;
     for (var corner = 0u; corner < 8u; corner++) {
         let c = corner_cell(splat, corner);
-        let cell = cells[2u * c];
-        if cells[2u * c + 1u].x > 0.0 {
+        let solve = cells[2u * c + 1u];
+        if solve.x > 0.0 {
             let w = f32(corner_weight(splat, corner)) / PARTICLE_MASS_UNITS;
-            velocity += cell.xyz * w;
+            velocity += cells[2u * c].xyz * w;
             weight += w;
         }
-        p[corner] = volume.feedback.x * cell.w - volume.feedback.z * pressure[c];
+        p[corner] = solve.w;
     }
     if weight > 0.0 {
         velocity /= weight;

@@ -1,7 +1,8 @@
 //! Hair with volume ([`SimParams::volume`]): at rest it changes nothing and lets spring
 //! hair come to rest, the grid's sums are exact, it is deterministic on every SIMD path, it
 //! holds a groom that is squeezed against itself apart, its pressure keeps a bundle on a
-//! floor from packing into a layer, it leaves the piles a shake makes no denser, and under
+//! floor from packing into a layer, it pushes hair piled on the skin off it and spreads
+//! the piles a shake makes, and under
 //! motion the hair keeps the body it settled into. Run with `--nocapture` to see the
 //! figures.
 
@@ -274,6 +275,63 @@ fn hair_pressed_together_is_pushed_apart() {
     assert!(on > off + 1e-5, "the volume pushed nothing apart: {on} m against {off} m");
 }
 
+/// A settled groom (256 × 16 on the procedural head) pressed onto the skin, every particle
+/// within 3 cm of it (roots left out) moved along the head's normal to a fifth of its
+/// height over the collision shell (3 mm), and stepped once without collision, gravity or
+/// shape keeping: with the head known to the grid, its cells inside the head are walls
+/// and the pressure pushes the pile off the skin, about twice as fast as a grid without
+/// the head, whose pressure spends half its push into the head, where the collision would
+/// only put the hair back. The head's normal is the gradient of its exact signed distance,
+/// not the grid's.
+#[test]
+fn hair_piled_on_the_skin_is_pushed_off_it_not_into_the_head() {
+    let (collider, rest) = settled(256);
+    let n = rest.particles_per_strand;
+    let normal = |p: Vec3| {
+        let d = |o: Vec3| collider.signed_distance(p + o) - collider.signed_distance(p - o);
+        Vec3::new(d(Vec3::X * 1e-3), d(Vec3::Y * 1e-3), d(Vec3::Z * 1e-3)).normalize()
+    };
+    let mut pile = Vec::new();
+    let pressed: Vec<Vec3> = (rest.positions.iter().enumerate())
+        .map(|(i, &x)| {
+            let d = collider.signed_distance(x);
+            if i % n == 0 || d > 0.03 {
+                return x;
+            }
+            pile.push((i, normal(x)));
+            x - normal(x) * (d - (0.003 + 0.2 * (d - 0.003).max(0.0)))
+        })
+        .collect();
+    let params = SimParams {
+        collision: false,
+        gravity: [0.0; 3],
+        global_stiffness_root: 0.0,
+        local_stiffness: 0.0,
+        ..with_volume()
+    };
+    // The mean speed off the skin, and the share of the pile pushed toward the head.
+    let push = |head: Option<&HeadCollider>| {
+        let mut strands = Strands::new(rest.clone(), Pose::IDENTITY);
+        strands.set_positions(&pressed).expect("finite");
+        strands.step(&step_input(0, Pose::IDENTITY, Pose::IDENTITY, head, &params));
+        let off: Vec<f32> = pile.iter().map(|&(i, normal)| strands.velocities()[i].dot(normal)).collect();
+        let inward = off.iter().filter(|&&s| s < 0.0).count();
+        (off.iter().sum::<f32>() / off.len() as f32, inward as f32 / off.len() as f32)
+    };
+    let (walled, open) = (push(Some(&collider)), push(None));
+    println!(
+        "a pile of {} particles on the skin, pushed off it at {:.3} m/s on average with the head's cells as walls, \
+         {:.3} m/s without; {:.1} % and {:.1} % of it pushed toward the head",
+        pile.len(),
+        walled.0,
+        open.0,
+        walled.1 * 100.0,
+        open.1 * 100.0
+    );
+    assert!(walled.0 >= 1.5 * open.0 && open.0 > 0.0, "off the skin at {} m/s, {} m/s without walls", walled.0, open.0);
+    assert!(walled.1 < 0.01, "{} of the pile pushed toward the head", walled.1);
+}
+
 /// A bundle of 16 × 16 strands, 25 cm of 16 particles each, lying along +x from roots
 /// pinned 4 cm above a floor (the top of a sphere of 100 m), `spacing` apart, falls for 3 s
 /// without the head, shape keeping or anything but gravity, the floor and each other.
@@ -414,12 +472,14 @@ fn density_after_a_shake(rest: &RestShape, collider: &HeadCollider, params: &Sim
 }
 
 /// After a shake ([`density_after_a_shake`]) hair lies in piles where it landed, the
-/// densest of hair near the roots lying on the skin at the sides of the head, and the
-/// volume leaves them about as dense as they are without it (its pressure, on cells of
-/// 2 cm here, and of 1 cm alike, does not spread them). The measure itself is sharp enough
-/// for the asked bound (largest ρ/ρ_rest 1.2): the same groom kept still meets it.
+/// densest of hair near the roots lying on the skin at the sides of the head. The volume's
+/// pressure, which does not push into the head's cells, spreads them along the skin and
+/// off it: the densest particle's density drops by a third, and the 99th percentile by a
+/// tenth. (Before the head's cells were walls, half of that push went into the head, and
+/// the piles were as dense as without volume.) The measure itself is sharp enough for the
+/// asked bound (largest ρ/ρ_rest 1.2): the same groom kept still meets it.
 #[test]
-fn after_a_shake_the_volume_leaves_piled_hair_no_denser() {
+fn after_a_shake_the_volume_spreads_piled_hair() {
     let (_, collider, _, grown) = grown_on_the_shipped_head();
     let rest = settle(grown, Some(&collider), &SimParams::default(), 180, Vec3::ZERO).expect("settle");
     let push_alone = SimParams {
@@ -440,7 +500,7 @@ fn after_a_shake_the_volume_leaves_piled_hair_no_denser() {
         "kept still, the groom's densest particle is {} times as dense: the measure is blunt",
         still.0
     );
-    assert!(on.0 <= off.0 + 0.1 && on.1 <= off.1 + 0.05, "{on:?} with the pressure, {off:?} without");
+    assert!(on.0 <= off.0 - 0.5 && on.1 <= off.1 - 0.08, "{on:?} with the pressure, {off:?} without");
 }
 
 /// Two locks of 8 × 8 strands, 25 cm of 16 particles, rows 3 mm apart, A's roots between

@@ -12,6 +12,7 @@ mod candidates;
 mod crossing;
 mod distance_grid;
 mod flat_bvh;
+mod interior;
 mod patch;
 mod sag;
 mod shapes;
@@ -19,6 +20,7 @@ mod triangles;
 
 pub use distance_grid::DistanceGrid;
 pub use flat_bvh::{FlatBvh, FlatBvhNode};
+pub use interior::HeadInterior;
 pub use patch::{PatchParts, SurfacePatch};
 pub use shapes::ExtraCollider;
 

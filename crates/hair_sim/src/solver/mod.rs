@@ -484,8 +484,10 @@ impl Strands {
             return;
         };
         let resolution = params.volume.resolution;
-        if self.volume.as_ref().is_none_or(|grid| grid.resolution() != resolution) {
-            self.volume = Some(VolumeGrid::new(&self.rest, resolution));
+        let head = input.collider.map(HeadCollider::id);
+        if self.volume.as_ref().is_none_or(|grid| grid.resolution() != resolution || grid.head() != head) {
+            let interior = input.collider.map(HeadCollider::interior);
+            self.volume = Some(VolumeGrid::new(&self.rest, resolution, interior.as_ref()));
             self.volume_made_from = None;
         }
         let pose = if input.head_from.is_valid() { input.head_from } else { input.head_to };

@@ -12,9 +12,15 @@
 //! Each particle adds at most 2^31 to a cell's sum, an `i32`, which the GPU adds into a
 //! 64-bit sum held as two words. The rest density is the same splat of the rest pose, so
 //! at rest the push is exactly zero.
+//!
+//! Cells inside the head that hold no hair are walls: the pressure does not push hair into
+//! them (its gradient across a wall is zero), so a pile of hair on the skin is pushed along
+//! the skin and off it instead of into the head, where the collision would only put it back.
+//! (A cell inside the head that hair on the skin splats into is part of the hair.)
 
 use super::RestShape;
 use super::params::{LengthMode, Volume};
+use crate::collide::HeadInterior;
 use crate::math::{Pose, Vec3};
 use glam::Vec4;
 use splat::{CellSums, Lattice, Splat, add_share};
@@ -68,6 +74,11 @@ pub struct VolumeGrid {
     /// The sums of the splat's parts but the first, which adds into `sums` itself
     /// ([`Self::splat_on`]), kept for the next step.
     partials: Vec<Vec<CellSums>>,
+    /// Per cell, whether it lies inside the head: without hair, a wall, which the pressure
+    /// does not push into ([`Self::solid`]).
+    solid: Vec<bool>,
+    /// The collider whose head the walls are in ([`HeadInterior::collider`]).
+    head: Option<u32>,
 }
 
 /// What the pressure solve reads of a cell: whether it holds hair and its density excess
@@ -100,20 +111,21 @@ struct FieldCell {
 impl VolumeGrid {
     /// A grid of `resolution` cells along the longest side of the box around `rest`'s
     /// particles (head space) grown by a quarter of the longest strand on every side: the
-    /// reach of hair that swings away from its rest pose. Its rest density is `rest`'s.
-    pub fn new(rest: &RestShape, resolution: u32) -> Self {
-        Self::with_floor(rest, resolution, LIVE_FLOOR)
+    /// reach of hair that swings away from its rest pose. Its rest density is `rest`'s; its
+    /// cells inside `head` are walls where they hold no hair.
+    pub fn new(rest: &RestShape, resolution: u32, head: Option<&HeadInterior>) -> Self {
+        Self::with_floor(rest, resolution, head, LIVE_FLOOR)
     }
 
     /// [`Self::new`] for settling a grown groom ([`crate::groom::settle`]): its pose is not
     /// a groom yet (strands straight out along the scalp's normals), so the hair may fill
     /// any cell up to [`SETTLING_FLOOR`] times the mean rest density before the pressure
     /// pushes, and hangs and combs as it falls instead of holding the grown pose.
-    pub(crate) fn for_settling(rest: &RestShape, resolution: u32) -> Self {
-        Self::with_floor(rest, resolution, SETTLING_FLOOR)
+    pub(crate) fn for_settling(rest: &RestShape, resolution: u32, head: Option<&HeadInterior>) -> Self {
+        Self::with_floor(rest, resolution, head, SETTLING_FLOOR)
     }
 
-    fn with_floor(rest: &RestShape, resolution: u32, floor: f32) -> Self {
+    fn with_floor(rest: &RestShape, resolution: u32, head: Option<&HeadInterior>, floor: f32) -> Self {
         let (mut min, mut max) = crate::math::bounds(&rest.positions);
         if rest.positions.is_empty() {
             (min, max) = (Vec3::ZERO, Vec3::ZERO);
@@ -138,7 +150,15 @@ impl VolumeGrid {
             splats: Vec::new(),
             fixed: Vec::new(),
             partials: Vec::new(),
+            solid: vec![false; cells],
+            head: head.map(HeadInterior::collider),
         };
+        if let Some(head) = head {
+            let lattice = &grid.lattice;
+            let node =
+                |c: usize| lattice.origin + Vec3::from_array(lattice.coordinates(c).map(|a| a as f32)) * lattice.cell;
+            grid.solid = (0..cells).map(|c| head.contains(node(c))).collect();
+        }
         grid.splat(rest, &rest.positions, None, Pose::IDENTITY);
         grid.rest_mass = grid.mass();
         let reached: Vec<i64> = grid.rest_mass.iter().copied().filter(|&m| m > 0).collect();
@@ -160,6 +180,18 @@ impl VolumeGrid {
     /// The head-local corner of cell 0.
     pub fn origin(&self) -> Vec3 {
         self.lattice.origin
+    }
+
+    /// Per cell, whether it lies inside the head it was made with: where it holds no hair,
+    /// a wall, which the pressure does not push into.
+    pub fn solid(&self) -> &[bool] {
+        &self.solid
+    }
+
+    /// The collider whose head its walls are ([`HeadInterior::collider`]); `None`: made
+    /// without a head.
+    pub fn head(&self) -> Option<u32> {
+        self.head
     }
 
     /// A cell's side, m.
@@ -325,23 +357,23 @@ impl VolumeGrid {
     /// velocities), a neighbour without hair taken as moving with the cell: the edge of a
     /// lock that moves as one does not spread or pack.
     fn divergence(&self, c: usize, at: [usize; 3], axes: &[Vec3; 3]) -> f32 {
-        let [dx, dy, _] = self.lattice.dims;
-        let strides = [1, dx, dx * dy];
         let own = self.field[c].motion.truncate();
-        let side =
-            |c: Option<usize>| c.filter(|&c| self.values[c].occupied).map_or(own, |c| self.field[c].motion.truncate());
+        let side = |c: Option<(usize, _)>| {
+            c.filter(|&(c, _)| self.values[c].occupied).map_or(own, |(c, _)| self.field[c].motion.truncate())
+        };
+        let neighbours = self.lattice.neighbours(c, at);
         let mut divergence = 0.0;
         for a in 0..3 {
-            let below = side((at[a] > 0).then(|| c - strides[a]));
-            let above = side((at[a] + 1 < self.lattice.dims[a]).then(|| c + strides[a]));
+            let (below, above) = (side(neighbours[2 * a]), side(neighbours[2 * a + 1]));
             divergence += (above - below).dot(axes[a]) * (0.5 * self.lattice.inverse_cell);
         }
         divergence
     }
 
     /// Each cell's pressure: `sweeps` red–black Gauss–Seidel sweeps of `−∇²p = overflow / dt`
-    /// from the last step's answer, 0 in cells without hair (the air does not push back) and
-    /// clamped at 0 (it only pushes apart). The overflow is the density beyond the cell's
+    /// from the last step's answer, 0 in cells without hair (the air does not push back),
+    /// no flow into a wall (a cell inside the head without hair: the pressure's gradient
+    /// across it is 0) and clamped at 0 (it only pushes apart). The overflow is the density beyond the cell's
     /// target that the step would leave, were the hair to go on spreading or packing as it
     /// does, `catch_up` of what is beyond it now taken away
     /// (`catch_up × (fill − 1) − fill × dt × divergence`, as a share of the target;
@@ -387,25 +419,26 @@ impl VolumeGrid {
         self.occupied = occupied;
     }
 
-    /// Cell `c`'s (at `at`, holding hair) pressure from its six neighbours' (0 beyond the
-    /// grid) and its overflow, `h2` the cell's side squared: one Gauss–Seidel update.
+    /// Cell `c`'s (at `at`, holding hair) pressure from its neighbours' (0 beyond the grid;
+    /// a wall is left out, as if it held the cell's own pressure) and its overflow, `h2`
+    /// the cell's side squared: one Gauss–Seidel update.
     #[inline]
     fn relaxed(&self, c: usize, at: [usize; 3], h2: f32, inverse_dt: f32) -> f32 {
         let value = self.values[c];
-        let [dx, dy, dz] = self.lattice.dims;
-        let [i, j, k] = at;
-        let p = |c: usize| self.pressure[c];
-        let (sx, sy) = (1, dx);
-        let sz = dx * dy;
         // In a fixed order, as the GPU adds them.
-        let mut around = 0.0;
-        around += if i > 0 { p(c - sx) } else { 0.0 };
-        around += if i + 1 < dx { p(c + sx) } else { 0.0 };
-        around += if j > 0 { p(c - sy) } else { 0.0 };
-        around += if j + 1 < dy { p(c + sy) } else { 0.0 };
-        around += if k > 0 { p(c - sz) } else { 0.0 };
-        around += if k + 1 < dz { p(c + sz) } else { 0.0 };
-        ((around + h2 * value.overflow * inverse_dt) / 6.0).max(0.0)
+        let (mut around, mut open) = (0.0, 0.0);
+        for n in self.lattice.neighbours(c, at) {
+            match n {
+                Some((n, _)) if self.is_wall(n) => {}
+                Some((n, _)) => (around, open) = (around + self.pressure[n], open + 1.0),
+                None => open += 1.0,
+            }
+        }
+        if open == 0.0 {
+            // Walled in on every side: nowhere to push.
+            return 0.0;
+        }
+        ((around + h2 * value.overflow * inverse_dt) / open).max(0.0)
     }
 
     /// Each cell's pressure ([`Self::solve_pressure`]).
@@ -413,12 +446,44 @@ impl VolumeGrid {
         &self.pressure
     }
 
+    /// Whether cell `c` is a wall: inside the head, without hair.
+    #[inline]
+    fn is_wall(&self, c: usize) -> bool {
+        self.solid[c] && !self.values[c].occupied
+    }
+
     /// Each cell's potential ([`FieldCell::potential`]): `push` times its density excess
-    /// less `share` times its pressure, once the pressure is solved.
+    /// less `share` times its pressure, once the pressure is solved. A wall takes the mean
+    /// of its neighbours' that hold hair (0 where none does), so that the potential's
+    /// gradient across it is zero and nothing is pushed into the head.
     fn resolve_potential(&mut self, push: f32, share: f32) {
-        for ((field, value), &p) in self.field.iter_mut().zip(&self.values).zip(&self.pressure) {
-            field.potential = push * value.excess - share * p;
+        let cells = self.field.iter_mut().zip(&self.values).zip(&self.pressure).zip(&self.solid);
+        for (((field, value), &p), &solid) in cells {
+            field.potential = if solid && !value.occupied { 0.0 } else { push * value.excess - share * p };
         }
+        if self.head.is_none() {
+            return;
+        }
+        // Only a wall beside hair has a neighbour to take a mean of.
+        for &(c, at) in self.occupied.iter().flatten() {
+            for (w, at) in self.lattice.neighbours(c, at).into_iter().flatten() {
+                if self.is_wall(w) {
+                    self.field[w].potential = self.wall_potential(w, at);
+                }
+            }
+        }
+    }
+
+    /// Wall `c`'s (at `at`) potential: the mean of its neighbours' that hold hair, added in
+    /// a fixed order, as the GPU adds them; 0 where none does.
+    fn wall_potential(&self, c: usize, at: [usize; 3]) -> f32 {
+        let (mut sum, mut count) = (0.0, 0.0f32);
+        for (n, _) in self.lattice.neighbours(c, at).into_iter().flatten() {
+            if self.values[n].occupied {
+                (sum, count) = (sum + self.field[n].potential, count + 1.0);
+            }
+        }
+        if count > 0.0 { sum / count } else { 0.0 }
     }
 
     /// The mean velocity of the hair where `splat` lies, and the gradient (per metre, head

@@ -38,7 +38,7 @@ fn apply(
 #[test]
 fn the_splat_holds_every_particle_exactly_and_the_rest_pose_is_its_own_rest() {
     let rest = rest();
-    let mut grid = VolumeGrid::new(&rest, 16);
+    let mut grid = VolumeGrid::new(&rest, 16, None);
     // Twelve particles (roots are pinned, not counted), each a whole unit, whatever the
     // order they were added in.
     assert_eq!(grid.rest_mass().iter().sum::<i64>(), 12 * PARTICLE_MASS_UNITS);
@@ -55,7 +55,7 @@ fn the_splat_holds_every_particle_exactly_and_the_rest_pose_is_its_own_rest() {
 #[test]
 fn a_uniform_velocity_round_trips() {
     let rest = rest();
-    let mut grid = VolumeGrid::new(&rest, 16);
+    let mut grid = VolumeGrid::new(&rest, 16, None);
     let u = Vec3::new(0.37, -1.25, 2.5);
     let velocities = vec![u; rest.positions.len()];
     grid.splat(&rest, &rest.positions, Some(&velocities), Pose::IDENTITY);
@@ -76,7 +76,7 @@ fn friction_moves_a_particle_toward_the_hair_around_it_and_the_push_away_from_a_
     // speeds them toward its, by the same rule.
     let mut velocities: Vec<Vec3> = (0..15).map(|i| if i / 5 == 1 { Vec3::X } else { Vec3::ZERO }).collect();
     // Two cells across: every strand has a share of the middle one.
-    let mut grid = VolumeGrid::new(&rest, 2);
+    let mut grid = VolumeGrid::new(&rest, 2, None);
     apply(&mut grid, &rest, &rest.positions, &mut velocities, Pose::IDENTITY, &volume, 1.0 / 60.0);
     assert!(velocities[7].x < 1.0 && velocities[7].x > 0.0, "the moving strand slows: {}", velocities[7]);
     assert!(velocities[2].x > 0.0, "a still one is dragged along: {}", velocities[2]);
@@ -89,7 +89,7 @@ fn friction_moves_a_particle_toward_the_hair_around_it_and_the_push_away_from_a_
         x.x = 0.005;
     }
     let mut velocities = vec![Vec3::ZERO; 15];
-    let mut grid = VolumeGrid::new(&rest, 8);
+    let mut grid = VolumeGrid::new(&rest, 8, None);
     apply(&mut grid, &rest, &crowded, &mut velocities, Pose::IDENTITY, &pushed, 1.0 / 60.0);
     assert!(velocities[7].x > 0.0 && velocities[2].x < 0.0, "pushed apart: {} and {}", velocities[7], velocities[2]);
 }
@@ -121,10 +121,10 @@ fn a_splat_in_parts_sums_what_one_does() {
     let velocities: Vec<Vec3> = (0..15).map(|i| Vec3::new(0.1 * i as f32, -0.3, 0.02 * (i * i) as f32)).collect();
     let moved: Vec<Vec3> = rest.positions.iter().map(|x| *x + Vec3::new(0.003, -0.002, 0.001)).collect();
     // Few cells, so that the splat splits into parts (each costs a grid's size to add up).
-    let mut whole = VolumeGrid::new(&rest, 2);
+    let mut whole = VolumeGrid::new(&rest, 2, None);
     whole.splat(&rest, &moved, Some(&velocities), Pose::IDENTITY);
     for parts in [2, 3, 7] {
-        let mut grid = VolumeGrid::new(&rest, 2);
+        let mut grid = VolumeGrid::new(&rest, 2, None);
         // The first time the caller runs no part (they run here), the second time every one.
         for run_them in [false, true] {
             grid.splat_on(&rest, &moved, Some(&velocities), Pose::IDENTITY, parts, |jobs| {
@@ -151,10 +151,10 @@ fn a_resplat_of_the_strands_that_moved_sums_what_a_whole_splat_does() {
         after[5 + j] += Vec3::new(0.004 * j as f32, 0.002, -0.003);
         moving[5 + j] = Vec3::new(0.3, -0.1 * j as f32, 0.05);
     }
-    let mut grid = VolumeGrid::new(&rest, 16);
+    let mut grid = VolumeGrid::new(&rest, 16, None);
     grid.splat(&rest, &before, Some(&still), pose);
     grid.resplat(5, &[1], &after, &moving, pose);
-    let mut whole = VolumeGrid::new(&rest, 16);
+    let mut whole = VolumeGrid::new(&rest, 16, None);
     whole.splat(&rest, &after, Some(&moving), pose);
     assert_eq!((grid.mass(), grid.momentum()), (whole.mass(), whole.momentum()));
     assert!(grid.mass() != grid.rest_mass(), "the strand moved the grid");
@@ -168,7 +168,7 @@ fn a_step_makes_the_grid_again_only_from_what_moved() {
         .collect();
     let rest = RestShape::new(positions.clone(), 5).unwrap();
     let (volume, dt, still) = (Volume { enabled: true, ..Volume::default() }, 1.0 / 60.0, vec![Vec3::ZERO; 80]);
-    let mut grid = VolumeGrid::new(&rest, 16);
+    let mut grid = VolumeGrid::new(&rest, 16, None);
     let mut made_from = None;
     // Whether `prepare` splatted every strand (it hands the parts to the caller then).
     let mut step = |positions: &[Vec3], grid: &mut VolumeGrid| {
@@ -193,7 +193,7 @@ fn a_step_makes_the_grid_again_only_from_what_moved() {
     let mut moved = positions.clone();
     moved[5 * 6 + 3] += Vec3::new(0.004, 0.001, -0.002);
     let (_, splatted) = step(&moved, &mut grid);
-    let mut whole = VolumeGrid::new(&rest, 16);
+    let mut whole = VolumeGrid::new(&rest, 16, None);
     whole.splat(&rest, &moved, Some(&still), Pose::IDENTITY);
     assert!(!splatted && grid.mass() == whole.mass() && grid.mass() != grid.rest_mass(), "resplatted as a whole splat");
     // Under a head that moves in the step, the next step starts under another pose: no
@@ -231,7 +231,7 @@ fn block() -> (Vec<Vec3>, RestShape, Vec3) {
 fn the_divergence_is_the_hairs_spreading_along_the_head_axes() {
     // Its cells about 6 mm.
     let (positions, rest, centre) = block();
-    let mut grid = VolumeGrid::new(&rest, 12);
+    let mut grid = VolumeGrid::new(&rest, 12, None);
     let pose = Pose::new(glam::Quat::from_euler(glam::EulerRot::YXZ, 0.7, -0.4, 0.2), Vec3::new(0.1, 0.2, 0.0));
     let world: Vec<Vec3> = positions.iter().map(|&p| pose.transform_point(p)).collect();
     let middle = pose.transform_point(centre);
@@ -274,7 +274,7 @@ fn the_divergence_is_the_hairs_spreading_along_the_head_axes() {
 #[test]
 fn the_sweeps_over_the_cells_with_hair_are_the_sweeps_over_every_cell() {
     let (positions, rest, centre) = block();
-    let mut grid = VolumeGrid::new(&rest, 12);
+    let mut grid = VolumeGrid::new(&rest, 12, None);
     // Squeezed to half its width, and packing on.
     let squeezed: Vec<Vec3> = positions.iter().map(|&p| centre + (p - centre) * Vec3::new(0.5, 1.0, 0.5)).collect();
     let packing: Vec<Vec3> = squeezed.iter().map(|&p| (centre - p) * 0.5).collect();
