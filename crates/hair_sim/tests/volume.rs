@@ -332,6 +332,40 @@ fn hair_piled_on_the_skin_is_pushed_off_it_not_into_the_head() {
     assert!(walled.1 < 0.01, "{} of the pile pushed toward the head", walled.1);
 }
 
+/// The grid's walls are the cells inside the head the strands step against, checked
+/// against the head's exact signed distance (every cell corner farther than 5 mm from the
+/// surface on the right side), and they follow the collider: made again for another
+/// collider and gone where a step has none.
+#[test]
+fn the_grids_walls_are_the_heads_inside() {
+    let (collider, rest) = settled(64);
+    let other = HeadCollider::new(&test_head(4), DEFAULT_GRID_RESOLUTION).expect("a head");
+    let mut strands = Strands::new(rest, Pose::IDENTITY);
+    let params = with_volume();
+    let mut walls = |k: usize, head: Option<&HeadCollider>| {
+        strands.step(&step_input(k, Pose::IDENTITY, Pose::IDENTITY, head, &params));
+        let grid = strands.volume_grid().expect("volume on").clone();
+        (grid.head(), grid)
+    };
+    let (first, grid) = walls(0, Some(&collider));
+    let [dx, dy, _] = grid.dims();
+    let (mut inside, mut wrong) = (0, 0);
+    for (c, &solid) in grid.solid().iter().enumerate() {
+        let at = Vec3::new((c % dx) as f32, (c / dx % dy) as f32, (c / (dx * dy)) as f32);
+        let d = collider.signed_distance(grid.origin() + at * grid.cell());
+        inside += usize::from(solid);
+        wrong += usize::from(d.abs() > 5e-3 && solid != (d < 0.0));
+    }
+    println!("{inside} of the grid's {} cells are inside the head; {wrong} on the wrong side", grid.solid().len());
+    assert!(inside > 100 && wrong == 0, "{inside} inside, {wrong} on the wrong side");
+    assert_eq!(first, Some(collider.id()));
+    let (again, regrown) = walls(1, Some(&other));
+    assert_eq!(again, Some(other.id()), "made again for another collider");
+    assert_eq!(regrown.solid(), grid.solid(), "of the same head: the same walls");
+    let (none, open) = walls(2, None);
+    assert!(none.is_none() && !open.solid().contains(&true), "without a collider, no walls");
+}
+
 /// A bundle of 16 × 16 strands, 25 cm of 16 particles each, lying along +x from roots
 /// pinned 4 cm above a floor (the top of a sphere of 100 m), `spacing` apart, falls for 3 s
 /// without the head, shape keeping or anything but gravity, the floor and each other.
