@@ -77,6 +77,9 @@ pub struct VolumeGrid {
     /// Per cell, whether it lies inside the head: without hair, a wall, which the pressure
     /// does not push into ([`Self::solid`]).
     solid: Vec<bool>,
+    /// The cells inside the head and their coordinates: where a wall's potential is
+    /// worked out ([`Self::resolve_potential`]).
+    inside: Vec<(usize, [usize; 3])>,
     /// The collider whose head the walls are in ([`HeadInterior::collider`]).
     head: Option<u32>,
 }
@@ -151,13 +154,15 @@ impl VolumeGrid {
             fixed: Vec::new(),
             partials: Vec::new(),
             solid: vec![false; cells],
+            inside: Vec::new(),
             head: head.map(HeadInterior::collider),
         };
         if let Some(head) = head {
             let lattice = &grid.lattice;
-            let node =
-                |c: usize| lattice.origin + Vec3::from_array(lattice.coordinates(c).map(|a| a as f32)) * lattice.cell;
-            grid.solid = (0..cells).map(|c| head.contains(node(c))).collect();
+            let node = |at: [usize; 3]| lattice.origin + Vec3::from_array(at.map(|a| a as f32)) * lattice.cell;
+            grid.inside =
+                (0..cells).map(|c| (c, lattice.coordinates(c))).filter(|&(_, at)| head.contains(node(at))).collect();
+            grid.inside.iter().for_each(|&(c, _)| grid.solid[c] = true);
         }
         grid.splat(rest, &rest.positions, None, Pose::IDENTITY);
         grid.rest_mass = grid.mass();
@@ -358,9 +363,8 @@ impl VolumeGrid {
     /// lock that moves as one does not spread or pack.
     fn divergence(&self, c: usize, at: [usize; 3], axes: &[Vec3; 3]) -> f32 {
         let own = self.field[c].motion.truncate();
-        let side = |c: Option<(usize, _)>| {
-            c.filter(|&(c, _)| self.values[c].occupied).map_or(own, |(c, _)| self.field[c].motion.truncate())
-        };
+        let side =
+            |c: Option<usize>| c.filter(|&c| self.values[c].occupied).map_or(own, |c| self.field[c].motion.truncate());
         let neighbours = self.lattice.neighbours(c, at);
         let mut divergence = 0.0;
         for a in 0..3 {
@@ -425,15 +429,25 @@ impl VolumeGrid {
     #[inline]
     fn relaxed(&self, c: usize, at: [usize; 3], h2: f32, inverse_dt: f32) -> f32 {
         let value = self.values[c];
-        // In a fixed order, as the GPU adds them.
+        let [dx, dy, dz] = self.lattice.dims;
+        let [i, j, k] = at;
+        let (sy, sz) = (dx, dx * dy);
         let (mut around, mut open) = (0.0, 0.0);
-        for n in self.lattice.neighbours(c, at) {
-            match n {
-                Some((n, _)) if self.is_wall(n) => {}
-                Some((n, _)) => (around, open) = (around + self.pressure[n], open + 1.0),
-                None => open += 1.0,
+        // Beyond the grid: air. A wall: left out.
+        let mut add = |within: bool, n: usize| {
+            if !within {
+                open += 1.0;
+            } else if !self.is_wall(n) {
+                (around, open) = (around + self.pressure[n], open + 1.0);
             }
-        }
+        };
+        // In a fixed order, as the GPU adds them.
+        add(i > 0, c.wrapping_sub(1));
+        add(i + 1 < dx, c + 1);
+        add(j > 0, c.wrapping_sub(sy));
+        add(j + 1 < dy, c + sy);
+        add(k > 0, c.wrapping_sub(sz));
+        add(k + 1 < dz, c + sz);
         if open == 0.0 {
             // Walled in on every side: nowhere to push.
             return 0.0;
@@ -457,19 +471,13 @@ impl VolumeGrid {
     /// of its neighbours' that hold hair (0 where none does), so that the potential's
     /// gradient across it is zero and nothing is pushed into the head.
     fn resolve_potential(&mut self, push: f32, share: f32) {
-        let cells = self.field.iter_mut().zip(&self.values).zip(&self.pressure).zip(&self.solid);
-        for (((field, value), &p), &solid) in cells {
-            field.potential = if solid && !value.occupied { 0.0 } else { push * value.excess - share * p };
+        for ((field, value), &p) in self.field.iter_mut().zip(&self.values).zip(&self.pressure) {
+            field.potential = push * value.excess - share * p;
         }
-        if self.head.is_none() {
-            return;
-        }
-        // Only a wall beside hair has a neighbour to take a mean of.
-        for &(c, at) in self.occupied.iter().flatten() {
-            for (w, at) in self.lattice.neighbours(c, at).into_iter().flatten() {
-                if self.is_wall(w) {
-                    self.field[w].potential = self.wall_potential(w, at);
-                }
+        // A wall reads only cells that hold hair, none of them a wall: in any order.
+        for &(c, at) in &self.inside {
+            if !self.values[c].occupied {
+                self.field[c].potential = self.wall_potential(c, at);
             }
         }
     }
@@ -478,7 +486,7 @@ impl VolumeGrid {
     /// a fixed order, as the GPU adds them; 0 where none does.
     fn wall_potential(&self, c: usize, at: [usize; 3]) -> f32 {
         let (mut sum, mut count) = (0.0, 0.0f32);
-        for (n, _) in self.lattice.neighbours(c, at).into_iter().flatten() {
+        for n in self.lattice.neighbours(c, at).into_iter().flatten() {
             if self.values[n].occupied {
                 (sum, count) = (sum + self.field[n].potential, count + 1.0);
             }

@@ -35,23 +35,18 @@ impl Lattice {
         [c % dx, c / dx % dy, c / (dx * dy)]
     }
 
-    /// Cell `c`'s (at `at`) six neighbours and their coordinates, below and above along
-    /// x, then y, then z; `None` beyond the grid.
+    /// Cell `c`'s (at `at`) six neighbours, below and above along x, then y, then z;
+    /// `None` beyond the grid.
     #[inline]
-    pub fn neighbours(&self, c: usize, at: [usize; 3]) -> [Option<(usize, [usize; 3])>; 6] {
+    pub fn neighbours(&self, c: usize, at: [usize; 3]) -> [Option<usize>; 6] {
         let [dx, dy, _] = self.dims;
         let strides = [1, dx, dx * dy];
         std::array::from_fn(|k| {
             let (axis, above) = (k / 2, k % 2 == 1);
-            let mut beside = at;
-            if above && at[axis] + 1 < self.dims[axis] {
-                beside[axis] += 1;
-                Some((c + strides[axis], beside))
-            } else if !above && at[axis] > 0 {
-                beside[axis] -= 1;
-                Some((c - strides[axis], beside))
+            if above {
+                (at[axis] + 1 < self.dims[axis]).then(|| c + strides[axis])
             } else {
-                None
+                (at[axis] > 0).then(|| c - strides[axis])
             }
         })
     }
