@@ -446,15 +446,15 @@ fn grown_on_the_shipped_head() -> (HeadMesh, HeadCollider, Vec<RootBinding>, Res
     (head, collider, roots, grown)
 }
 
-/// Each particle's density (roots left out): its neighbours within `DENSITY_RADIUS`, each
-/// weighted `(1 − r²/R²)³` (a smooth kernel, so that a particle moving a little moves the
-/// density a little), head-local by `pose`; roots 0. Counted independently of the grid.
-fn particle_densities(positions: &[Vec3], n: usize, pose: Pose) -> Vec<f32> {
+/// The hair's density at each of the head-local points `at`: the particles of `positions`
+/// (head-local, strands of `n`, roots left out) within `DENSITY_RADIUS`, each weighted
+/// `(1 − r²/R²)³` (a smooth kernel, so that hair moving a little moves the density a
+/// little). Counted independently of the grid.
+fn densities_at(positions: &[Vec3], n: usize, at: &[Vec3]) -> Vec<f32> {
     let h = DENSITY_RADIUS;
-    let local: Vec<Vec3> = positions.iter().map(|&x| pose.inverse_transform_point(x)).collect();
     let key = |x: Vec3| (x / h).floor().as_ivec3();
     let mut bins = std::collections::HashMap::<IVec3, Vec<Vec3>>::new();
-    for (_, &x) in local.iter().enumerate().filter(|(i, _)| i % n != 0) {
+    for (_, &x) in positions.iter().enumerate().filter(|(i, _)| i % n != 0) {
         bins.entry(key(x)).or_default().push(x);
     }
     let around = |x: Vec3| {
@@ -466,25 +466,28 @@ fn particle_densities(positions: &[Vec3], n: usize, pose: Pose) -> Vec<f32> {
         }
         density
     };
-    local.iter().enumerate().map(|(i, &x)| if i % n == 0 { 0.0 } else { around(x) }).collect()
+    at.iter().map(|&x| around(x)).collect()
 }
 
-/// [`particle_densities`]' radius: two of the shipped head's grid cells at the default
+/// [`densities_at`]' radius: two of the shipped head's grid cells at the default
 /// resolution would blur a pile; much less than this and the density counts single strands.
 const DENSITY_RADIUS: f32 = 0.02;
 
-/// The largest ρ/ρ_rest over `positions`' particles (head-local by `pose`) and its 99th
-/// percentile, ρ each particle's density ([`particle_densities`]) and ρ_rest its density in
-/// `rest`, over the particles whose rest density is at least half the mean (leaving out
-/// lone tips, which any strand passing by doubles).
+/// The largest ρ/ρ_rest where the hair at `positions` (head-local by `pose`) lies, and its
+/// 99th percentile: at each particle (roots left out), ρ the density of the hair there and
+/// ρ_rest the rest pose's density at the same place ([`densities_at`]), as the grid
+/// compares them, over the places the rest pose fills to at least half its mean density
+/// (beside the rest pose any hair is many times denser than it was).
 fn densest(rest: &RestShape, positions: &[Vec3], pose: Pose) -> (f32, f32) {
     let n = rest.particles_per_strand;
-    let (before, now) =
-        (particle_densities(&rest.positions, n, Pose::IDENTITY), particle_densities(positions, n, pose));
-    let counted = before.iter().filter(|&&d| d > 0.0);
-    let mean = counted.clone().sum::<f32>() / counted.count().max(1) as f32;
-    let mut ratios: Vec<f32> =
-        before.iter().zip(&now).filter(|&(&b, _)| b > 0.0 && b >= 0.5 * mean).map(|(b, a)| a / b).collect();
+    let particles =
+        |x: &[Vec3]| -> Vec<Vec3> { x.iter().enumerate().filter(|(i, _)| i % n != 0).map(|(_, &p)| p).collect() };
+    let local: Vec<Vec3> = positions.iter().map(|&x| pose.inverse_transform_point(x)).collect();
+    let at_rest = densities_at(&rest.positions, n, &particles(&rest.positions));
+    let mean = at_rest.iter().sum::<f32>() / at_rest.len().max(1) as f32;
+    let places = particles(&local);
+    let (now, then) = (densities_at(&local, n, &places), densities_at(&rest.positions, n, &places));
+    let mut ratios: Vec<f32> = now.iter().zip(&then).filter(|&(_, &r)| r >= 0.5 * mean).map(|(a, r)| a / r).collect();
     ratios.sort_by(f32::total_cmp);
     (ratios[ratios.len() - 1], ratios[(ratios.len() * 99) / 100])
 }
@@ -508,10 +511,10 @@ fn density_after_a_shake(rest: &RestShape, collider: &HeadCollider, params: &Sim
 /// After a shake ([`density_after_a_shake`]) hair lies in piles where it landed, the
 /// densest of hair near the roots lying on the skin at the sides of the head. The volume's
 /// pressure, which does not push into the head's cells, spreads them along the skin and
-/// off it: the densest particle's density drops by a third, and the 99th percentile by a
-/// tenth. (Before the head's cells were walls, half of that push went into the head, and
-/// the piles were as dense as without volume.) The measure itself is sharp enough for the
-/// asked bound (largest ρ/ρ_rest 1.2): the same groom kept still meets it.
+/// off it: the largest ρ/ρ_rest drops by a quarter, and the 99th percentile by a tenth.
+/// (Before the head's cells were walls, half of that push went into the head.) The
+/// measure itself is sharp enough for the asked bounds (1.2, and 1.05 at the 99th
+/// percentile): the same groom kept still meets both.
 #[test]
 fn after_a_shake_the_volume_spreads_piled_hair() {
     let (_, collider, _, grown) = grown_on_the_shipped_head();
@@ -529,12 +532,8 @@ fn after_a_shake_the_volume_spreads_piled_hair() {
          {:.2}, {:.2} with the pressure; kept still with volume {:.2}, {:.2}",
         off.0, off.1, push.0, push.1, on.0, on.1, still.0, still.1
     );
-    assert!(
-        still.0 <= 1.2,
-        "kept still, the groom's densest particle is {} times as dense: the measure is blunt",
-        still.0
-    );
-    assert!(on.0 <= off.0 - 0.5 && on.1 <= off.1 - 0.08, "{on:?} with the pressure, {off:?} without");
+    assert!(still.0 <= 1.2 && still.1 <= 1.05, "kept still, the groom measures {still:?}: the measure is blunt");
+    assert!(on.0 <= off.0 - 0.3 && on.1 <= off.1 - 0.08, "{on:?} with the pressure, {off:?} without");
 }
 
 /// Two locks of 8 × 8 strands, 25 cm of 16 particles, rows 3 mm apart, A's roots between
