@@ -38,8 +38,8 @@ struct VolumeUniform {
 
 /// The volume shader's passes (`splat_particles`, `resolve_cells`, `predict_overflow`,
 /// `relax_red`, `relax_black`, `resolve_potential`, `extend_potential`, `feed_back`) on one
-/// layout: compiled with the strands, so
-/// that a step that first asks for volume does not wait for a compiler.
+/// layout: compiled with the strands, so that a step that first asks for volume does not
+/// wait for a compiler.
 pub(crate) struct VolumePasses {
     layout: SharedLayout,
     pipelines: Vec<wgpu::ComputePipeline>,
