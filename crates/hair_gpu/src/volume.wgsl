@@ -197,13 +197,33 @@ fn resolve_cells(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_work
     cells[2u * c + 1u] = vec4<f32>(m, m / PARTICLE_MASS_UNITS / wanted, 0.0, 0.0);
 }
 
-// The mean velocity of the cell `step` from `c` along an axis, or `own` where that is
-// beyond the grid or holds no hair (`VolumeGrid::divergence`).
-fn mean_beside(c: u32, inside: bool, step: i32, own: vec3<f32>) -> vec3<f32> {
-    if !inside {
+// Cell `c`'s coordinates along x, y and z (hair_sim's `Lattice::coordinates`).
+fn coordinates(c: u32) -> vec3<u32> {
+    let d = volume.dims.xyz;
+    return vec3<u32>(c % d.x, (c / d.x) % d.y, c / (d.x * d.y));
+}
+
+// No cell: a neighbour beyond the grid.
+const NONE: u32 = 0xffffffffu;
+
+// Cell `c`'s (at `at`) neighbour below (`above` false) or above along `axis`, or `NONE`
+// beyond the grid (hair_sim's `Lattice::neighbours`).
+fn neighbour(c: u32, at: vec3<u32>, axis: u32, above: bool) -> u32 {
+    let d = volume.dims.xyz;
+    var strides = array<u32, 3>(1u, d.x, d.x * d.y);
+    let stride = strides[axis];
+    if above {
+        return select(NONE, c + stride, at[axis] + 1u < d[axis]);
+    }
+    return select(NONE, c - stride, at[axis] > 0u);
+}
+
+// The mean velocity of cell `n` (a neighbour's, `NONE` beyond the grid), or `own` where
+// that is beyond the grid or holds no hair (`VolumeGrid::divergence`).
+fn mean_beside(n: u32, own: vec3<f32>) -> vec3<f32> {
+    if n == NONE {
         return own;
     }
-    let n = u32(i32(c) + step);
     return select(own, cells[2u * n].xyz, cells[2u * n + 1u].x > 0.0);
 }
 
@@ -222,15 +242,13 @@ fn predict_overflow(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_w
         cells[2u * c + 1u].z = 0.0;
         return;
     }
-    let d = volume.dims.xyz;
-    let at = vec3<u32>(c % d.x, (c / d.x) % d.y, c / (d.x * d.y));
-    let strides = vec3<i32>(1, i32(d.x), i32(d.x * d.y));
+    let at = coordinates(c);
     let own = cells[2u * c].xyz;
     let inverse_2h = 0.5 * volume.origin.w;
     var divergence = 0.0;
     for (var a = 0u; a < 3u; a++) {
-        let below = mean_beside(c, at[a] > 0u, -strides[a], own);
-        let above = mean_beside(c, at[a] + 1u < d[a], strides[a], own);
+        let below = mean_beside(neighbour(c, at, a, false), own);
+        let above = mean_beside(neighbour(c, at, a, true), own);
         divergence += dot(above - below, volume.rotation[a].xyz) * inverse_2h;
     }
     cells[2u * c + 1u].z = max(volume.solve.w * (cell.y - 1.0) - cell.y * volume.solve.z * divergence, 0.0);
@@ -241,21 +259,6 @@ fn is_wall(c: u32) -> bool {
     return solid[c] != 0u && !(cells[2u * c + 1u].x > 0.0);
 }
 
-// Cell `c`'s neighbour below (`above` false) or above along `axis`, or `NONE` beyond the
-// grid (hair_sim's `Lattice::neighbours`).
-const NONE: u32 = 0xffffffffu;
-
-fn neighbour(c: u32, axis: u32, above: bool) -> u32 {
-    let d = volume.dims.xyz;
-    let at = vec3<u32>(c % d.x, (c / d.x) % d.y, c / (d.x * d.y));
-    var strides = array<u32, 3>(1u, d.x, d.x * d.y);
-    let stride = strides[axis];
-    if above {
-        return select(NONE, c + stride, at[axis] + 1u < d[axis]);
-    }
-    return select(NONE, c - stride, at[axis] > 0u);
-}
-
 // One Gauss–Seidel update of cell `c`'s pressure if it is of `colour` (its coordinates'
 // sum, odd or even), from its six neighbours, which are all of the other colour (hair_sim's
 // `VolumeGrid::relaxed`): 0 without hair, a wall beside it left out, never below 0.
@@ -263,8 +266,7 @@ fn relax(c: u32, colour: u32) {
     if c >= volume.counts.z {
         return;
     }
-    let d = volume.dims.xyz;
-    let at = vec3<u32>(c % d.x, (c / d.x) % d.y, c / (d.x * d.y));
+    let at = coordinates(c);
     if (at.x + at.y + at.z + colour) % 2u != 0u {
         return;
     }
@@ -277,7 +279,7 @@ fn relax(c: u32, colour: u32) {
     var around = 0.0;
     var open = 0.0;
     for (var k = 0u; k < 6u; k++) {
-        let n = neighbour(c, k / 2u, k % 2u == 1u);
+        let n = neighbour(c, at, k / 2u, k % 2u == 1u);
         if n == NONE {
             open += 1.0;
         } else if !is_wall(n) {
@@ -321,11 +323,12 @@ fn extend_potential(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_w
     if c >= volume.counts.z || !is_wall(c) {
         return;
     }
+    let at = coordinates(c);
     // In the CPU's order.
     var sum = 0.0;
     var count = 0.0;
     for (var k = 0u; k < 6u; k++) {
-        let n = neighbour(c, k / 2u, k % 2u == 1u);
+        let n = neighbour(c, at, k / 2u, k % 2u == 1u);
         if n != NONE && cells[2u * n + 1u].x > 0.0 {
             sum += cells[2u * n + 1u].w;
             count += 1.0;

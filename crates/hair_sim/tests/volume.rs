@@ -2,9 +2,8 @@
 //! hair come to rest, the grid's sums are exact, it is deterministic on every SIMD path, it
 //! holds a groom that is squeezed against itself apart, its pressure keeps a bundle on a
 //! floor from packing into a layer, it pushes hair piled on the skin off it and spreads
-//! the piles a shake makes, and under
-//! motion the hair keeps the body it settled into. Run with `--nocapture` to see the
-//! figures.
+//! the piles a shake makes, and under motion the hair keeps the body it settled into. Run
+//! with `--nocapture` to see the figures.
 
 mod common;
 
@@ -298,8 +297,9 @@ fn hair_piled_on_the_skin_is_pushed_off_it_not_into_the_head() {
             if i % n == 0 || d > 0.03 {
                 return x;
             }
-            pile.push((i, normal(x)));
-            x - normal(x) * (d - (0.003 + 0.2 * (d - 0.003).max(0.0)))
+            let normal = normal(x);
+            pile.push((i, normal));
+            x - normal * (d - (0.003 + 0.2 * (d - 0.003).max(0.0)))
         })
         .collect();
     let params = SimParams {
@@ -446,18 +446,18 @@ fn grown_on_the_shipped_head() -> (HeadMesh, HeadCollider, Vec<RootBinding>, Res
     (head, collider, roots, grown)
 }
 
-/// The hair's density at each of the head-local points `at`: the particles of `positions`
-/// (head-local, strands of `n`, roots left out) within `DENSITY_RADIUS`, each weighted
+/// The density of the hair at `positions` (head-local, strands of `n`, roots left out) at
+/// any head-local point: its particles within `DENSITY_RADIUS`, each weighted
 /// `(1 − r²/R²)³` (a smooth kernel, so that hair moving a little moves the density a
 /// little). Counted independently of the grid.
-fn densities_at(positions: &[Vec3], n: usize, at: &[Vec3]) -> Vec<f32> {
+fn density_of(positions: &[Vec3], n: usize) -> impl Fn(Vec3) -> f32 {
     let h = DENSITY_RADIUS;
-    let key = |x: Vec3| (x / h).floor().as_ivec3();
+    let key = move |x: Vec3| (x / h).floor().as_ivec3();
     let mut bins = std::collections::HashMap::<IVec3, Vec<Vec3>>::new();
     for (_, &x) in positions.iter().enumerate().filter(|(i, _)| i % n != 0) {
         bins.entry(key(x)).or_default().push(x);
     }
-    let around = |x: Vec3| {
+    move |x: Vec3| {
         let (at, mut density) = (key(x), 0.0);
         for offset in (0..27).map(|k| IVec3::new(k % 3 - 1, k / 3 % 3 - 1, k / 9 - 1)) {
             for &y in bins.get(&(at + offset)).map_or(&[][..], Vec::as_slice) {
@@ -465,29 +465,32 @@ fn densities_at(positions: &[Vec3], n: usize, at: &[Vec3]) -> Vec<f32> {
             }
         }
         density
-    };
-    at.iter().map(|&x| around(x)).collect()
+    }
 }
 
-/// [`densities_at`]' radius: two of the shipped head's grid cells at the default
+/// [`density_of`]' radius: two of the shipped head's grid cells at the default
 /// resolution would blur a pile; much less than this and the density counts single strands.
 const DENSITY_RADIUS: f32 = 0.02;
 
 /// The largest ρ/ρ_rest where the hair at `positions` (head-local by `pose`) lies, and its
 /// 99th percentile: at each particle (roots left out), ρ the density of the hair there and
-/// ρ_rest the rest pose's density at the same place ([`densities_at`]), as the grid
+/// ρ_rest the rest pose's density at the same place ([`density_of`]), as the grid
 /// compares them, over the places the rest pose fills to at least half its mean density
 /// (beside the rest pose any hair is many times denser than it was).
 fn densest(rest: &RestShape, positions: &[Vec3], pose: Pose) -> (f32, f32) {
     let n = rest.particles_per_strand;
-    let particles =
-        |x: &[Vec3]| -> Vec<Vec3> { x.iter().enumerate().filter(|(i, _)| i % n != 0).map(|(_, &p)| p).collect() };
     let local: Vec<Vec3> = positions.iter().map(|&x| pose.inverse_transform_point(x)).collect();
-    let at_rest = densities_at(&rest.positions, n, &particles(&rest.positions));
+    let (now, then) = (density_of(&local, n), density_of(&rest.positions, n));
+    let counted =
+        |x: &[Vec3]| -> Vec<Vec3> { x.iter().enumerate().filter(|(i, _)| i % n != 0).map(|(_, &p)| p).collect() };
+    let at_rest: Vec<f32> = counted(&rest.positions).into_iter().map(&then).collect();
     let mean = at_rest.iter().sum::<f32>() / at_rest.len().max(1) as f32;
-    let places = particles(&local);
-    let (now, then) = (densities_at(&local, n, &places), densities_at(&rest.positions, n, &places));
-    let mut ratios: Vec<f32> = now.iter().zip(&then).filter(|&(_, &r)| r >= 0.5 * mean).map(|(a, r)| a / r).collect();
+    let mut ratios: Vec<f32> = counted(&local)
+        .into_iter()
+        .map(|x| (now(x), then(x)))
+        .filter(|&(_, r)| r >= 0.5 * mean)
+        .map(|(a, r)| a / r)
+        .collect();
     ratios.sort_by(f32::total_cmp);
     (ratios[ratios.len() - 1], ratios[(ratios.len() * 99) / 100])
 }

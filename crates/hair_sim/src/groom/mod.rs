@@ -401,9 +401,9 @@ pub fn settle(
     params.drag = params.drag.max(8.0); // overdamped: settle, do not swing
     let gravity = Vec3::from_array(params.gravity);
     params.gravity = (gravity + finite_or_zero(comb) * gravity.length()).to_array();
-    let interior = collider.map(HeadCollider::interior);
-    let volume =
-        params.volume.enabled.then(|| VolumeGrid::for_settling(&rest, params.volume.resolution, interior.as_ref()));
+    let volume = params.volume.enabled.then(|| {
+        VolumeGrid::for_settling(&rest, params.volume.resolution, collider.map(HeadCollider::interior).as_ref())
+    });
     let mut strands = Strands::new(rest, Pose::IDENTITY);
     if let Some(grid) = volume {
         strands.use_volume_grid(grid);

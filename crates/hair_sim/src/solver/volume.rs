@@ -377,9 +377,9 @@ impl VolumeGrid {
     /// Each cell's pressure: `sweeps` red–black Gauss–Seidel sweeps of `−∇²p = overflow / dt`
     /// from the last step's answer, 0 in cells without hair (the air does not push back),
     /// no flow into a wall (a cell inside the head without hair: the pressure's gradient
-    /// across it is 0) and clamped at 0 (it only pushes apart). The overflow is the density beyond the cell's
-    /// target that the step would leave, were the hair to go on spreading or packing as it
-    /// does, `catch_up` of what is beyond it now taken away
+    /// across it is 0) and clamped at 0 (it only pushes apart). The overflow is the
+    /// density beyond the cell's target that the step would leave, were the hair to go on
+    /// spreading or packing as it does, `catch_up` of what is beyond it now taken away
     /// (`catch_up × (fill − 1) − fill × dt × divergence`, as a share of the target;
     /// [`Feedback::catch_up`]; the head turned by `rotation`, which turns the grid's axes).
     /// The pressure's gradient, taken off a particle's velocity, spreads that out of the
@@ -429,25 +429,15 @@ impl VolumeGrid {
     #[inline]
     fn relaxed(&self, c: usize, at: [usize; 3], h2: f32, inverse_dt: f32) -> f32 {
         let value = self.values[c];
-        let [dx, dy, dz] = self.lattice.dims;
-        let [i, j, k] = at;
-        let (sy, sz) = (dx, dx * dy);
         let (mut around, mut open) = (0.0, 0.0);
-        // Beyond the grid: air. A wall: left out.
-        let mut add = |within: bool, n: usize| {
-            if !within {
-                open += 1.0;
-            } else if !self.is_wall(n) {
-                (around, open) = (around + self.pressure[n], open + 1.0);
+        // In a fixed order, as the GPU adds them. Beyond the grid: air. A wall: left out.
+        for n in self.lattice.neighbours(c, at) {
+            match n {
+                None => open += 1.0,
+                Some(n) if self.is_wall(n) => {}
+                Some(n) => (around, open) = (around + self.pressure[n], open + 1.0),
             }
-        };
-        // In a fixed order, as the GPU adds them.
-        add(i > 0, c.wrapping_sub(1));
-        add(i + 1 < dx, c + 1);
-        add(j > 0, c.wrapping_sub(sy));
-        add(j + 1 < dy, c + sy);
-        add(k > 0, c.wrapping_sub(sz));
-        add(k + 1 < dz, c + sz);
+        }
         if open == 0.0 {
             // Walled in on every side: nowhere to push.
             return 0.0;
