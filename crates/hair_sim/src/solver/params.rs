@@ -93,7 +93,8 @@ pub struct Volume {
     /// The same at the tip; linear in between.
     pub friction_tip: f32,
     /// Acceleration, m/s², away from where the hair is denser than at rest, per cell of a
-    /// density excess as large as the mean rest density.
+    /// density excess as large as the mean rest density. It only pushes out of a denser
+    /// cell, never pulls hair into a sparser one.
     pub density_push: f32,
     /// Sweeps of the pressure solve (0: none, up to 64): each a red and a black
     /// Gauss–Seidel pass over the grid. The pressure takes away, in one step, the density

@@ -84,8 +84,8 @@ pub struct VolumeGrid {
     head: Option<u32>,
 }
 
-/// What the pressure solve reads of a cell: whether it holds hair and its density excess
-/// over the rest pose's as a share of the grid's `rest_scale`.
+/// What the pressure solve reads of a cell: whether it holds hair and its density beyond
+/// the rest pose's (0 where it is sparser) as a share of the grid's `rest_scale`.
 #[derive(Clone, Copy, Debug, Default)]
 struct CellValue {
     occupied: bool,
@@ -344,7 +344,10 @@ impl VolumeGrid {
             } else {
                 Vec3::ZERO
             };
-            let excess = (m - r) as f32 / units / self.rest_scale;
+            // Only where the hair is denser than at rest: a pull into a sparser cell fought
+            // the pressure's push out of a full one, and kept a strand at the groom's edge
+            // swinging between the two under a still head.
+            let excess = (m - r).max(0) as f32 / units / self.rest_scale;
             // The target: what the cell held at rest, or the floor's share of the mean rest
             // density where that is more (a cell the rest pose barely reaches, or hair far
             // from its rest pose, may fill up to it), with a little room, so that hair
@@ -659,9 +662,18 @@ impl VolumeGrid {
     /// (`volume.density_push`, m/s² per unit of excess per cell) and down the pressure
     /// (`volume.pressure` of its gradient). Roots are left alone. Each particle reads only
     /// the grid, so chunks of strands take it on their own threads, in any order.
-    pub(in crate::solver) fn feed_back(&self, step: &VolumeStep, first: usize, velocities: &mut [Vec3]) {
+    /// Each particle's push is left in `pushes`, for the step's end ([`GridPush`]).
+    pub(in crate::solver) fn feed_back(
+        &self,
+        step: &VolumeStep,
+        first: usize,
+        velocities: &mut [Vec3],
+        pushes: &mut [GridPush],
+    ) {
+        pushes.fill(GridPush::default());
         self.answer_each(step, first, velocities.len(), |j, a| {
             let v = &mut velocities[j];
+            pushes[j] = GridPush::new(a.push, *v);
             *v += (a.mean - *v) * a.share + a.push;
         });
     }
@@ -698,6 +710,39 @@ impl VolumeGrid {
                 }
             }
         }
+    }
+}
+
+/// The density push's and the pressure's velocity change on one particle in a step, kept
+/// for the step's end, which takes back the speed it left along it
+/// ([`Self::without_rebound`]): the grid moves hair out of a full cell but, as a contact,
+/// does not send it on. Counted whole, the push carried hair past the cell it was pushed
+/// out of until gravity or the strand brought it back and it was pushed again: a pile held
+/// up by the pressure, or a strand at the edge of a still groom, never came to rest.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(in crate::solver) struct GridPush {
+    /// Along the push (zero: none).
+    direction: Vec3,
+    /// The push's size, m/s: the most taken back.
+    size: f32,
+    /// How fast the particle was leaving along the push before it (0 where coming in).
+    leaving_before: f32,
+}
+
+impl GridPush {
+    /// The push `push` on a particle moving at `velocity` before it.
+    pub(in crate::solver) fn new(push: Vec3, velocity: Vec3) -> Self {
+        let direction = push.normalize_or_zero();
+        let size = if direction == Vec3::ZERO { 0.0 } else { push.length() };
+        GridPush { direction, size, leaving_before: velocity.dot(direction).max(0.0) }
+    }
+
+    /// `velocity`, the particle's at the step's end, less what it leaves along the push
+    /// beyond how fast it was leaving before, up to the push's size: speed from elsewhere
+    /// (the head's pull, gravity) is left alone. The GPU's `without_rebound`.
+    pub(in crate::solver) fn without_rebound(self, velocity: Vec3) -> Vec3 {
+        let gained = velocity.dot(self.direction) - self.leaving_before;
+        velocity - self.direction * gained.max(0.0).min(self.size)
     }
 }
 

@@ -10,6 +10,9 @@
 //! 5. velocities from the position change, slowed by Müller's FTL correction as a brake
 //!    ([`ftl_brake`]).
 //!
+//! With volume on, the grid's feedback reaches each strand before its substeps, and after
+//! them what the grid's push left of speed along itself is taken back ([`GridPush`]).
+//!
 //! Strands go through this 16, 32 or 64 at a time (by the SIMD path), side by side in
 //! SIMD lanes ([`lanes`](super::lanes)); collision, whose path differs per particle, takes
 //! them one by one. A strand whose root jumped more than `teleport_distance` is reset to
@@ -30,7 +33,7 @@ use super::lanes::{Baseline, M3, MAX_LANES, Mask, PoseLanes, Simd, V3, Wide};
 use super::params::{CollisionResponse, LengthMode, stiffness_per_application};
 use super::rest_lanes::{RestLanes, Row};
 use super::sleep::{self, SleepWatch, Stillness};
-use super::volume::{SpringFeedback, VolumeGrid, VolumeStep};
+use super::volume::{GridPush, SpringFeedback, VolumeGrid, VolumeStep};
 use super::wind::wind_at;
 use super::{ChunkState, RestShape, StepInput, StepReport};
 #[cfg(target_arch = "x86_64")]
@@ -512,6 +515,9 @@ fn step_chunk_on<S: Simd>(
     let to_springs = history && volume.is_some();
     let mut group_state = GroupState::<S>::new(n, history, to_springs);
     let mut for_springs = vec![SpringFeedback::default(); if to_springs { MAX_LANES * n } else { 0 }];
+    // The grid's push on each particle of the group, strand by strand in lane order, taken
+    // back from the velocities after the step where it left them faster ([`GridPush`]).
+    let mut pushes = vec![GridPush::default(); if volume.is_some() { MAX_LANES * n } else { 0 }];
 
     let stillness = Stillness::of(input);
 
@@ -534,10 +540,15 @@ fn step_chunk_on<S: Simd>(
             // The hair–hair grid's feedback, for the strands that step: a sleeping one
             // keeps its velocity as it fell asleep with.
             if let Some((grid, step)) = volume {
+                let (velocities, pushes) = (&mut state.velocities[k * n..][..n], &mut pushes[lanes * n..][..n]);
                 if to_springs {
-                    grid.feed_back_to_springs(step, (first_strand + k) * n, &mut for_springs[lanes * n..][..n]);
+                    let answers = &mut for_springs[lanes * n..][..n];
+                    grid.feed_back_to_springs(step, (first_strand + k) * n, answers);
+                    for ((push, answer), &v) in pushes.iter_mut().zip(answers).zip(&*velocities) {
+                        *push = GridPush::new(answer.kick, v);
+                    }
                 } else {
-                    grid.feed_back(step, (first_strand + k) * n, &mut state.velocities[k * n..][..n]);
+                    grid.feed_back(step, (first_strand + k) * n, velocities, pushes);
                 }
             }
             group[lanes] = k;
@@ -550,8 +561,11 @@ fn step_chunk_on<S: Simd>(
             }
             step_group(&mut group_state, state, &c, input, &mut report);
             group_state.store(state, history);
-            for &k in &group[..lanes] {
+            for (l, &k) in group[..lanes].iter().enumerate() {
                 let (xs, vs) = (&state.positions[k * n..][..n], &mut state.velocities[k * n..][..n]);
+                for (v, push) in vs.iter_mut().zip(pushes.get(l * n..).unwrap_or_default()) {
+                    *v = push.without_rebound(*v);
+                }
                 if !xs.iter().chain(vs.iter()).all(|v| v.is_finite()) {
                     reset_strand(state, k, n, &rest.shape.positions[(first_strand + k) * n..][..n], &head_to);
                     report.nan_resets += 1;

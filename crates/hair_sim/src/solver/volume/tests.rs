@@ -32,7 +32,7 @@ fn apply(
         dt,
         (1, |_: &mut [SplatPart]| {}),
     );
-    grid.feed_back(&step, 0, velocities);
+    grid.feed_back(&step, 0, velocities, &mut vec![GridPush::default(); velocities.len()]);
 }
 
 #[test]
@@ -313,4 +313,25 @@ fn the_sweeps_over_the_cells_with_hair_are_the_sweeps_over_every_cell() {
     assert!(grid.pressure().iter().any(|&p| p > 0.0), "no pressure: the test tests too little");
     assert!(lost.iter().all(|&c| grid.pressure()[c] == 0.0), "a cell that lost its hair keeps no pressure");
     assert_eq!(bits(grid.pressure()), bits(every_cell.pressure()), "the same pressure as sweeping every cell");
+}
+
+/// What the step's end takes back of the grid's push: the speed it left along itself, up
+/// to its size, beyond how fast the particle was already leaving; never speed coming in,
+/// nor speed across it.
+#[test]
+fn the_push_leaves_no_speed_of_its_own() {
+    let up = Vec3::new(0.0, 0.2, 0.0);
+    let after = |push: Vec3, before: Vec3, after: Vec3| GridPush::new(push, before).without_rebound(after);
+    // At rest, pushed and still moving at the push's speed: stopped, and the sideways
+    // speed kept.
+    assert_eq!(after(up, Vec3::ZERO, Vec3::new(0.1, 0.2, 0.0)), Vec3::new(0.1, 0.0, 0.0));
+    // Coming in at the push's speed and stopped by it: nothing to take back.
+    assert_eq!(after(up, -up, Vec3::ZERO), Vec3::ZERO);
+    // Leaving at 0.1 m/s already: kept.
+    assert!(after(up, Vec3::Y * 0.1, Vec3::Y * 0.3).distance(Vec3::Y * 0.1) < 1e-6);
+    // Thrown along the push by more than it (the head's pull): only the push's share.
+    assert!(after(up, Vec3::ZERO, Vec3::Y).distance(Vec3::Y * 0.8) < 1e-6);
+    // No push, or one that is not finite: nothing taken.
+    assert_eq!(after(Vec3::ZERO, Vec3::ZERO, Vec3::Y), Vec3::Y);
+    assert_eq!(after(Vec3::NAN, Vec3::ZERO, Vec3::Y), Vec3::Y);
 }
