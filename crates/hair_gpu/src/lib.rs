@@ -774,7 +774,12 @@ impl GpuStrands {
             skin: [0; 4],
             bvh: grid.map_or([0; 4], |g| g.bvh),
             sleep: [p.sleep_distance, p.sleep_time, f32::from(u8::from(still)), input.dt],
-            volume: [u32::from(p.volume.enabled && p.length_mode == LengthMode::Springs), 0, 0, 0],
+            volume: [
+                u32::from(p.volume.enabled && p.length_mode == LengthMode::Springs),
+                u32::from(p.volume.enabled),
+                0,
+                0,
+            ],
         };
         (uniform, tables)
     }

@@ -7,9 +7,10 @@
 // (`resolve_potential`) and carried into the walls, the cells inside the head without hair
 // (`extend_potential`); each particle's velocity then moves toward the mean around it and
 // down the potential (`feed_back`), or for the spring model that answer is left for its
-// implicit solve. The splat is the CPU's, integer for integer: a particle adds at
-// most 2^31 to a cell's sum, and the sums are 64-bit, held as two words (low, high), so
-// they are the same in any order.
+// implicit solve; the push is left for the step's end too, which takes back the speed it
+// left (`take_back_grid_push` in `step/entry.wgsl`). The splat is the CPU's, integer for
+// integer: a particle adds at most 2^31 to a cell's sum, and the sums are 64-bit, held as
+// two words (low, high), so they are the same in any order.
 // `layout.wgsl` is prepended: where each particle's values live.
 
 struct Volume {
@@ -178,7 +179,8 @@ fn resolve_cells(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_work
     // mass − rest in 64 bits, then as a float.
     let low = mass.x - rest.x;
     let high = mass.y - rest.y - select(0u, 1u, mass.x < rest.x);
-    let excess = wide_f32(low, high) / PARTICLE_MASS_UNITS / volume.feedback.y;
+    // Only where the hair is denser than at rest, as on the CPU.
+    let excess = max(wide_f32(low, high), 0.0) / PARTICLE_MASS_UNITS / volume.feedback.y;
     let m = wide_f32(mass.x, mass.y);
     var mean = vec3<f32>(0.0);
     if m > 0.0 {
@@ -346,9 +348,11 @@ fn feed_back(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgrou
     let slots = slot_count(volume.counts.x, volume.counts.y);
     let implicit = volume.solve.y == 1.0;
     if !splat.inside {
-        if implicit && i < slots {
-            motion[6u * slots + i] = vec4<f32>(0.0);
+        if i < slots {
             motion[7u * slots + i] = vec4<f32>(0.0);
+            if implicit {
+                motion[6u * slots + i] = vec4<f32>(0.0);
+            }
         }
         return;
     }
@@ -383,9 +387,13 @@ fn feed_back(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgrou
     let world_push = volume.rotation[0].xyz * push.x + volume.rotation[1].xyz * push.y + volume.rotation[2].xyz * push.z;
     let j = slot_particle(i, volume.counts.y).y;
     let v = motion[i];
+    // The push and how fast the particle was leaving along it, for the step's end
+    // (`without_rebound`; hair_sim's `GridPush::new`).
+    let size = length(world_push);
+    let along = select(vec3<f32>(0.0), world_push / size, size > 0.0);
+    motion[7u * slots + i] = vec4<f32>(world_push, max(dot(v.xyz, along), 0.0));
     if implicit {
         motion[6u * slots + i] = vec4<f32>(velocity, shares[j]);
-        motion[7u * slots + i] = vec4<f32>(world_push, 0.0);
     } else {
         motion[i] = vec4<f32>(v.xyz + (velocity - v.xyz) * shares[j] + world_push, v.w);
     }

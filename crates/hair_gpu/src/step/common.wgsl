@@ -71,7 +71,8 @@ struct Step {
     // and the step's length.
     sleep: vec4<f32>,
     // Hair volume: 1 in x where the spring model takes the grid's answer into its solve
-    // (`grid_friction`, `grid_kick`).
+    // (`grid_friction`, `grid_kick`); 1 in y where the grid pushed this step, whose speed
+    // the step's end takes back (`take_back_grid_push`).
     volume: vec4<u32>,
 }
 
@@ -84,9 +85,10 @@ struct Step {
 @group(0) @binding(2) var<storage, read_write> positions: array<vec4<f32>>;
 // `PLANES` planes: velocity, position at the substep's start, FTL correction, position
 // before collision, sleep anchor (the last two's root slots hold the strand's sleep watch),
-// position at the step's start, and the hair–hair grid's answer for the spring model
-// (`volume.wgsl` writes them): the mean velocity around the particle with the friction's
-// rate in w, and the velocity change of the density push and the pressure. Then per
+// position at the step's start, and the hair–hair grid's answer (`volume.wgsl` writes
+// them): for the spring model, the mean velocity around the particle with the friction's
+// rate in w; the velocity change of the density push and the pressure, with how fast the
+// particle was leaving along it before in w. Then per
 // strand two vec4: what its steps did since the report was last taken (`Tally`, added up).
 @group(0) @binding(3) var<storage, read_write> motion: array<vec4<f32>>;
 const PLANES: u32 = 8u;
@@ -201,6 +203,7 @@ fn quiet(first: u32) -> f32 { return motion[4u * slots() + first].w; }
 fn step_start(i: u32) -> vec3<f32> { return motion[5u * slots() + i].xyz; }
 fn grid_friction(i: u32) -> vec4<f32> { return motion[6u * slots() + i]; }
 fn grid_kick(i: u32) -> vec3<f32> { return motion[7u * slots() + i].xyz; }
+fn grid_leaving_before(i: u32) -> f32 { return motion[7u * slots() + i].w; }
 fn rest_position(i: u32) -> vec3<f32> { return rest[i].xyz; }
 fn rest_length(i: u32) -> f32 { return rest[i].w; }
 fn rest_direction(i: u32) -> vec3<f32> { return rest[slots() + i].xyz; }

@@ -164,13 +164,35 @@ fn watch(first: u32, n: u32) {
     }
 }
 
-// A strand's substep ends: on the step's last, a particle or velocity that is not finite
-// starts it over at rest; what the substep did goes into the strand's report.
+// A strand's substep ends: on the step's last, the grid's push leaves no speed of its own,
+// and a particle or velocity that is not finite starts it over at rest; what the substep
+// did goes into the strand's report.
 fn end_substep(strand: u32, first: u32, n: u32, k: u32) {
-    if k == step.counts.z && !reset_if_not_finite(first, n, pose(k)) {
-        watch(first, n);
+    if k == step.counts.z {
+        if step.volume.y == 1u {
+            take_back_grid_push(first, n);
+        }
+        if !reset_if_not_finite(first, n, pose(k)) {
+            watch(first, n);
+        }
     }
     add_to_report(strand);
+}
+
+// Takes back from each velocity what it leaves along the grid's push beyond how fast the
+// particle was leaving before, up to the push's size (hair_sim's `GridPush::without_rebound`).
+fn take_back_grid_push(first: u32, n: u32) {
+    for (var j = 1u; j < n; j++) {
+        let i = particle_slot(first, j);
+        let push = grid_kick(i);
+        let size = length(push);
+        if size > 0.0 {
+            let along = push / size;
+            let v = velocity(i);
+            let gained = dot(v, along) - grid_leaving_before(i);
+            motion[i] = vec4<f32>(v - along * min(max(gained, 0.0), size), motion[i].w);
+        }
+    }
 }
 
 // A strand with a particle or velocity that is not finite starts over at rest under `pose`.

@@ -92,7 +92,8 @@ fn with_volume_the_gpu_follows_the_cpu() {
 /// velocities it leaves are the CPU's to rounding, and the pressure moved them (by more
 /// than a hundred times that). The hair pressed toward the middle lies on and in the
 /// head, so the grid's walls (its cells inside the head without hair) shape the answer:
-/// with the GPU's walls left without a potential the two part by metres a second.
+/// with the GPU's walls left without a potential the two part by metres a second, and by
+/// 2 m/s with the GPU's step not taking back the speed the push left (`GridPush`).
 #[test]
 fn the_pressure_pushes_as_on_the_cpu() {
     let Some(gpu) = gpu() else { return };
