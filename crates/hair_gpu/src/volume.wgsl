@@ -387,11 +387,9 @@ fn feed_back(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgrou
     let world_push = volume.rotation[0].xyz * push.x + volume.rotation[1].xyz * push.y + volume.rotation[2].xyz * push.z;
     let j = slot_particle(i, volume.counts.y).y;
     let v = motion[i];
-    // The push and how fast the particle was leaving along it, for the step's end
-    // (`without_rebound`; hair_sim's `GridPush::new`).
-    let size = length(world_push);
-    let along = select(vec3<f32>(0.0), world_push / size, size > 0.0);
-    motion[7u * slots + i] = vec4<f32>(world_push, max(dot(v.xyz, along), 0.0));
+    // The push and how fast the particle was leaving along it, times its size, for the
+    // step's end (`take_back_grid_push`; hair_sim's `GridPush::new`).
+    motion[7u * slots + i] = vec4<f32>(world_push, max(dot(v.xyz, world_push), 0.0));
     if implicit {
         motion[6u * slots + i] = vec4<f32>(velocity, shares[j]);
     } else {

@@ -512,11 +512,26 @@ fn density_after_a_shake(rest: &RestShape, collider: &HeadCollider, params: &Sim
     densest(rest, strands.positions(), yaw(300))
 }
 
+/// `rest` with every particle but the roots moved by up to 0.1 µm along each axis, a
+/// different way for each `nudge` (0: not moved).
+fn nudged(rest: &RestShape, nudge: u32) -> RestShape {
+    let mut nudged = rest.clone();
+    let n = rest.particles_per_strand;
+    for (i, p) in nudged.positions.iter_mut().enumerate().filter(|(i, _)| nudge > 0 && i % n != 0) {
+        let bits = (i as u32).wrapping_mul(2_654_435_761).wrapping_add(nudge.wrapping_mul(40_503));
+        let offset = |shift: u32| ((bits >> shift) & 255) as f32 / 255.0 - 0.5;
+        *p += Vec3::new(offset(0), offset(8), offset(16)) * 2e-7;
+    }
+    nudged
+}
+
 /// After a shake ([`density_after_a_shake`]) hair lies in piles where it landed, the
 /// densest of hair near the roots lying on the skin at the sides of the head. The volume's
 /// pressure, which does not push into the head's cells, spreads them along the skin and
 /// off it: the largest ρ/ρ_rest drops by a quarter, and the 99th percentile by a tenth.
-/// (Before the head's cells were walls, half of that push went into the head.) The
+/// (Before the head's cells were walls, half of that push went into the head.) With the
+/// pressure the shake is chaotic: nudging the groom by 0.1 µm moves the largest ratio by a
+/// tenth, so the pressure's figures are the median of three runs, nudged and not. The
 /// measure itself is sharp enough for the asked bounds (1.2, and 1.05 at the 99th
 /// percentile): the same groom kept still meets both.
 #[test]
@@ -530,10 +545,17 @@ fn after_a_shake_the_volume_spreads_piled_hair() {
     let still = density_after_a_shake(&rest, &collider, &with_volume(), false);
     let off = density_after_a_shake(&rest, &collider, &SimParams::default(), true);
     let push = density_after_a_shake(&rest, &collider, &push_alone, true);
-    let on = density_after_a_shake(&rest, &collider, &with_volume(), true);
+    let runs: Vec<(f32, f32)> =
+        (0..3).map(|k| density_after_a_shake(&nudged(&rest, k), &collider, &with_volume(), true)).collect();
+    let median = |pick: fn(&(f32, f32)) -> f32| {
+        let mut values: Vec<f32> = runs.iter().map(pick).collect();
+        values.sort_by(f32::total_cmp);
+        values[1]
+    };
+    let on = (median(|r| r.0), median(|r| r.1));
     println!(
         "after a shake, largest ρ/ρ_rest and its 99th percentile: {:.2}, {:.2} off; {:.2}, {:.2} with the push alone; \
-         {:.2}, {:.2} with the pressure; kept still with volume {:.2}, {:.2}",
+         {:.2}, {:.2} with the pressure (median of {runs:.2?}); kept still with volume {:.2}, {:.2}",
         off.0, off.1, push.0, push.1, on.0, on.1, still.0, still.1
     );
     assert!(still.0 <= 1.2 && still.1 <= 1.05, "kept still, the groom measures {still:?}: the measure is blunt");

@@ -87,8 +87,8 @@ struct Step {
 // before collision, sleep anchor (the last two's root slots hold the strand's sleep watch),
 // position at the step's start, and the hair–hair grid's answer (`volume.wgsl` writes
 // them): for the spring model, the mean velocity around the particle with the friction's
-// rate in w; the velocity change of the density push and the pressure, with how fast the
-// particle was leaving along it before in w. Then per
+// rate in w; the velocity change of the density push and the pressure, with the
+// particle's velocity before it, dotted with it (0 where coming in), in w. Then per
 // strand two vec4: what its steps did since the report was last taken (`Tally`, added up).
 @group(0) @binding(3) var<storage, read_write> motion: array<vec4<f32>>;
 const PLANES: u32 = 8u;

@@ -184,13 +184,13 @@ fn end_substep(strand: u32, first: u32, n: u32, k: u32) {
 fn take_back_grid_push(first: u32, n: u32) {
     for (var j = 1u; j < n; j++) {
         let i = particle_slot(first, j);
+        // In units of the push's size squared, as on the CPU.
         let push = grid_kick(i);
-        let size = length(push);
-        if size > 0.0 {
-            let along = push / size;
+        let size_squared = dot(push, push);
+        if finite(vec3<f32>(size_squared)) && size_squared > 0.0 {
             let v = velocity(i);
-            let gained = dot(v, along) - grid_leaving_before(i);
-            motion[i] = vec4<f32>(v - along * min(max(gained, 0.0), size), motion[i].w);
+            let gained = clamp(dot(v, push) - grid_leaving_before(i), 0.0, size_squared);
+            motion[i] = vec4<f32>(v - push * (gained / size_squared), motion[i].w);
         }
     }
 }

@@ -721,28 +721,33 @@ impl VolumeGrid {
 /// up by the pressure, or a strand at the edge of a still groom, never came to rest.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(in crate::solver) struct GridPush {
-    /// Along the push (zero: none).
-    direction: Vec3,
-    /// The push's size, m/s: the most taken back.
-    size: f32,
-    /// How fast the particle was leaving along the push before it (0 where coming in).
+    /// The push, m/s (zero: none).
+    push: Vec3,
+    /// How fast the particle was leaving along the push before it, times the push's size
+    /// (0 where it was coming in): the particle's velocity before, dotted with the push.
     leaving_before: f32,
 }
 
 impl GridPush {
     /// The push `push` on a particle moving at `velocity` before it.
+    #[inline]
     pub(in crate::solver) fn new(push: Vec3, velocity: Vec3) -> Self {
-        let direction = push.normalize_or_zero();
-        let size = if direction == Vec3::ZERO { 0.0 } else { push.length() };
-        GridPush { direction, size, leaving_before: velocity.dot(direction).max(0.0) }
+        GridPush { push, leaving_before: velocity.dot(push).max(0.0) }
     }
 
     /// `velocity`, the particle's at the step's end, less what it leaves along the push
     /// beyond how fast it was leaving before, up to the push's size: speed from elsewhere
-    /// (the head's pull, gravity) is left alone. The GPU's `without_rebound`.
+    /// (the head's pull, gravity) is left alone. The GPU's `take_back_grid_push`.
+    #[inline]
     pub(in crate::solver) fn without_rebound(self, velocity: Vec3) -> Vec3 {
-        let gained = velocity.dot(self.direction) - self.leaving_before;
-        velocity - self.direction * gained.max(0.0).min(self.size)
+        // In units of the push's size squared, so that the push need not be normalized
+        // where it is made, once per particle per step.
+        let size_squared = self.push.length_squared();
+        if !(size_squared > 0.0 && size_squared.is_finite()) {
+            return velocity;
+        }
+        let gained = (velocity.dot(self.push) - self.leaving_before).clamp(0.0, size_squared);
+        velocity - self.push * (gained / size_squared)
     }
 }
 
