@@ -717,8 +717,9 @@ impl VolumeGrid {
 /// for the step's end, which takes back the speed it left along it
 /// ([`Self::without_rebound`]): the grid moves hair out of a full cell but, as a contact,
 /// does not send it on. Counted whole, the push carried hair past the cell it was pushed
-/// out of until gravity or the strand brought it back and it was pushed again: a pile held
-/// up by the pressure, or a strand at the edge of a still groom, never came to rest.
+/// out of until gravity or the strand brought it back and it was pushed again: a strand at
+/// the edge of a still groom never came to rest, and a pile held up by the pressure was
+/// slower to.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(in crate::solver) struct GridPush {
     /// The push, m/s (zero: none).
