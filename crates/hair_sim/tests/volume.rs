@@ -280,8 +280,8 @@ fn hair_pressed_together_is_pushed_apart() {
 /// shape keeping: with the head known to the grid, its cells inside the head are walls
 /// and the pressure moves the pile off the skin in a step at least 1.5 times as far as a
 /// grid without the head, whose pressure spends half its push into the head, where the
-/// collision would only put the hair back. The head's normal is the gradient of its exact signed distance,
-/// not the grid's.
+/// collision would only put the hair back. The head's normal is the gradient of its exact
+/// signed distance, not the grid's.
 #[test]
 fn hair_piled_on_the_skin_is_pushed_off_it_not_into_the_head() {
     let (collider, rest) = settled(256);
@@ -436,8 +436,8 @@ fn a_bundle_on_a_floor_keeps_its_volume() {
     }
 }
 
-/// 1,024 guides × 16, 25 cm, grown (not settled) on the shipped head's painted scalp: the
-/// head, its collider, the roots and the guides.
+/// `strands` guides × 16, 25 cm, grown (not settled) on the shipped head's painted scalp
+/// from roots sampled with `seed`: the head, its collider, the roots and the guides.
 fn grown_on_the_shipped_head(strands: usize, seed: u64) -> (HeadMesh, HeadCollider, Vec<RootBinding>, RestShape) {
     let (head, weights) = common::shipped_head();
     let collider = HeadCollider::new(&head, DEFAULT_GRID_RESOLUTION).expect("the shipped head");
@@ -496,15 +496,19 @@ fn densest(rest: &RestShape, positions: &[Vec3], pose: Pose) -> (f32, f32) {
     (ratios[ratios.len() - 1], ratios[(ratios.len() * 99) / 100])
 }
 
-/// 1,024 guides × 16 on the shipped head, settled, then 2 s still, a 1 s shake (yaw ±0.8
-/// rad at 12 rad/s; none where `shake` is false) and 2 s still, under `params`: the
-/// largest ρ/ρ_rest and its 99th percentile ([`densest`]).
+/// The head's pose at step `k` (1/60 s) of a 1 s shake from `start` seconds on (yaw ±0.8
+/// rad at 12 rad/s), still before and after it.
+fn shaking(k: usize, start: f32) -> Pose {
+    let t = k as f32 / 60.0 - start;
+    let angle = if (0.0..1.0).contains(&t) { 0.8 * (12.0 * t).sin() } else { 0.0 };
+    Pose::new(Quat::from_rotation_y(angle), Vec3::ZERO)
+}
+
+/// 1,024 guides × 16 on the shipped head, settled, then 2 s still, a 1 s shake
+/// ([`shaking`]; none where `shake` is false) and 2 s still, under `params`: the largest
+/// ρ/ρ_rest and its 99th percentile ([`densest`]).
 fn density_after_a_shake(rest: &RestShape, collider: &HeadCollider, params: &SimParams, shake: bool) -> (f32, f32) {
-    let yaw = |k: usize| {
-        let t = k as f32 / 60.0 - 2.0;
-        let angle = if shake && (0.0..1.0).contains(&t) { 0.8 * (12.0 * t).sin() } else { 0.0 };
-        Pose::new(Quat::from_rotation_y(angle), Vec3::ZERO)
-    };
+    let yaw = |k: usize| if shake { shaking(k, 2.0) } else { Pose::IDENTITY };
     let mut strands = Strands::new(rest.clone(), Pose::IDENTITY);
     for k in 0..300 {
         strands.step(&step_input(k, yaw(k), yaw(k + 1), Some(collider), params));
@@ -831,21 +835,17 @@ fn a_sleeping_groom_with_volume_wakes_as_without() {
 }
 
 /// Grooms on the shipped head settled with volume, stepped with it under a still head
-/// (one of them shaken first: a 1 s yaw of 0.8 rad at 12 rad/s), come to rest: after 4 s
-/// every strand is asleep. Once a pull of hair into cells sparser than at rest fought the
-/// pressure's push out of full ones, and the push left its speed in the hair: a strand at
-/// the groom's edge behind the head swung by millimetres for ever (one to three strands
-/// in each of these grooms).
+/// (one of them shaken first, [`shaking`]), come to rest: after 4 s every strand is
+/// asleep. Once a pull of hair into cells sparser than at rest fought the pressure's push
+/// out of full ones, and the push left its speed in the hair: a strand at the groom's edge
+/// behind the head swung by millimetres for ever (one to three strands in each of these
+/// grooms).
 #[test]
 fn grooms_settled_with_volume_come_to_rest_under_a_still_head() {
     let params = with_volume();
     // (strands, roots seed, shaken first)
     for (count, seed, shaken) in [(1024, 7, false), (2048, 5, false), (2048, 7, false), (1024, 3, true)] {
-        let yaw = |k: usize| {
-            let t = k as f32 / 60.0;
-            let angle = if shaken && t < 1.0 { 0.8 * (12.0 * t).sin() } else { 0.0 };
-            Pose::new(Quat::from_rotation_y(angle), Vec3::ZERO)
-        };
+        let yaw = |k: usize| if shaken { shaking(k, 0.0) } else { Pose::IDENTITY };
         let (_, collider, _, grown) = grown_on_the_shipped_head(count, seed);
         let rest = settle(grown, Some(&collider), &params, 180, Vec3::ZERO).expect("settle");
         let mut strands = Strands::new(rest, Pose::IDENTITY);

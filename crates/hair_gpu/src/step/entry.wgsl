@@ -180,7 +180,7 @@ fn end_substep(strand: u32, first: u32, n: u32, k: u32) {
 }
 
 // Takes back from each velocity what it leaves along the grid's push beyond how fast the
-// particle was leaving before, up to the push's size (hair_sim's `GridPush::without_rebound`).
+// particle was leaving before, up to the push's size (hair_sim's `GridPush::take_back`).
 fn take_back_grid_push(first: u32, n: u32) {
     for (var j = 1u; j < n; j++) {
         let i = particle_slot(first, j);

@@ -680,11 +680,21 @@ impl VolumeGrid {
 
     /// The same answer for the spring model, which takes it into its implicit solve
     /// (`implicit_springs`) instead of into the velocities: one [`SpringFeedback`] per
-    /// particle from `first` on.
-    pub(in crate::solver) fn feed_back_to_springs(&self, step: &VolumeStep, first: usize, out: &mut [SpringFeedback]) {
+    /// particle from `first` on, and its push in `pushes`, the particles moving at
+    /// `velocities` before it.
+    pub(in crate::solver) fn feed_back_to_springs(
+        &self,
+        step: &VolumeStep,
+        first: usize,
+        velocities: &[Vec3],
+        out: &mut [SpringFeedback],
+        pushes: &mut [GridPush],
+    ) {
         out.fill(SpringFeedback::default());
+        pushes.fill(GridPush::default());
         self.answer_each(step, first, out.len(), |j, a| {
             out[j] = SpringFeedback { toward: a.mean, rate: a.rate, kick: a.push };
+            pushes[j] = GridPush::new(a.push, velocities[j]);
         });
     }
 
@@ -715,7 +725,7 @@ impl VolumeGrid {
 
 /// The density push's and the pressure's velocity change on one particle in a step, kept
 /// for the step's end, which takes back the speed it left along it
-/// ([`Self::without_rebound`]): the grid moves hair out of a full cell but, as a contact,
+/// ([`Self::take_back`]): the grid moves hair out of a full cell but, as a contact,
 /// does not send it on. Counted whole, the push carried hair past the cell it was pushed
 /// out of until gravity or the strand brought it back and it was pushed again: a strand at
 /// the edge of a still groom never came to rest, and a pile held up by the pressure was
@@ -740,7 +750,7 @@ impl GridPush {
     /// beyond how fast it was leaving before, up to the push's size: speed from elsewhere
     /// (the head's pull, gravity) is left alone. The GPU's `take_back_grid_push`.
     #[inline]
-    pub(in crate::solver) fn without_rebound(self, velocity: Vec3) -> Vec3 {
+    pub(in crate::solver) fn take_back(self, velocity: Vec3) -> Vec3 {
         // In units of the push's size squared, so that the push need not be normalized
         // where it is made, once per particle per step.
         let size_squared = self.push.length_squared();

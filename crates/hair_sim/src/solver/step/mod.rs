@@ -543,10 +543,7 @@ fn step_chunk_on<S: Simd>(
                 let (velocities, pushes) = (&mut state.velocities[k * n..][..n], &mut pushes[lanes * n..][..n]);
                 if to_springs {
                     let answers = &mut for_springs[lanes * n..][..n];
-                    grid.feed_back_to_springs(step, (first_strand + k) * n, answers);
-                    for ((push, answer), &v) in pushes.iter_mut().zip(answers).zip(&*velocities) {
-                        *push = GridPush::new(answer.kick, v);
-                    }
+                    grid.feed_back_to_springs(step, (first_strand + k) * n, velocities, answers, pushes);
                 } else {
                     grid.feed_back(step, (first_strand + k) * n, velocities, pushes);
                 }
@@ -564,7 +561,7 @@ fn step_chunk_on<S: Simd>(
             for (l, &k) in group[..lanes].iter().enumerate() {
                 let (xs, vs) = (&state.positions[k * n..][..n], &mut state.velocities[k * n..][..n]);
                 for (v, push) in vs.iter_mut().zip(pushes.get(l * n..).unwrap_or_default()) {
-                    *v = push.without_rebound(*v);
+                    *v = push.take_back(*v);
                 }
                 if !xs.iter().chain(vs.iter()).all(|v| v.is_finite()) {
                     reset_strand(state, k, n, &rest.shape.positions[(first_strand + k) * n..][..n], &head_to);
