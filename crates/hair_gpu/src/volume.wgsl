@@ -69,12 +69,11 @@ const PRESSURE_SLACK: f32 = 0.05;
 // hair_sim's `LIVE_FLOOR`: the share of the mean rest density any cell may fill up to.
 const LIVE_FLOOR: f32 = 0.5;
 
-// A point's cell (its lowest corner), fixed-point weights per axis and where in the cell it
-// lies, as `VolumeGrid::splat_of` finds them; `inside` false outside the grid.
+// A point's cell (its lowest corner) and fixed-point weights per axis, as
+// `VolumeGrid::splat_of` finds them; `inside` false outside the grid.
 struct Splat {
     base: vec3<u32>,
     fixed: vec3<i32>,
-    fraction: vec3<f32>,
     inside: bool,
 }
 
@@ -90,8 +89,8 @@ fn splat_of(p: vec3<f32>) -> Splat {
     }
     let base = floor(g);
     splat.base = vec3<u32>(base);
-    splat.fraction = g - base;
-    splat.fixed = clamp(vec3<i32>(floor(splat.fraction * f32(WEIGHT_ONE) + 0.5)), vec3<i32>(0), vec3<i32>(WEIGHT_ONE));
+    let fraction = g - base;
+    splat.fixed = clamp(vec3<i32>(floor(fraction * f32(WEIGHT_ONE) + 0.5)), vec3<i32>(0), vec3<i32>(WEIGHT_ONE));
     return splat;
 }
 
@@ -253,7 +252,9 @@ fn predict_overflow(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_w
         let above = mean_beside(neighbour(c, at, a, true), own);
         divergence += dot(above - below, volume.rotation[a].xyz) * inverse_2h;
     }
-    cells[2u * c + 1u].z = max(volume.solve.w * (cell.y - 1.0) - cell.y * volume.solve.z * divergence, 0.0);
+    let overflow = volume.solve.w * (cell.y - 1.0) - cell.y * volume.solve.z * divergence;
+    // Below the target, room the hair around may flow into; none inside the head.
+    cells[2u * c + 1u].z = select(overflow, max(overflow, 0.0), solid[c] != 0u);
 }
 
 // Whether cell `c` is a wall: inside the head, without hair (`VolumeGrid::is_wall`).
@@ -339,6 +340,27 @@ fn extend_potential(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_w
     cells[2u * c + 1u].w = select(0.0, sum / count, count > 0.0);
 }
 
+// The potential's gradient at cell `c` (per cell) by central differences, 0 beyond the grid
+// (`VolumeGrid::resolve_gradients`).
+fn node_gradient(c: u32) -> vec3<f32> {
+    let at = coordinates(c);
+    var g = vec3<f32>(0.0);
+    for (var a = 0u; a < 3u; a++) {
+        let below = neighbour(c, at, a, false);
+        let above = neighbour(c, at, a, true);
+        var down = 0.0;
+        var up = 0.0;
+        if below != NONE {
+            down = cells[2u * below + 1u].w;
+        }
+        if above != NONE {
+            up = cells[2u * above + 1u].w;
+        }
+        g[a] = (up - down) * 0.5;
+    }
+    return g;
+}
+
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn feed_back(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = invocation(id, groups);
@@ -357,33 +379,26 @@ fn feed_back(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgrou
         return;
     }
     // `VolumeGrid::sample`: the mean velocity over the cells that hold hair, and the
-    // trilinear interpolant's gradient of the potential.
+    // cells' gradients of the potential, interpolated. A corner with weight holds hair.
     var velocity = vec3<f32>(0.0);
     var weight = 0.0;
-    var p: array<f32, 8>;
+    var gradient = vec3<f32>(0.0);
     for (var corner = 0u; corner < 8u; corner++) {
         let c = corner_cell(splat, corner);
-        let solve = cells[2u * c + 1u];
-        if solve.x > 0.0 {
-            let w = f32(corner_weight(splat, corner)) / PARTICLE_MASS_UNITS;
+        let weighed = corner_weight(splat, corner);
+        if cells[2u * c + 1u].x > 0.0 {
+            let w = f32(weighed) / PARTICLE_MASS_UNITS;
             velocity += cells[2u * c].xyz * w;
             weight += w;
         }
-        p[corner] = solve.w;
+        if weighed != 0 {
+            gradient += node_gradient(c) * f32(weighed);
+        }
     }
     if weight > 0.0 {
         velocity /= weight;
     }
-    // Along each axis, the differences across the cell weighted by where the point lies
-    // along the other two (corner bits x, y, z).
-    let f = splat.fraction;
-    let a = vec3<f32>(1.0) - f;
-    let gradient = vec3<f32>(
-        a.y * a.z * (p[1] - p[0]) + f.y * a.z * (p[3] - p[2]) + a.y * f.z * (p[5] - p[4]) + f.y * f.z * (p[7] - p[6]),
-        a.x * a.z * (p[2] - p[0]) + f.x * a.z * (p[3] - p[1]) + a.x * f.z * (p[6] - p[4]) + f.x * f.z * (p[7] - p[5]),
-        a.x * a.y * (p[4] - p[0]) + f.x * a.y * (p[5] - p[1]) + a.x * f.y * (p[6] - p[2]) + f.x * f.y * (p[7] - p[3]),
-    );
-    let push = gradient * volume.origin.w;
+    let push = gradient * (volume.origin.w / PARTICLE_MASS_UNITS);
     let world_push = volume.rotation[0].xyz * push.x + volume.rotation[1].xyz * push.y + volume.rotation[2].xyz * push.z;
     let j = slot_particle(i, volume.counts.y).y;
     let v = motion[i];

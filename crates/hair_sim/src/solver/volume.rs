@@ -94,7 +94,7 @@ struct CellValue {
     fill: f32,
     /// The density the step would leave beyond the target, were the hair to go on as it
     /// moves, as a share of the target: what the pressure takes away in the step
-    /// ([`VolumeGrid::solve_pressure`]).
+    /// ([`VolumeGrid::solve_pressure`]); below 0, the room the cell has.
     overflow: f32,
 }
 
@@ -105,6 +105,9 @@ struct FieldCell {
     /// else 0: the mean velocity is averaged over those. One vector, so that a corner's
     /// weight scales both in one SIMD multiply.
     motion: Vec4,
+    /// The potential's gradient at the cell (per cell, head axes), by central differences
+    /// ([`VolumeGrid::resolve_gradients`]): what a particle's push interpolates.
+    gradient: Vec3,
     /// The velocity change whose gradient (per cell) pushes a particle: the density
     /// push's share of the excess less the pressure's share of the pressure, so that one
     /// gradient serves both ([`VolumeGrid::resolve_potential`]).
@@ -355,7 +358,11 @@ impl VolumeGrid {
             let target = (r as f32 / units).max(self.rest_scale * self.floor) * (1.0 + PRESSURE_SLACK);
             let fill = m as f32 / units / target;
             *value = CellValue { occupied: m > 0, excess, fill, overflow: 0.0 };
-            *field = FieldCell { motion: mean_velocity.extend(if m > 0 { 1.0 } else { 0.0 }), potential: 0.0 };
+            *field = FieldCell {
+                motion: mean_velocity.extend(if m > 0 { 1.0 } else { 0.0 }),
+                gradient: Vec3::ZERO,
+                potential: 0.0,
+            };
         }
     }
 
@@ -386,7 +393,11 @@ impl VolumeGrid {
     /// (`catch_up × (fill − 1) − fill × dt × divergence`, as a share of the target;
     /// [`Feedback::catch_up`]; the head turned by `rotation`, which turns the grid's axes).
     /// The pressure's gradient, taken off a particle's velocity, spreads that out of the
-    /// cell in the step of `dt` seconds.
+    /// cell in the step of `dt` seconds. Below its target a cell's overflow is negative:
+    /// room that the hair around may flow into, so the pressure stays where the hair is too
+    /// dense (a unilateral solve, as Unity's strand hair's "density less than" mode) instead
+    /// of pressing through the whole groom as through a fluid that cannot be squeezed. A
+    /// cell inside the head has no room: the collision keeps hair out of it.
     pub fn solve_pressure(&mut self, sweeps: u32, dt: f32, rotation: glam::Quat, catch_up: f32) {
         if sweeps == 0 {
             // Off: nothing left over from when it was on.
@@ -421,7 +432,8 @@ impl VolumeGrid {
             let spreading = self.divergence(c, at, &axes);
             let fill = self.values[c].fill;
             // In the GPU's order (`predict_overflow`).
-            self.values[c].overflow = (catch_up * (fill - 1.0) - fill * dt * spreading).max(0.0);
+            let overflow = catch_up * (fill - 1.0) - fill * dt * spreading;
+            self.values[c].overflow = if self.solid[c] { overflow.max(0.0) } else { overflow };
         }
         self.occupied = occupied;
     }
@@ -473,6 +485,24 @@ impl VolumeGrid {
                 self.field[c].potential = self.wall_potential(c, at);
             }
         }
+        self.resolve_gradients();
+    }
+
+    /// The potential's gradient at each cell that holds hair, by central differences (0
+    /// beyond the grid, where the pressure solve takes the air to be), which [`Self::sample`]
+    /// interpolates to each particle, as Unity's strand hair does. The exact derivative of
+    /// the trilinear potential jumps at every cell face: a particle resting across one
+    /// was pushed back and forth, and hair piled on the skin after a shake was held there
+    /// by faces it could not cross. A cell without hair is read by no particle (every
+    /// corner a particle reads has its weight in it), and keeps the zero
+    /// [`Self::resolve_cells`] left.
+    fn resolve_gradients(&mut self) {
+        for &(c, at) in self.occupied.iter().flatten() {
+            let potential = |n: Option<usize>| n.map_or(0.0, |n| self.field[n].potential);
+            let [x0, x1, y0, y1, z0, z1] = self.lattice.neighbours(c, at).map(potential);
+            // In the GPU's order (`node_gradient`).
+            self.field[c].gradient = Vec3::new(x1 - x0, y1 - y0, z1 - z0) * 0.5;
+        }
     }
 
     /// Wall `c`'s (at `at`) potential: the mean of its neighbours' that hold hair, added in
@@ -488,32 +518,23 @@ impl VolumeGrid {
     }
 
     /// The mean velocity of the hair where `splat` lies, and the gradient (per metre, head
-    /// axes) of the potential there: the velocity change the density and the pressure push by.
+    /// axes) of the potential there, interpolated from the cells' ([`Self::resolve_gradients`]):
+    /// the velocity change the density and the pressure push by.
     #[inline]
     fn sample(&self, splat: &Splat) -> (Vec3, Vec3) {
-        let f = splat.fraction;
         // The weighted sums of the mean velocities and of the weights where there is hair
         // (an empty cell's mean is zero), the integer weights as they are: their unit
-        // cancels in the mean.
+        // cancels in the mean. The eight weights sum to one particle's mass.
         let mut motion = Vec4::ZERO;
-        let mut potential = [0.0f32; 8];
-        for (corner, (c, w)) in splat.corners(self.lattice.dims).into_iter().enumerate() {
+        let mut gradient = Vec3::ZERO;
+        for (c, w) in splat.corners(self.lattice.dims) {
             let cell = &self.field[c];
             motion += cell.motion * w as f32;
-            potential[corner] = cell.potential;
+            gradient += cell.gradient * w as f32;
         }
         let weight = motion.w;
         let velocity = if weight > 0.0 { motion.truncate() * weight.recip() } else { Vec3::ZERO };
-        // The trilinear interpolant's gradient: along each axis, the differences across the
-        // cell weighted by where the point lies along the other two (corner bits x, y, z).
-        let ([x0, x1], [y0, y1], [z0, z1]) = ([1.0 - f.x, f.x], [1.0 - f.y, f.y], [1.0 - f.z, f.z]);
-        let p = potential;
-        let gradient = Vec3::new(
-            y0 * z0 * (p[1] - p[0]) + y1 * z0 * (p[3] - p[2]) + y0 * z1 * (p[5] - p[4]) + y1 * z1 * (p[7] - p[6]),
-            x0 * z0 * (p[2] - p[0]) + x1 * z0 * (p[3] - p[1]) + x0 * z1 * (p[6] - p[4]) + x1 * z1 * (p[7] - p[5]),
-            x0 * y0 * (p[4] - p[0]) + x1 * y0 * (p[5] - p[1]) + x0 * y1 * (p[6] - p[2]) + x1 * y1 * (p[7] - p[3]),
-        );
-        (velocity, gradient * self.lattice.inverse_cell)
+        (velocity, gradient * (self.lattice.inverse_cell / PARTICLE_MASS_UNITS as f32))
     }
 }
 

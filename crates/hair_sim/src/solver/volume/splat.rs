@@ -72,7 +72,7 @@ impl Lattice {
         // the product is exact, the sum correctly rounded on both.
         // The fraction is within [0, 1] (a float's `g - floor(g)`).
         let fixed = fraction.to_array().map(|f| truncate(f * WEIGHT_ONE as f32 + 0.5).clamp(0, WEIGHT_ONE) as u8);
-        Some(Splat { base: (i + dx * (j + dy * k)) as u32, fixed, fraction })
+        Some(Splat { base: (i + dx * (j + dy * k)) as u32, fixed })
     }
 
     /// Adds to `sums` the share of the particle at world `x` moving at `v` (none: at rest),
@@ -95,14 +95,13 @@ impl Lattice {
     }
 }
 
-/// Where a point splats: its cell (the lowest of the eight around it), its fixed-point
-/// weight toward the next cell along each axis, and where in its cell it lies. Kept small:
-/// there is one per particle, written by the splat and read by the feedback.
+/// Where a point splats: its cell (the lowest of the eight around it) and its fixed-point
+/// weight toward the next cell along each axis. Kept small: there is one per particle,
+/// written by the splat and read by the feedback.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Splat {
     base: u32,
     fixed: [u8; 3],
-    pub fraction: Vec3,
 }
 
 impl Splat {
