@@ -546,8 +546,8 @@ fn nudged(rest: &RestShape, nudge: u32) -> RestShape {
 /// After a shake ([`density_after_a_shake`]) hair lies in piles where it landed, the
 /// densest of hair near the roots lying on the skin at the sides of the head. The volume's
 /// pressure, which does not push into the head's cells, spreads them along the skin and
-/// off it: the largest ρ/ρ_rest drops from about 2 to under 1.4, and the 99th percentile
-/// from 1.25 to under 1.1. With the pressure the shake is chaotic: nudging the groom by
+/// off it: the largest ρ/ρ_rest drops from about 2 to under 1.4 (asked: 1.2), and the 99th
+/// percentile from 1.25 to 1.05, as asked. With the pressure the shake is chaotic: nudging the groom by
 /// 0.1 µm moves the largest ratio by a tenth, so the pressure's figures are the median of
 /// three runs, nudged and not. The measure itself is sharp enough for the asked bounds
 /// (1.2, and 1.05 at the 99th percentile): the same groom kept still meets both.
@@ -576,7 +576,7 @@ fn after_a_shake_the_volume_spreads_piled_hair() {
         off.0, off.1, push.0, push.1, on.0, on.1, still.0, still.1
     );
     assert!(still.0 <= 1.2 && still.1 <= 1.05, "kept still, the groom measures {still:?}: the measure is blunt");
-    assert!(on.0 <= 1.4 && on.1 <= 1.1 && off.0 >= 1.8 && off.1 >= 1.2, "{on:?} with the pressure, {off:?} without");
+    assert!(on.0 <= 1.4 && on.1 <= 1.05 && off.0 >= 1.8 && off.1 >= 1.2, "{on:?} with the pressure, {off:?} without");
 }
 
 /// Two locks of 8 × 8 strands, 25 cm of 16 particles, rows 3 mm apart, A's roots between

@@ -826,11 +826,18 @@ pub struct Feedback {
     /// per 1/60 s, so that the rate is finite.
     pub rates: Vec<f32>,
     /// The share of a cell's density beyond its target that the pressure takes away in
-    /// this step ([`VolumeGrid::solve_pressure`]): all of it under Follow-The-Leader, whose
-    /// brake takes away the speed that the push out leaves; [`SPRINGS_CATCH_UP`] in the
-    /// spring model, which keeps that speed.
+    /// this step ([`VolumeGrid::solve_pressure`]): [`FTL_CATCH_UP`] under
+    /// Follow-The-Leader, [`SPRINGS_CATCH_UP`] in the spring model.
     pub catch_up: f32,
 }
+
+/// [`Feedback::catch_up`] under Follow-The-Leader: more than the whole overflow, because
+/// the hair moves less than the grid asks. The push reaches a particle through its eight
+/// cells' gradients, blurred over two cells, and the length pass then pulls each pushed
+/// particle back toward its parent, so a pile taken away once a step shrank by only part
+/// of its overflow and after a shake stayed denser than its target. The take-back
+/// ([`GridPush`]) leaves no speed for the extra push to carry on with.
+pub const FTL_CATCH_UP: f32 = 1.5;
 
 /// [`Feedback::catch_up`] in the spring model. Its integrator keeps every speed the
 /// pressure gives, so hair pushed out of a full cell in one step flies on past its target
@@ -853,7 +860,7 @@ impl Feedback {
         let shares = (0..n).map(|j| 1.0 - (1.0 - friction(j)).powf(dt * 60.0)).collect();
         let rates = (0..n).map(|j| -(1.0 - friction(j)).max(MIN_FRICTION_KEPT).ln() * 60.0).collect();
         let catch_up = match mode {
-            LengthMode::Inextensible => 1.0,
+            LengthMode::Inextensible => FTL_CATCH_UP,
             LengthMode::Springs => SPRINGS_CATCH_UP,
         };
         Feedback { shares, push: -volume.density_push * grid.lattice.cell * dt, rates, catch_up }
