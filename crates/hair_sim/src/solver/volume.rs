@@ -836,7 +836,7 @@ pub struct Feedback {
 /// cells' gradients, blurred over two cells, and the length pass then pulls each pushed
 /// particle back toward its parent, so a pile taken away once a step shrank by only part
 /// of its overflow and after a shake stayed denser than its target. The take-back
-/// ([`GridPush`]) leaves no speed for the extra push to carry on with.
+/// at the step's end leaves no speed for the extra push to carry on with.
 pub const FTL_CATCH_UP: f32 = 1.5;
 
 /// [`Feedback::catch_up`] in the spring model. Its integrator keeps every speed the
