@@ -69,8 +69,9 @@ fn at_rest_the_volume_changes_nothing() {
             strands.step(&step_input(k, Pose::IDENTITY, Pose::IDENTITY, Some(&collider), params));
         }
         let pressed = strands.volume_grid().map(|grid| {
-            let hair = grid.mass().iter().filter(|&&m| m > 0).count();
-            let held = grid.mass().iter().zip(grid.pressure()).filter(|&(&m, &p)| m > 0 && p > 0.0).count();
+            let mass = grid.mass();
+            let hair = mass.iter().filter(|&&m| m > 0).count();
+            let held = mass.iter().zip(grid.pressure()).filter(|&(&m, &p)| m > 0 && p > 0.0).count();
             held as f32 / hair as f32
         });
         let moved = strands.positions().iter().zip(&rest.positions).map(|(a, b)| a.distance(*b));

@@ -97,11 +97,12 @@ pub struct Volume {
     /// cell, never pulls hair into a sparser one.
     pub density_push: f32,
     /// Sweeps of the pressure solve (0: none, up to 64): each a red and a black
-    /// Gauss–Seidel pass over the grid. The pressure takes away, in one step, the density
-    /// beyond what a cell held at rest or half the mean rest density, whichever is more
-    /// (and 5 % more), and never pulls hair together ("density less than", as Unity's
-    /// strand hair): what keeps a pile of hair from packing tighter than the groom. Left
-    /// between steps, so that a few sweeps a step converge over a few steps.
+    /// Gauss–Seidel pass over the grid. The pressure pushes hair out of a cell holding more
+    /// than it held at rest or half the mean rest density, whichever is more (and 5 %
+    /// more), about as fast as a step lets it, into the room of sparser cells around it,
+    /// and never pulls hair together ("density less than", as Unity's strand hair): what
+    /// keeps a pile of hair from packing tighter than the groom. Left between steps, so
+    /// that a few sweeps a step converge over a few steps.
     pub pressure_iterations: u32,
     /// Share, 0..1, of the pressure's velocity change applied.
     pub pressure: f32,

@@ -4,8 +4,9 @@
 //! toward the mean velocity of the hair around it (friction between strands) and away from
 //! where the hair is denser than in its rest pose (the density push), so strands that
 //! meet push each other apart instead of passing through. A pressure solve on the grid
-//! (Unity's strand hair, Bridson's fluids) takes away in one step the density beyond a
-//! cell's target, so that a pile of hair keeps its volume instead of packing into a layer.
+//! (Unity's strand hair, Bridson's fluids) pushes the density beyond a cell's target out
+//! into the room of the sparser cells around it, about a step's worth at a time, so that a
+//! pile of hair keeps its volume instead of packing into a layer.
 //!
 //! The splat is in fixed point, so the sums are exact integers in any order: every thread
 //! count, every SIMD path and the GPU (whose atomics add in any order) give the same grid.
