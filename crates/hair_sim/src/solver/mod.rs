@@ -496,8 +496,17 @@ impl Strands {
         let made_from = &mut self.volume_made_from;
         let (positions, velocities) = (&self.positions, &self.velocities);
         let settings = (&params.volume, params.length_mode);
-        let step =
-            volume::prepare(grid, made_from, &self.rest, positions, velocities, head, settings, dt, (parts, run));
+        let step = volume::prepare(
+            grid,
+            made_from,
+            &self.rest,
+            positions,
+            velocities,
+            head,
+            settings,
+            dt,
+            (parts, params.simd.resolved(), run),
+        );
         self.volume_step = Some(step);
     }
 

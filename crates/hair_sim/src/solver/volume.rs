@@ -20,7 +20,7 @@
 //! (A cell inside the head that hair on the skin splats into is part of the hair.)
 
 use super::RestShape;
-use super::params::{LengthMode, Volume};
+use super::params::{LengthMode, SimdPath, Volume};
 use crate::collide::HeadInterior;
 use crate::math::{Pose, Vec3};
 use glam::Vec4;
@@ -107,12 +107,19 @@ struct FieldCell {
     /// weight scales both in one SIMD multiply.
     motion: Vec4,
     /// The potential's gradient at the cell (per cell, head axes), by central differences
-    /// ([`VolumeGrid::resolve_gradients`]): what a particle's push interpolates.
-    gradient: Vec3,
+    /// ([`VolumeGrid::resolve_gradients`]): what a particle's push interpolates; then the
+    /// potential itself ([`Self::potential`]). One vector, as `motion`.
+    slope: Vec4,
+}
+
+impl FieldCell {
     /// The velocity change whose gradient (per cell) pushes a particle: the density
     /// push's share of the excess less the pressure's share of the pressure, so that one
     /// gradient serves both ([`VolumeGrid::resolve_potential`]).
-    potential: f32,
+    #[inline]
+    fn potential(&self) -> f32 {
+        self.slope.w
+    }
 }
 
 impl VolumeGrid {
@@ -239,20 +246,20 @@ impl VolumeGrid {
     /// `velocities`, world axes; none: at rest), head-local by `pose`; roots are pinned and
     /// not counted. [`Self::mass`] and [`Self::momentum`] then hold the sums.
     pub fn splat(&mut self, rest: &RestShape, positions: &[Vec3], velocities: Option<&[Vec3]>, pose: Pose) {
-        self.splat_on(rest, positions, velocities, pose, 1, |_| {});
+        self.splat_on(rest, positions, velocities, pose, (1, SimdPath::Auto.resolved()), |_| {});
     }
 
     /// [`Self::splat`] split into up to `parts` runs of whole strands, which `run` may take
-    /// on threads of their own ([`SplatPart::run`]); whatever it leaves is run here. The
-    /// parts' sums are added in a fixed order, and integers: the grid is the same for any
-    /// `parts`.
+    /// on threads of their own ([`SplatPart::run`]) on the instructions of `simd` (resolved);
+    /// whatever it leaves is run here. The parts' sums are added in a fixed order, and
+    /// integers: the grid is the same for any `parts` and any path.
     pub(super) fn splat_on(
         &mut self,
         rest: &RestShape,
         positions: &[Vec3],
         velocities: Option<&[Vec3]>,
         pose: Pose,
-        parts: usize,
+        (parts, simd): (usize, SimdPath),
         run: impl FnOnce(&mut [SplatPart<'_>]),
     ) {
         let n = rest.particles_per_strand.max(1);
@@ -288,6 +295,7 @@ impl VolumeGrid {
                     sums,
                     splats,
                     fixed,
+                    simd,
                     done: false,
                 }
             })
@@ -359,11 +367,7 @@ impl VolumeGrid {
             let target = (r as f32 / units).max(self.rest_scale * self.floor) * (1.0 + PRESSURE_SLACK);
             let fill = m as f32 / units / target;
             *value = CellValue { occupied: m > 0, excess, fill, overflow: 0.0 };
-            *field = FieldCell {
-                motion: mean_velocity.extend(if m > 0 { 1.0 } else { 0.0 }),
-                gradient: Vec3::ZERO,
-                potential: 0.0,
-            };
+            *field = FieldCell { motion: mean_velocity.extend(if m > 0 { 1.0 } else { 0.0 }), slope: Vec4::ZERO };
         }
     }
 
@@ -478,12 +482,12 @@ impl VolumeGrid {
     /// gradient across it is zero and nothing is pushed into the head.
     fn resolve_potential(&mut self, push: f32, share: f32) {
         for ((field, value), &p) in self.field.iter_mut().zip(&self.values).zip(&self.pressure) {
-            field.potential = push * value.excess - share * p;
+            field.slope.w = push * value.excess - share * p;
         }
         // A wall reads only cells that hold hair, none of them a wall: in any order.
         for &(c, at) in &self.inside {
             if !self.values[c].occupied {
-                self.field[c].potential = self.wall_potential(c, at);
+                self.field[c].slope.w = self.wall_potential(c, at);
             }
         }
         self.resolve_gradients();
@@ -499,10 +503,12 @@ impl VolumeGrid {
     /// [`Self::resolve_cells`] left.
     fn resolve_gradients(&mut self) {
         for &(c, at) in self.occupied.iter().flatten() {
-            let potential = |n: Option<usize>| n.map_or(0.0, |n| self.field[n].potential);
+            let potential = |n: Option<usize>| n.map_or(0.0, |n| self.field[n].potential());
             let [x0, x1, y0, y1, z0, z1] = self.lattice.neighbours(c, at).map(potential);
             // In the GPU's order (`node_gradient`).
-            self.field[c].gradient = Vec3::new(x1 - x0, y1 - y0, z1 - z0) * 0.5;
+            let gradient = Vec3::new(x1 - x0, y1 - y0, z1 - z0) * 0.5;
+            let slope = &mut self.field[c].slope;
+            *slope = gradient.extend(slope.w);
         }
     }
 
@@ -512,7 +518,7 @@ impl VolumeGrid {
         let (mut sum, mut count) = (0.0, 0.0f32);
         for n in self.lattice.neighbours(c, at).into_iter().flatten() {
             if self.values[n].occupied {
-                (sum, count) = (sum + self.field[n].potential, count + 1.0);
+                (sum, count) = (sum + self.field[n].potential(), count + 1.0);
             }
         }
         if count > 0.0 { sum / count } else { 0.0 }
@@ -521,21 +527,21 @@ impl VolumeGrid {
     /// The mean velocity of the hair where `splat` lies, and the gradient (per metre, head
     /// axes) of the potential there, interpolated from the cells' ([`Self::resolve_gradients`]):
     /// the velocity change the density and the pressure push by.
-    #[inline]
+    #[inline(always)]
     fn sample(&self, splat: &Splat) -> (Vec3, Vec3) {
         // The weighted sums of the mean velocities and of the weights where there is hair
         // (an empty cell's mean is zero), the integer weights as they are: their unit
         // cancels in the mean. The eight weights sum to one particle's mass.
-        let mut motion = Vec4::ZERO;
-        let mut gradient = Vec3::ZERO;
+        // (The slope's w sums the potentials, which nothing reads.)
+        let (mut motion, mut slope) = (Vec4::ZERO, Vec4::ZERO);
         for (c, w) in splat.corners(self.lattice.dims) {
-            let cell = &self.field[c];
-            motion += cell.motion * w as f32;
-            gradient += cell.gradient * w as f32;
+            let (cell, w) = (&self.field[c], w as f32);
+            motion += cell.motion * w;
+            slope += cell.slope * w;
         }
         let weight = motion.w;
         let velocity = if weight > 0.0 { motion.truncate() * weight.recip() } else { Vec3::ZERO };
-        (velocity, gradient * (self.lattice.inverse_cell / PARTICLE_MASS_UNITS as f32))
+        (velocity, slope.truncate() * (self.lattice.inverse_cell / PARTICLE_MASS_UNITS as f32))
     }
 }
 
@@ -580,7 +586,7 @@ pub(super) fn prepare(
     (pose, next): (Pose, Pose),
     (volume, mode): (&Volume, LengthMode),
     dt: f32,
-    (parts, run): (usize, impl FnOnce(&mut [SplatPart<'_>])),
+    (parts, simd, run): (usize, SimdPath, impl FnOnce(&mut [SplatPart<'_>])),
 ) -> VolumeStep {
     let n = rest.particles_per_strand.max(1);
     let under = (pose, dt, *volume, mode);
@@ -590,7 +596,7 @@ pub(super) fn prepare(
         Some(moved) if moved.len() * RESPLAT_SHARE <= rest.strand_count() => {
             grid.resplat(n, &moved, positions, velocities, pose)
         }
-        _ => grid.splat_on(rest, positions, Some(velocities), pose, parts, run),
+        _ => grid.splat_on(rest, positions, Some(velocities), pose, (parts, simd), run),
     }
     let feedback = Feedback::new(grid, volume, mode, n, dt);
     grid.solve_pressure(volume.pressure_iterations, dt, pose.rotation, feedback.catch_up);
@@ -685,6 +691,8 @@ impl VolumeGrid {
     /// (`volume.pressure` of its gradient). Roots are left alone. Each particle reads only
     /// the grid, so chunks of strands take it on their own threads, in any order.
     /// Each particle's push is left in `pushes`, for the step's end ([`GridPush`]).
+    /// Inlined, so that it runs on the instructions of the step that calls it.
+    #[inline(always)]
     pub(in crate::solver) fn feed_back(
         &self,
         step: &VolumeStep,
@@ -703,7 +711,8 @@ impl VolumeGrid {
     /// The same answer for the spring model, which takes it into its implicit solve
     /// (`implicit_springs`) instead of into the velocities: one [`SpringFeedback`] per
     /// particle from `first` on, and its push in `pushes`, the particles moving at
-    /// `velocities` before it.
+    /// `velocities` before it. Inlined, as [`Self::feed_back`].
+    #[inline(always)]
     pub(in crate::solver) fn feed_back_to_springs(
         &self,
         step: &VolumeStep,

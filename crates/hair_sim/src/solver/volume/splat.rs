@@ -10,6 +10,7 @@
 
 use super::{MAX_FIXED_VELOCITY, VELOCITY_BITS, WEIGHT_BITS};
 use crate::math::{Pose, Vec3};
+use crate::solver::SimdPath;
 use glam::{Mat3A, Vec3A};
 
 const WEIGHT_ONE: i32 = 1 << WEIGHT_BITS;
@@ -51,43 +52,67 @@ impl Lattice {
         })
     }
 
-    /// The eight cells around head-local `p` and their weights; `None` outside the grid.
-    pub fn splat_of(&self, p: Vec3) -> Option<Splat> {
-        let g = (p - self.origin) * self.inverse_cell;
+    /// The eight cells around each of `N` head-local points and their weights (`None`
+    /// outside the grid), side by side: written lane by lane over arrays, so that the
+    /// compiler runs the lanes in SIMD vectors.
+    #[inline(always)]
+    pub fn splats_of<const N: usize>(&self, points: [Vec3; N]) -> [Option<Splat>; N] {
         let [dx, dy, dz] = self.dims;
+        let g: [[f32; N]; 3] =
+            std::array::from_fn(|a| std::array::from_fn(|l| (points[l][a] - self.origin[a]) * self.inverse_cell));
         // Compared as floats, so that a point far outside (or not finite) never becomes
         // an index.
-        let within = |g: f32, d: usize| g >= 0.0 && g < (d - 1) as f32;
-        if !(within(g.x, dx) && within(g.y, dy) && within(g.z, dz)) {
-            return None;
-        }
-        // Non-negative and below a grid side here, so truncation is the floor (without
-        // SSE4.1, `floor` is a library call).
-        let [i, j, k] = g.to_array().map(|g| truncate(g) as usize);
-        if i + 1 >= dx || j + 1 >= dy || k + 1 >= dz {
-            return None;
-        }
-        let fraction = g - Vec3::new(i as f32, j as f32, k as f32);
+        let within: [bool; N] = std::array::from_fn(|l| {
+            let inside = |a: usize, d: usize| g[a][l] >= 0.0 && g[a][l] < (d - 1) as f32;
+            inside(0, dx) & inside(1, dy) & inside(2, dz)
+        });
+        // Non-negative and below a grid side where within, so truncation is the floor
+        // (without SSE4.1, `floor` is a library call); 0 elsewhere.
+        let cell: [[i32; N]; 3] =
+            std::array::from_fn(|a| std::array::from_fn(|l| if within[l] { truncate(g[a][l]) } else { 0 }));
         // Rounded as the GPU rounds (`floor(x + 0.5)`, truncation of a non-negative value):
-        // the product is exact, the sum correctly rounded on both.
-        // The fraction is within [0, 1] (a float's `g - floor(g)`).
-        let fixed = fraction.to_array().map(|f| truncate(f * WEIGHT_ONE as f32 + 0.5).clamp(0, WEIGHT_ONE) as u8);
-        Some(Splat { base: (i + dx * (j + dy * k)) as u32, fixed })
+        // the product is exact, the sum correctly rounded on both. The fraction is within
+        // [0, 1] (a float's `g - floor(g)`).
+        let fixed: [[u8; N]; 3] = std::array::from_fn(|a| {
+            std::array::from_fn(|l| {
+                let fraction = if within[l] { g[a][l] - cell[a][l] as f32 } else { 0.0 };
+                truncate(fraction * WEIGHT_ONE as f32 + 0.5).clamp(0, WEIGHT_ONE) as u8
+            })
+        });
+        std::array::from_fn(|l| {
+            let [i, j, k] = [0, 1, 2].map(|a| cell[a][l] as usize);
+            let inside = within[l] && i + 1 < dx && j + 1 < dy && k + 1 < dz;
+            inside.then(|| Splat { base: (i + dx * (j + dy * k)) as u32, fixed: [0, 1, 2].map(|a| fixed[a][l]) })
+        })
     }
 
-    /// Adds to `sums` the share of the particle at world `x` moving at `v` (none: at rest),
-    /// head-local by `head_local` ([`SplatPart::head_local`]); returns where it splats and
-    /// its velocity in fixed point, for [`add_share`] to take the share away again.
-    #[inline]
+    /// Where each of the `N` particles at world `x` moving at `v` (none: at rest) splats,
+    /// head-local by `head_local` ([`SplatPart::head_local`]), and its velocity in fixed
+    /// point ([`fixed_velocity`]), side by side.
+    #[inline(always)]
+    pub fn place<const N: usize>(
+        &self,
+        (inverse, translation): (Mat3A, Vec3A),
+        x: [Vec3; N],
+        v: Option<[Vec3; N]>,
+    ) -> ([Option<Splat>; N], [[i32; 3]; N]) {
+        let splats = self.splats_of(x.map(|x| (inverse * (Vec3A::from(x) - translation)).into()));
+        let fixed = v.map_or([[0; 3]; N], |v| fixed_velocities(v.map(|v| v.to_array())));
+        (splats, fixed)
+    }
+
+    /// Adds to `sums` the share of the particle at world `x` moving at `v` ([`Self::place`]);
+    /// returns where it splats and its velocity in fixed point, for [`add_share`] to take
+    /// the share away again.
+    #[inline(always)]
     pub fn add_particle(
         &self,
         sums: &mut [CellSums],
-        (inverse, translation): (Mat3A, Vec3A),
+        head_local: (Mat3A, Vec3A),
         x: Vec3,
         v: Option<Vec3>,
     ) -> (Option<Splat>, [i32; 3]) {
-        let splat = self.splat_of((inverse * (Vec3A::from(x) - translation)).into());
-        let fixed = v.map_or([0; 3], |v| v.to_array().map(fixed_velocity));
+        let ([splat], [fixed]) = self.place(head_local, [x], v.map(|v| [v]));
         if let Some(splat) = &splat {
             add_share(sums, self.dims, splat, fixed, 1.0);
         }
@@ -98,7 +123,7 @@ impl Lattice {
 /// Where a point splats: its cell (the lowest of the eight around it) and its fixed-point
 /// weight toward the next cell along each axis. Kept small: there is one per particle,
 /// written by the splat and read by the feedback.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Splat {
     base: u32,
     fixed: [u8; 3],
@@ -135,6 +160,9 @@ pub struct SplatPart<'a> {
     pub(super) splats: &'a mut [Option<Splat>],
     /// Each particle's velocity as splatted ([`fixed_velocity`]).
     pub(super) fixed: &'a mut [[i32; 3]],
+    /// The instructions it runs on ([`SimdPath::resolved`]): the sums are integers, the
+    /// same on every path.
+    pub(super) simd: SimdPath,
     pub(super) done: bool,
 }
 
@@ -152,26 +180,59 @@ impl SplatPart<'_> {
             return;
         }
         self.done = true;
+        match self.simd {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `simd` is resolved ([`SimdPath::resolved`]): a wide path only where
+            // the CPU has its instructions, and AVX-512F's CPUs have AVX2's.
+            SimdPath::Avx2 | SimdPath::Avx512 => unsafe { self.add_shares_avx2() },
+            _ => self.add_shares(),
+        }
+    }
+
+    /// [`Self::add_shares`] compiled for AVX2: a cell's four sums are one register.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn add_shares_avx2(&mut self) {
+        self.add_shares();
+    }
+
+    /// Clears this part's sums and adds its particles' shares ([`Self::run`]), [`BATCH`]
+    /// particles of a strand side by side.
+    #[inline(always)]
+    fn add_shares(&mut self) {
         self.sums.fill([0.0; 4]);
         let n = self.n.max(1);
         let len = self.positions.len();
         for root in (0..len).step_by(n) {
             // Roots are pinned: they neither count nor move.
             self.splats[root] = None;
-            for i in root + 1..(root + n).min(len) {
-                let v = self.velocities.map(|v| v[i]);
-                (self.splats[i], self.fixed[i]) =
-                    self.lattice.add_particle(self.sums, self.head_local, self.positions[i], v);
+            for first in (root + 1..(root + n).min(len)).step_by(BATCH) {
+                let count = BATCH.min((root + n).min(len) - first);
+                // A short batch's spare lanes repeat its first particle; only `count` count.
+                let at = |l: usize| first + if l < count { l } else { 0 };
+                let x = std::array::from_fn::<_, BATCH, _>(|l| self.positions[at(l)]);
+                let v = self.velocities.map(|v| std::array::from_fn(|l| v[at(l)]));
+                let (splats, fixed) = self.lattice.place(self.head_local, x, v);
+                for l in 0..count {
+                    (self.splats[first + l], self.fixed[first + l]) = (splats[l], fixed[l]);
+                    if let Some(splat) = &splats[l] {
+                        add_share(self.sums, self.lattice.dims, splat, fixed[l], 1.0);
+                    }
+                }
             }
         }
     }
 }
 
+/// Particles of a strand whose splats [`SplatPart::run`] works out side by side: one AVX2
+/// vector of `f32`.
+const BATCH: usize = 8;
+
 /// Adds to `sums` (`sign` 1) or takes away from them (−1) a particle's share: in each of
 /// the eight cells around it, its weight there times one and times each component of its
 /// fixed-point velocity `fixed`. Each product is an integer below 2^31 (see
 /// `MAX_FIXED_VELOCITY`), exact in `f64`.
-#[inline]
+#[inline(always)]
 pub(super) fn add_share(sums: &mut [CellSums], dims: [usize; 3], splat: &Splat, fixed: [i32; 3], sign: f64) {
     let [vx, vy, vz] = fixed.map(f64::from);
     let velocity = [sign, sign * vx, sign * vy, sign * vz];
@@ -195,17 +256,27 @@ pub(super) fn add_share(sums: &mut [CellSums], dims: [usize; 3], splat: &Splat, 
 /// A velocity component in the momentum sums' fixed point, rounded as the GPU rounds
 /// (`floor(x + 0.5)` in `f32`: the product is exact, the sum correctly rounded on both),
 /// within [`MAX_FIXED_VELOCITY`]; not finite: 0 (such a strand is reset by the step).
+#[inline]
 pub fn fixed_velocity(v: f32) -> i32 {
-    if !v.is_finite() {
-        return 0;
-    }
-    // Clamped before the floor, the same as after it (the bounds are whole), and then
-    // within an `i32`.
+    fixed_velocities::<1, 1>([[v]])[0][0]
+}
+
+/// [`fixed_velocity`] of each of `N` × `K` components, side by side: lane by lane over
+/// arrays, so that the compiler runs the lanes in SIMD vectors.
+#[inline(always)]
+fn fixed_velocities<const N: usize, const K: usize>(v: [[f32; K]; N]) -> [[i32; K]; N] {
     let most = MAX_FIXED_VELOCITY as f32;
-    let x = (v * (1u32 << VELOCITY_BITS) as f32 + 0.5).clamp(-most, most);
-    // The floor without a library call: truncation, one less below zero where it cut.
-    let t = truncate(x);
-    if (t as f32) > x { t - 1 } else { t }
+    v.map(|v| {
+        v.map(|v| {
+            let v = if v.is_finite() { v } else { 0.0 };
+            // Clamped before the floor, the same as after it (the bounds are whole), and
+            // then within an `i32`.
+            let x = (v * (1u32 << VELOCITY_BITS) as f32 + 0.5).clamp(-most, most);
+            // The floor without a library call: truncation, one less below zero where it cut.
+            let t = truncate(x);
+            t - i32::from(t as f32 > x)
+        })
+    })
 }
 
 /// `x` truncated toward zero, for a finite `x` within an `i32`: one instruction, without

@@ -30,7 +30,7 @@ fn apply(
         (pose, pose),
         (volume, LengthMode::Inextensible),
         dt,
-        (1, |_: &mut [SplatPart]| {}),
+        (1, SimdPath::Baseline, |_: &mut [SplatPart]| {}),
     );
     grid.feed_back(&step, 0, velocities, &mut vec![GridPush::default(); velocities.len()]);
 }
@@ -60,7 +60,7 @@ fn a_uniform_velocity_round_trips() {
     let velocities = vec![u; rest.positions.len()];
     grid.splat(&rest, &rest.positions, Some(&velocities), Pose::IDENTITY);
     for (i, &x) in rest.positions.iter().enumerate().filter(|(i, _)| i % 5 != 0) {
-        let (mean, _) = grid.sample(&grid.lattice.splat_of(x).expect("inside the grid"));
+        let (mean, _) = grid.sample(&grid.lattice.splats_of([x])[0].expect("inside the grid"));
         // Each component to half a unit of the fixed point.
         let half = 0.5 / (1u32 << VELOCITY_BITS) as f32;
         assert!((mean - u).abs().max_element() <= half, "particle {i}: {mean} for {u}");
@@ -118,6 +118,45 @@ fn velocities_round_as_the_gpu_rounds_them() {
 }
 
 #[test]
+fn particles_placed_side_by_side_are_placed_as_each_alone() {
+    let rest = rest();
+    let grid = VolumeGrid::new(&rest, 16, None);
+    let (lattice, head_local) = (&grid.lattice, SplatPart::head_local(Pose::IDENTITY));
+    let (low, cell) = (lattice.origin, lattice.cell);
+    let high = low + Vec3::from_array(lattice.dims.map(|d| (d - 1) as f32)) * cell;
+    // Inside, on the grid's low corner, just inside and on its high side, outside, and not
+    // finite; velocities slow, fast beyond the fixed point's reach, and not finite.
+    let x = [
+        rest.positions[3],
+        low,
+        high - Vec3::splat(1e-4),
+        high,
+        low - Vec3::new(0.0, 1e-3, 0.0),
+        Vec3::new(f32::NAN, 0.0, 0.0),
+        Vec3::splat(f32::INFINITY),
+        rest.positions[7] + Vec3::splat(0.3 * cell),
+    ];
+    let v = [
+        Vec3::new(0.37, -1.25, 2.5),
+        Vec3::new(-0.4999 / 2048.0, 1e9, -1e9),
+        Vec3::new(f32::NAN, f32::NEG_INFINITY, 0.0),
+        Vec3::ZERO,
+        Vec3::splat(-3.0),
+        Vec3::splat(1.0),
+        Vec3::splat(-0.0),
+        Vec3::new(33.0, -33.0, 0.001),
+    ];
+    let (splats, fixed) = lattice.place(head_local, x, Some(v));
+    for l in 0..x.len() {
+        let ([alone], [fixed_alone]) = lattice.place(head_local, [x[l]], Some([v[l]]));
+        assert_eq!((splats[l], fixed[l]), (alone, fixed_alone), "lane {l}: {} at {}", v[l], x[l]);
+        assert_eq!(fixed[l], v[l].to_array().map(fixed_velocity), "lane {l}");
+    }
+    let held: Vec<bool> = splats.iter().map(Option::is_some).collect();
+    assert_eq!(held, [true, true, true, false, false, false, false, true], "which points the grid holds");
+}
+
+#[test]
 fn a_splat_in_parts_sums_what_one_does() {
     let rest = rest();
     let velocities: Vec<Vec3> = (0..15).map(|i| Vec3::new(0.1 * i as f32, -0.3, 0.02 * (i * i) as f32)).collect();
@@ -125,17 +164,19 @@ fn a_splat_in_parts_sums_what_one_does() {
     // Few cells, so that the splat splits into parts (each costs a grid's size to add up).
     let mut whole = VolumeGrid::new(&rest, 2, None);
     whole.splat(&rest, &moved, Some(&velocities), Pose::IDENTITY);
-    for parts in [2, 3, 7] {
+    let paths = [SimdPath::Baseline, SimdPath::Avx2, SimdPath::Avx512].into_iter().filter(|p| p.is_available());
+    for (parts, simd) in [2, 3, 7].into_iter().flat_map(|parts| paths.clone().map(move |simd| (parts, simd))) {
         let mut grid = VolumeGrid::new(&rest, 2, None);
         // The first time the caller runs no part (they run here), the second time every one.
         for run_them in [false, true] {
-            grid.splat_on(&rest, &moved, Some(&velocities), Pose::IDENTITY, parts, |jobs| {
+            grid.splat_on(&rest, &moved, Some(&velocities), Pose::IDENTITY, (parts, simd), |jobs| {
                 assert_eq!(jobs.len(), parts.min(3), "whole strands a part");
                 if run_them {
                     jobs.iter_mut().rev().for_each(SplatPart::run);
                 }
             });
-            assert_eq!((grid.mass(), grid.momentum()), (whole.mass(), whole.momentum()), "{parts} parts");
+            let sums = (grid.mass(), grid.momentum());
+            assert_eq!(sums, (whole.mass(), whole.momentum()), "{parts} parts on {simd:?}");
         }
     }
 }
@@ -184,7 +225,7 @@ fn a_step_makes_the_grid_again_only_from_what_moved() {
             (Pose::IDENTITY, Pose::IDENTITY),
             (&volume, LengthMode::Inextensible),
             dt,
-            (1, |_: &mut [SplatPart]| splatted.set(true)),
+            (1, SimdPath::Baseline, |_: &mut [SplatPart]| splatted.set(true)),
         );
         (step, splatted.get())
     };
@@ -204,7 +245,17 @@ fn a_step_makes_the_grid_again_only_from_what_moved() {
     let mut made_from = None;
     let mut step_under = |head: (Pose, Pose), made_from: &mut Option<MadeFrom>| {
         let settings = (&volume, LengthMode::Inextensible);
-        prepare(&mut grid, made_from, &rest, &moved, &still, head, settings, dt, (1, |_: &mut [SplatPart]| {}));
+        prepare(
+            &mut grid,
+            made_from,
+            &rest,
+            &moved,
+            &still,
+            head,
+            settings,
+            dt,
+            (1, SimdPath::Baseline, |_: &mut [SplatPart]| {}),
+        );
     };
     step_under((Pose::IDENTITY, turned), &mut made_from);
     assert!(made_from.is_none(), "nothing kept under a moving head");
