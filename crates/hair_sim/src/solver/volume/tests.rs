@@ -388,3 +388,41 @@ fn the_push_leaves_no_speed_of_its_own() {
     assert_eq!(after(Vec3::ZERO, Vec3::ZERO, Vec3::Y), Vec3::Y);
     assert_eq!(after(Vec3::NAN, Vec3::ZERO, Vec3::Y), Vec3::Y);
 }
+
+#[test]
+fn extra_colliders_wall_the_cells_they_hold() {
+    let rest = rest();
+    let mut grid = VolumeGrid::new(&rest, 16, None);
+    let pose = Pose::new(glam::Quat::from_rotation_z(0.7), Vec3::new(0.2, -0.1, 0.05));
+    let cell = grid.cell();
+    // Where a cell's node lies in the world, worked out here apart from the grid's lattice.
+    let world = |grid: &VolumeGrid, c: usize| {
+        let [dx, dy, _] = grid.dims();
+        let at = Vec3::new((c % dx) as f32, (c / dx % dy) as f32, (c / (dx * dy)) as f32);
+        pose.transform_point(grid.origin() + at * cell)
+    };
+    // How far inside a shape `p` lies (below 0: outside), apart from the collider's code.
+    let depth = |shape: &ExtraCollider, p: Vec3| match *shape {
+        ExtraCollider::Sphere { center, radius } => radius - p.distance(center),
+        ExtraCollider::Capsule { a, b, radius } => {
+            let t = ((p - a).dot(b - a) / (b - a).length_squared()).clamp(0.0, 1.0);
+            radius - p.distance(a + (b - a) * t)
+        }
+    };
+    let sphere = ExtraCollider::Sphere { center: pose.transform_point(rest.positions[7]), radius: 2.5 * cell };
+    let (a, b) = (pose.transform_point(rest.positions[0]), pose.transform_point(rest.positions[14]));
+    let capsule = ExtraCollider::Capsule { a, b, radius: 1.5 * cell };
+    for (k, extras) in [vec![sphere], vec![sphere, capsule], vec![]].into_iter().enumerate() {
+        assert!(grid.set_extra_walls(&extras, pose), "case {k}: the walls change");
+        assert!(!grid.set_extra_walls(&extras, pose), "case {k}: the same colliders, the same walls");
+        let walls = grid.solid().iter().filter(|&&s| s).count();
+        for c in 0..grid.solid().len() {
+            let deepest = extras.iter().map(|e| depth(e, world(&grid, c))).fold(f32::MIN, f32::max);
+            // Nodes within 10 µm of a surface may fall either way in `f32`.
+            if deepest.abs() > 1e-5 {
+                assert_eq!(grid.solid()[c], deepest > 0.0, "case {k}: cell {c}, {deepest} m inside");
+            }
+        }
+        assert_eq!(extras.is_empty(), walls == 0, "case {k}: {walls} walls");
+    }
+}
