@@ -46,7 +46,7 @@
 #![warn(missing_docs)]
 
 use bytemuck::Zeroable;
-use hair_sim::collide::{ExtraCollider, HeadCollider, HeadInterior};
+use hair_sim::collide::{HeadCollider, HeadInterior};
 use hair_sim::math::{Pose, Vec3};
 use hair_sim::solver::{LengthMode, RestShape, StepConstants, StepInput, StepReport, Stillness};
 use layout::Slots;
@@ -643,7 +643,7 @@ impl GpuStrands {
         // What the next step may remember: this one's spring memory, or none.
         self.springs_remembered = springs;
         if p.volume.enabled {
-            self.record_volume(&p.volume, (constants.poses[0], input.colliding_extras()), constants.dt, springs);
+            self.record_volume(&p.volume, constants.poses[0], constants.dt, springs);
         }
         let recorder = recording(&mut self.recorder);
         recorder.upload(&self.uniform, bytemuck::bytes_of(&uniform));
@@ -683,21 +683,12 @@ impl GpuStrands {
     }
 
     /// Records the volume's effect on a step of `dt` ([`GpuVolume`]), the head at `pose` at
-    /// its start and `extras` the extra colliders its walls follow, making the grid first
-    /// where there is none at `volume`'s resolution.
-    fn record_volume(
-        &mut self,
-        volume: &hair_sim::solver::Volume,
-        (pose, extras): (Pose, &[ExtraCollider]),
-        dt: f32,
-        springs: bool,
-    ) {
+    /// its start, making the grid first where there is none at `volume`'s resolution.
+    fn record_volume(&mut self, volume: &hair_sim::solver::Volume, pose: Pose, dt: f32, springs: bool) {
         self.make_volume(volume.resolution);
-        let grid = self.volume.as_mut().expect("made above");
-        let recorder = recording(&mut self.recorder);
-        grid.set_extra_walls(recorder, extras, pose);
+        let grid = self.volume.as_ref().expect("made above");
         let counts = (self.strands, self.particles_per_strand, self.slots.count() as u32);
-        grid.record(&self.volume_passes, recorder, volume, pose, dt, springs, counts);
+        grid.record(&self.volume_passes, recording(&mut self.recorder), volume, pose, dt, springs, counts);
     }
 
     /// Makes the hair–hair grid at `resolution` where there is none at it.
@@ -797,8 +788,10 @@ impl GpuStrands {
     /// when they need more room), and returns the skin's place there for the uniform's
     /// `patch`: header + 1 (0: no skin), triangles, bin starts, bin lists (vec4 indices).
     fn upload_colliders(&mut self, input: &StepInput) -> [u32; 4] {
-        let mut data: Vec<[u32; 4]> = input
-            .colliding_extras()
+        use hair_sim::collide::ExtraCollider;
+        let collide = input.params.collision;
+        let extras = if collide { input.extra_colliders } else { &[] };
+        let mut data: Vec<[u32; 4]> = extras
             .iter()
             .flat_map(|e| match *e {
                 ExtraCollider::Sphere { center, radius } => {
@@ -807,7 +800,7 @@ impl GpuStrands {
                 ExtraCollider::Capsule { a, b, radius } => [bits([a.x, a.y, a.z, radius]), bits([b.x, b.y, b.z, 1.0])],
             })
             .collect();
-        let patch = match input.surface_patch.filter(|_| input.params.collision && self.grid_info.is_some()) {
+        let patch = match input.surface_patch.filter(|_| collide && self.grid_info.is_some()) {
             Some(patch) => pack_patch(&mut data, patch.parts()),
             None => [0; 4],
         };

@@ -8,7 +8,7 @@
 use crate::pass::{SharedLayout, storage};
 use crate::recorder::Recorder;
 use bytemuck::{Pod, Zeroable};
-use hair_sim::collide::{ExtraCollider, HeadInterior};
+use hair_sim::collide::HeadInterior;
 use hair_sim::math::Pose;
 use hair_sim::solver::{Feedback, LengthMode, RestShape, VolumeGrid};
 
@@ -91,11 +91,9 @@ pub(crate) struct GpuVolume {
     pressure: wgpu::Buffer,
     group: wgpu::BindGroup,
     /// Buffers made for it (kept alive with the bind group).
-    /// Per cell, 1 where it is a wall ([`VolumeGrid::solid`]): the head's, and the extra
-    /// colliders' of the last step ([`Self::set_extra_walls`]).
-    solid: wgpu::Buffer,
     _cells: wgpu::Buffer,
     _rest_mass: wgpu::Buffer,
+    _solid: wgpu::Buffer,
 }
 
 impl GpuVolume {
@@ -133,11 +131,12 @@ impl GpuVolume {
             bytemuck::cast_slice(&words),
             wgpu::BufferUsages::empty(),
         );
+        let walls: Vec<u32> = grid.solid().iter().map(|&s| u32::from(s)).collect();
         let solid = crate::storage_buffer(
             device,
             "hair_gpu volume walls",
-            bytemuck::cast_slice(&Self::walls(&grid)),
-            wgpu::BufferUsages::COPY_DST,
+            bytemuck::cast_slice(&walls),
+            wgpu::BufferUsages::empty(),
         );
         let uniform = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("hair_gpu volume"),
@@ -160,23 +159,9 @@ impl GpuVolume {
             shares,
             pressure,
             group,
-            solid,
             _cells: cell_values,
             _rest_mass: rest_mass,
-        }
-    }
-
-    /// The grid's walls as the shader's `solid` reads them.
-    fn walls(grid: &VolumeGrid) -> Vec<u32> {
-        grid.solid().iter().map(|&s| u32::from(s)).collect()
-    }
-
-    /// Makes the cells inside `extras` (world space, the head at `pose`) walls, as the CPU
-    /// grid's [`VolumeGrid::set_extra_walls`] does (the same cells: it works them out), and
-    /// uploads the walls where they changed.
-    pub fn set_extra_walls(&mut self, recorder: &mut Recorder, extras: &[ExtraCollider], pose: Pose) {
-        if self.grid.set_extra_walls(extras, pose) {
-            recorder.upload(&self.solid, bytemuck::cast_slice(&Self::walls(&self.grid)));
+            _solid: solid,
         }
     }
 

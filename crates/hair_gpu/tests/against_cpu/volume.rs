@@ -117,7 +117,7 @@ fn the_pressure_pushes_as_on_the_cpu() {
             ..SimParams::default()
         };
         let (apart, pushed) =
-            one_step_beside_the_cpu(&gpu, (&rest, &collider), (base, &[]), pressure_only, (Some(&pressed), None));
+            one_step_beside_the_cpu(&gpu, (&rest, &collider), base, pressure_only, (Some(&pressed), None));
         eprintln!(
             "{length_mode:?}, one step of pressure: velocities {apart:.1e} m/s apart, the pressure changed them by up \
              to {pushed:.3} m/s"
@@ -130,45 +130,14 @@ fn the_pressure_pushes_as_on_the_cpu() {
     }
 }
 
-/// [`the_pressure_pushes_as_on_the_cpu`] with collision on and a ball beside the groom,
-/// touching the pressed hair: the cells inside the ball are walls on both (the CPU works
-/// them out and the GPU uploads them), so the pressure leaves the same velocities. With
-/// the GPU's walls left as the head's alone the two part by 0.06 m/s.
-#[test]
-fn extra_colliders_wall_the_pressure_as_on_the_cpu() {
-    let Some(gpu) = gpu() else { return };
-    let (_, collider, rest) = groom(256);
-    let n = rest.particles_per_strand;
-    let pressed: Vec<Vec3> = rest
-        .positions
-        .iter()
-        .enumerate()
-        .map(|(i, &x)| if i % n == 0 { x } else { x - Vec3::X * (0.01 * x.x.signum()) })
-        .collect();
-    // A ball of 3 cm touching the middle of strand 0 from outside.
-    let touched = pressed[n / 2];
-    let ball = ExtraCollider::Sphere { center: touched + touched.normalize() * 0.031, radius: 0.03 };
-    let pressure_only =
-        Volume { enabled: true, friction_root: 0.0, friction_tip: 0.0, density_push: 0.0, ..Volume::default() };
-    let base = SimParams { global_stiffness_root: 0.0, local_stiffness: 0.0, ..SimParams::default() };
-    let (apart, pushed) =
-        one_step_beside_the_cpu(&gpu, (&rest, &collider), (base, &[ball]), pressure_only, (Some(&pressed), None));
-    eprintln!(
-        "one step of pressure beside a ball: velocities {apart:.1e} m/s apart, the pressure changed them by up to \
-         {pushed:.3} m/s"
-    );
-    assert!(pushed > 100.0 * apart.max(1e-6), "the pressure moved nothing measurable: {pushed} m/s");
-    assert!(apart < 1e-4, "{apart} m/s apart");
-}
-
 /// A groom stepped once from `start` (its positions and its velocities where given, else
-/// at rest) under `base` with `volume` and `extras` beside the head, on the CPU and on the
-/// GPU: how far apart the two leave the velocities, and how far `volume` moved the CPU's
-/// from where the same step without volume leaves them (m/s, the largest of each).
+/// at rest) under `base` with `volume`, on the CPU and on the GPU: how far apart the two
+/// leave the velocities, and how far `volume` moved the CPU's from where the same step
+/// without volume leaves them (m/s, the largest of each).
 fn one_step_beside_the_cpu(
     gpu: &GpuContext,
     (rest, collider): (&RestShape, &HeadCollider),
-    (base, extras): (SimParams, &[ExtraCollider]),
+    base: SimParams,
     volume: Volume,
     start: (Option<&[Vec3]>, Option<&[Vec3]>),
 ) -> (f32, f32) {
@@ -184,7 +153,7 @@ fn one_step_beside_the_cpu(
             cpu.set_velocities(velocities).expect("one finite velocity per particle");
             assert!(on_gpu.set_velocities(velocities));
         }
-        let input = StepInput { extra_colliders: extras, ..input_at(0, |_| Pose::IDENTITY, collider, &params) };
+        let input = input_at(0, |_| Pose::IDENTITY, collider, &params);
         cpu.step(&input);
         on_gpu.step(&input).expect("GPU step");
         (cpu.velocities().to_vec(), on_gpu.velocities().expect("read back"))
@@ -216,8 +185,7 @@ fn in_the_spring_model_the_grids_answer_is_the_cpus() {
     let base = SimParams { length_mode: LengthMode::Springs, collision: false, ..SimParams::default() };
     let volume =
         Volume { enabled: true, friction_root: 0.3, friction_tip: 0.2, pressure_iterations: 0, ..Volume::default() };
-    let (apart, changed) =
-        one_step_beside_the_cpu(&gpu, (&rest, &collider), (base, &[]), volume, (None, Some(&swinging)));
+    let (apart, changed) = one_step_beside_the_cpu(&gpu, (&rest, &collider), base, volume, (None, Some(&swinging)));
     eprintln!(
         "one spring step with volume: velocities {apart:.1e} m/s apart, the volume changed them by up to {changed:.3} m/s"
     );

@@ -33,12 +33,6 @@ impl ExtraCollider {
         }
     }
 
-    /// Whether `p` lies inside the shape.
-    #[inline]
-    pub fn contains(&self, p: Vec3) -> bool {
-        self.resolve(p, 0.0).is_some()
-    }
-
     /// If `p` is closer than `thickness` to the surface, where to move it.
     #[inline]
     pub fn resolve(&self, p: Vec3, thickness: f32) -> Option<Contact> {

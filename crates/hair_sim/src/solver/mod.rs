@@ -217,14 +217,6 @@ pub struct StepInput<'a> {
     pub params: &'a SimParams,
 }
 
-impl<'a> StepInput<'a> {
-    /// The extra colliders the strands collide with: none where
-    /// [`SimParams::collision`] is off.
-    pub fn colliding_extras(&self) -> &'a [ExtraCollider] {
-        if self.params.collision { self.extra_colliders } else { &[] }
-    }
-}
-
 /// The simulated state of a groom: positions and velocities in world space.
 #[derive(Clone, Debug)]
 pub struct Strands {
@@ -502,11 +494,6 @@ impl Strands {
         let head = (pose, input.head_to);
         let grid = self.volume.as_mut().expect("made above");
         let made_from = &mut self.volume_made_from;
-        // The extra colliders the strands collide with are walls too; where they moved,
-        // the grid's answer is worked out again.
-        if grid.set_extra_walls(input.colliding_extras(), pose) {
-            *made_from = None;
-        }
         let (positions, velocities) = (&self.positions, &self.velocities);
         let settings = (&params.volume, params.length_mode);
         let step = volume::prepare(

@@ -21,7 +21,7 @@
 
 use super::RestShape;
 use super::params::{LengthMode, SimdPath, Volume};
-use crate::collide::{ExtraCollider, HeadInterior};
+use crate::collide::HeadInterior;
 use crate::math::{Pose, Vec3};
 use glam::Vec4;
 use splat::{CellSums, Lattice, Splat, add_share};
@@ -75,15 +75,12 @@ pub struct VolumeGrid {
     /// The sums of the splat's parts but the first, which adds into `sums` itself
     /// ([`Self::splat_on`]), kept for the next step.
     partials: Vec<Vec<CellSums>>,
-    /// Per cell, whether it lies inside the head or an extra collider: without hair, a
-    /// wall, which the pressure does not push into ([`Self::solid`]).
+    /// Per cell, whether it lies inside the head: without hair, a wall, which the pressure
+    /// does not push into ([`Self::solid`]).
     solid: Vec<bool>,
     /// The cells inside the head and their coordinates: where a wall's potential is
     /// worked out ([`Self::resolve_potential`]).
     inside: Vec<(usize, [usize; 3])>,
-    /// The cells inside the extra colliders but not the head, and their coordinates, as
-    /// the last [`Self::set_extra_walls`] found them.
-    inside_extras: Vec<(usize, [usize; 3])>,
     /// The collider whose head the walls are in ([`HeadInterior::collider`]).
     head: Option<u32>,
 }
@@ -169,15 +166,13 @@ impl VolumeGrid {
             partials: Vec::new(),
             solid: vec![false; cells],
             inside: Vec::new(),
-            inside_extras: Vec::new(),
             head: head.map(HeadInterior::collider),
         };
         if let Some(head) = head {
             let lattice = &grid.lattice;
-            grid.inside = (0..cells)
-                .map(|c| (c, lattice.coordinates(c)))
-                .filter(|&(_, at)| head.contains(lattice.node(at)))
-                .collect();
+            let node = |at: [usize; 3]| lattice.origin + Vec3::from_array(at.map(|a| a as f32)) * lattice.cell;
+            grid.inside =
+                (0..cells).map(|c| (c, lattice.coordinates(c))).filter(|&(_, at)| head.contains(node(at))).collect();
             grid.inside.iter().for_each(|&(c, _)| grid.solid[c] = true);
         }
         grid.splat(rest, &rest.positions, None, Pose::IDENTITY);
@@ -203,62 +198,10 @@ impl VolumeGrid {
         self.lattice.origin
     }
 
-    /// Per cell, whether it lies inside the head it was made with, or inside one of the
-    /// extra colliders of the last step ([`Self::set_extra_walls`]): where it holds no
-    /// hair, a wall, which the pressure does not push into.
+    /// Per cell, whether it lies inside the head it was made with: where it holds no hair,
+    /// a wall, which the pressure does not push into.
     pub fn solid(&self) -> &[bool] {
         &self.solid
-    }
-
-    /// Makes the cells inside `extras` (world space, the head at `pose`) walls, as the
-    /// head's are, and the cells they no longer reach open again, where the head's are
-    /// not: a lock lying on a shoulder is pushed along it, not into it. A cell is inside
-    /// where its node is. Returns whether any cell changed, which the GPU's copy of the
-    /// walls then follows.
-    pub fn set_extra_walls(&mut self, extras: &[ExtraCollider], pose: Pose) -> bool {
-        let lattice = &self.lattice;
-        let mut inside = Vec::new();
-        for extra in extras {
-            // Head-local, as the cells: the shapes keep their size under a rigid pose.
-            let local = |p: Vec3| pose.inverse_transform_point(p);
-            let (extra, (low, high)) = match *extra {
-                ExtraCollider::Sphere { center, radius } => {
-                    let center = local(center);
-                    (ExtraCollider::Sphere { center, radius }, (center, center))
-                }
-                ExtraCollider::Capsule { a, b, radius } => {
-                    let (a, b) = (local(a), local(b));
-                    (ExtraCollider::Capsule { a, b, radius }, (a.min(b), a.max(b)))
-                }
-            };
-            let radius = match extra {
-                ExtraCollider::Sphere { radius, .. } | ExtraCollider::Capsule { radius, .. } => radius,
-            };
-            let Some([from, to]) = lattice.nodes_between(low - Vec3::splat(radius), high + Vec3::splat(radius)) else {
-                continue;
-            };
-            for k in from[2]..=to[2] {
-                for j in from[1]..=to[1] {
-                    for i in from[0]..=to[0] {
-                        let (at, c) = ([i, j, k], i + lattice.dims[0] * (j + lattice.dims[1] * k));
-                        // The head's own walls stay the head's (`inside` is in cell order).
-                        let heads = self.inside.binary_search_by_key(&c, |&(c, _)| c).is_ok();
-                        if !heads && extra.contains(lattice.node(at)) {
-                            inside.push((c, at));
-                        }
-                    }
-                }
-            }
-        }
-        inside.sort_unstable_by_key(|&(c, _)| c);
-        inside.dedup_by_key(|&mut (c, _)| c);
-        if inside == self.inside_extras {
-            return false;
-        }
-        self.inside_extras.iter().for_each(|&(c, _)| self.solid[c] = false);
-        inside.iter().for_each(|&(c, _)| self.solid[c] = true);
-        self.inside_extras = inside;
-        true
     }
 
     /// The collider whose head its walls are ([`HeadInterior::collider`]); `None`: made
@@ -527,7 +470,7 @@ impl VolumeGrid {
         &self.pressure
     }
 
-    /// Whether cell `c` is a wall: inside the head or an extra collider, without hair.
+    /// Whether cell `c` is a wall: inside the head, without hair.
     #[inline]
     fn is_wall(&self, c: usize) -> bool {
         self.solid[c] && !self.values[c].occupied
@@ -542,7 +485,7 @@ impl VolumeGrid {
             field.slope.w = push * value.excess - share * p;
         }
         // A wall reads only cells that hold hair, none of them a wall: in any order.
-        for &(c, at) in self.inside.iter().chain(&self.inside_extras) {
+        for &(c, at) in &self.inside {
             if !self.values[c].occupied {
                 self.field[c].slope.w = self.wall_potential(c, at);
             }

@@ -30,33 +30,6 @@ pub(super) struct Lattice {
 }
 
 impl Lattice {
-    /// The head-local place of the node at `at` (its cell's coordinates): where the
-    /// cell's share of a particle is whole.
-    #[inline]
-    pub fn node(&self, at: [usize; 3]) -> Vec3 {
-        self.origin + Vec3::from_array(at.map(|a| a as f32)) * self.cell
-    }
-
-    /// The first and last coordinates of the nodes within the head-local box from `low`
-    /// to `high`; `None` where none is (or the box is not finite).
-    pub fn nodes_between(&self, low: Vec3, high: Vec3) -> Option<[[usize; 3]; 2]> {
-        let (from, to) = ((low - self.origin) * self.inverse_cell, (high - self.origin) * self.inverse_cell);
-        let mut range = [[0; 3]; 2];
-        for a in 0..3 {
-            let last = (self.dims[a] - 1) as f32;
-            // False for NaN: no node.
-            if !(to[a] >= 0.0 && from[a] <= last) {
-                return None;
-            }
-            range[0][a] = from[a].max(0.0).ceil() as usize;
-            range[1][a] = to[a].min(last).floor() as usize;
-            if range[0][a] > range[1][a] {
-                return None;
-            }
-        }
-        Some(range)
-    }
-
     /// Cell `c`'s coordinates along the three axes (x fastest in the cell arrays).
     pub fn coordinates(&self, c: usize) -> [usize; 3] {
         let [dx, dy, _] = self.dims;
