@@ -544,14 +544,31 @@ fn nudged(rest: &RestShape, nudge: u32) -> RestShape {
     nudged
 }
 
+/// The median over three runs, nudged and not ([`nudged`]), of the largest ρ/ρ_rest after
+/// a shake with volume on and its 99th percentile ([`density_after_a_shake`]), and the runs.
+fn shaken_with_volume(rest: &RestShape, collider: &HeadCollider) -> ((f32, f32), Vec<(f32, f32)>) {
+    let runs: Vec<(f32, f32)> =
+        (0..3).map(|k| density_after_a_shake(&nudged(rest, k), collider, &with_volume(), true)).collect();
+    let median = |pick: fn(&(f32, f32)) -> f32| {
+        let mut values: Vec<f32> = runs.iter().map(pick).collect();
+        values.sort_by(f32::total_cmp);
+        values[1]
+    };
+    ((median(|r| r.0), median(|r| r.1)), runs)
+}
+
 /// After a shake ([`density_after_a_shake`]) hair lies in piles where it landed, the
 /// densest of hair near the roots lying on the skin at the sides of the head. The volume's
 /// pressure, which does not push into the head's cells, spreads them along the skin and
 /// off it: the largest ρ/ρ_rest drops from about 2 to under 1.4 (asked: 1.2), and the 99th
-/// percentile from 1.25 to 1.05, as asked. With the pressure the shake is chaotic: nudging the groom by
-/// 0.1 µm moves the largest ratio by a tenth, so the pressure's figures are the median of
-/// three runs, nudged and not. The measure itself is sharp enough for the asked bounds
-/// (1.2, and 1.05 at the 99th percentile): the same groom kept still meets both.
+/// percentile from 1.25 to 1.05, as asked, on this groom. With the pressure the shake is
+/// chaotic: nudging the groom by 0.1 µm moves the largest ratio by a tenth, so the
+/// pressure's figures are the median of three runs, nudged and not. The measure itself is
+/// sharp enough for the asked bounds (1.2, and 1.05 at the 99th percentile): the same
+/// groom kept still meets both. Grooms of other roots read differently (over nine runs
+/// each, largest 1.18–1.42 and 1.32–1.47, 99th percentile 1.04–1.08 and 1.04–1.07), so
+/// two of them are held to about what they reach (1.5 and 1.08): a change tuned to this
+/// groom must not lose the others.
 #[test]
 fn after_a_shake_the_volume_spreads_piled_hair() {
     let (_, collider, _, grown) = grown_on_the_shipped_head(1024, 7);
@@ -563,14 +580,7 @@ fn after_a_shake_the_volume_spreads_piled_hair() {
     let still = density_after_a_shake(&rest, &collider, &with_volume(), false);
     let off = density_after_a_shake(&rest, &collider, &SimParams::default(), true);
     let push = density_after_a_shake(&rest, &collider, &push_alone, true);
-    let runs: Vec<(f32, f32)> =
-        (0..3).map(|k| density_after_a_shake(&nudged(&rest, k), &collider, &with_volume(), true)).collect();
-    let median = |pick: fn(&(f32, f32)) -> f32| {
-        let mut values: Vec<f32> = runs.iter().map(pick).collect();
-        values.sort_by(f32::total_cmp);
-        values[1]
-    };
-    let on = (median(|r| r.0), median(|r| r.1));
+    let (on, runs) = shaken_with_volume(&rest, &collider);
     println!(
         "after a shake, largest ρ/ρ_rest and its 99th percentile: {:.2}, {:.2} off; {:.2}, {:.2} with the push alone; \
          {:.2}, {:.2} with the pressure (median of {runs:.2?}); kept still with volume {:.2}, {:.2}",
@@ -578,6 +588,13 @@ fn after_a_shake_the_volume_spreads_piled_hair() {
     );
     assert!(still.0 <= 1.2 && still.1 <= 1.05, "kept still, the groom measures {still:?}: the measure is blunt");
     assert!(on.0 <= 1.4 && on.1 <= 1.05 && off.0 >= 1.8 && off.1 >= 1.2, "{on:?} with the pressure, {off:?} without");
+    for seed in [3, 11] {
+        let (_, _, _, grown) = grown_on_the_shipped_head(1024, seed);
+        let rest = settle(grown, Some(&collider), &SimParams::default(), 180, Vec3::ZERO).expect("settle");
+        let (on, runs) = shaken_with_volume(&rest, &collider);
+        println!("roots seed {seed}: {:.2}, {:.2} with the pressure (median of {runs:.2?})", on.0, on.1);
+        assert!(on.0 <= 1.5 && on.1 <= 1.08, "roots seed {seed}: {on:?}");
+    }
 }
 
 /// Two locks of 8 × 8 strands, 25 cm of 16 particles, rows 3 mm apart, A's roots between
