@@ -160,8 +160,8 @@ pub struct SplatPart<'a> {
     pub(super) splats: &'a mut [Option<Splat>],
     /// Each particle's velocity as splatted ([`fixed_velocity`]).
     pub(super) fixed: &'a mut [[i32; 3]],
-    /// The instructions it runs on ([`SimdPath::resolved`]): the sums are integers, the
-    /// same on every path.
+    /// The instructions it runs on (as [`SimdPath::resolved`] makes of it): the sums are
+    /// integers, the same on every path.
     pub(super) simd: SimdPath,
     pub(super) done: bool,
 }
@@ -180,10 +180,10 @@ impl SplatPart<'_> {
             return;
         }
         self.done = true;
-        match self.simd {
+        match self.simd.resolved() {
             #[cfg(target_arch = "x86_64")]
-            // SAFETY: `simd` is resolved ([`SimdPath::resolved`]): a wide path only where
-            // the CPU has its instructions, and AVX-512F's CPUs have AVX2's.
+            // SAFETY: `resolved` picks a wide path only where the CPU has its
+            // instructions, and AVX-512F's CPUs have AVX2's.
             SimdPath::Avx2 | SimdPath::Avx512 => unsafe { self.add_shares_avx2() },
             _ => self.add_shares(),
         }
