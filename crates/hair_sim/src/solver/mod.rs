@@ -505,7 +505,7 @@ impl Strands {
             head,
             settings,
             dt,
-            (parts, params.simd.resolved(), run),
+            (parts, params.simd, run),
         );
         self.volume_step = Some(step);
     }

@@ -246,11 +246,11 @@ impl VolumeGrid {
     /// `velocities`, world axes; none: at rest), head-local by `pose`; roots are pinned and
     /// not counted. [`Self::mass`] and [`Self::momentum`] then hold the sums.
     pub fn splat(&mut self, rest: &RestShape, positions: &[Vec3], velocities: Option<&[Vec3]>, pose: Pose) {
-        self.splat_on(rest, positions, velocities, pose, (1, SimdPath::Auto.resolved()), |_| {});
+        self.splat_on(rest, positions, velocities, pose, (1, SimdPath::Auto), |_| {});
     }
 
     /// [`Self::splat`] split into up to `parts` runs of whole strands, which `run` may take
-    /// on threads of their own ([`SplatPart::run`]) on the instructions of `simd` (resolved);
+    /// on threads of their own ([`SplatPart::run`]) on the instructions of `simd`;
     /// whatever it leaves is run here. The parts' sums are added in a fixed order, and
     /// integers: the grid is the same for any `parts` and any path.
     pub(super) fn splat_on(
