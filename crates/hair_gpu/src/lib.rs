@@ -703,14 +703,16 @@ impl GpuStrands {
         }
     }
 
-    /// Carries on the CPU's hair–hair grid at `resolution`: its `pressure`, which the next
-    /// step's sweeps start from (as [`hair_sim::solver::VolumeGrid::pressure`] holds it for the CPU's strands
-    /// of this rest shape, [`hair_sim::solver::Strands::volume_grid`]). `false` where it is
-    /// not a grid of these strands (its cell count differs) or a value is not finite.
-    pub fn set_volume_pressure(&mut self, resolution: u32, pressure: &[f32]) -> bool {
-        self.make_volume(resolution);
+    /// Carries on the CPU's hair–hair grid `grid` ([`hair_sim::solver::Strands::volume_grid`]
+    /// of strands of this rest shape): what it keeps from step to step, its pressure, which
+    /// the next step's sweeps start from, and its backlog
+    /// ([`hair_sim::solver::VolumeGrid::pressure`], [`hair_sim::solver::VolumeGrid::backlog`]).
+    /// `false` where it is not a grid of these strands (its cell count differs) or a value
+    /// is not finite.
+    pub fn set_volume_grid(&mut self, grid: &hair_sim::solver::VolumeGrid) -> bool {
+        self.make_volume(grid.resolution());
         let volume = self.volume.as_ref().expect("made above");
-        volume.upload_pressure(recording(&mut self.recorder), pressure)
+        volume.upload_carried(recording(&mut self.recorder), grid)
     }
 
     /// The hair–hair grid's integer sums after the last step with volume on, as

@@ -34,6 +34,7 @@ struct VolumeUniform {
     rotation: [[f32; 4]; 3],
     feedback: [f32; 4],
     solve: [f32; 4],
+    backlog_kept: [f32; 4],
 }
 
 /// The volume shader's passes (`splat_particles`, `resolve_cells`, `predict_overflow`,
@@ -57,6 +58,7 @@ impl VolumePasses {
             (storage(true), false),
             (storage(false), false),
             (storage(true), false),
+            (storage(false), false),
         ];
         let (layout, pipelines) = SharedLayout::compile(
             device,
@@ -87,8 +89,9 @@ pub(crate) struct GpuVolume {
     /// The cells' integer sums (the shader's `sums`), copied back by the tests.
     pub sums: wgpu::Buffer,
     shares: wgpu::Buffer,
-    /// Each cell's pressure, kept between steps.
+    /// Each cell's pressure and backlog ([`VolumeGrid::backlog`]), kept between steps.
     pressure: wgpu::Buffer,
+    backlog: wgpu::Buffer,
     group: wgpu::BindGroup,
     /// Buffers made for it (kept alive with the bind group).
     _cells: wgpu::Buffer,
@@ -123,6 +126,7 @@ impl GpuVolume {
         let shares = buffer("hair_gpu volume shares", rest.particles_per_strand * 4, wgpu::BufferUsages::COPY_DST);
         // Zeroed at creation, as the CPU grid's.
         let pressure = buffer("hair_gpu volume pressure", cells * 4, wgpu::BufferUsages::COPY_DST);
+        let backlog = buffer("hair_gpu volume backlog", cells * 4, wgpu::BufferUsages::COPY_DST);
         // Each rest mass as its two words, low then high.
         let words: Vec<u32> = grid.rest_mass().iter().flat_map(|&m| [m as u32, (m >> 32) as u32]).collect();
         let rest_mass = crate::storage_buffer(
@@ -147,7 +151,7 @@ impl GpuVolume {
         let group = passes.layout.bind(
             device,
             "hair_gpu volume",
-            [&uniform, positions, motion, &sums, &cell_values, &rest_mass, &shares, &pressure, &solid]
+            [&uniform, positions, motion, &sums, &cell_values, &rest_mass, &shares, &pressure, &solid, &backlog]
                 .map(|b| b.as_entire_binding())
                 .to_vec(),
         );
@@ -158,6 +162,7 @@ impl GpuVolume {
             sums,
             shares,
             pressure,
+            backlog,
             group,
             _cells: cell_values,
             _rest_mass: rest_mass,
@@ -197,6 +202,7 @@ impl GpuVolume {
             rotation: columns(rotation),
             feedback: [feedback.push, self.grid.rest_scale(), volume.pressure, self.grid.cell() * self.grid.cell()],
             solve: [1.0 / dt.max(1e-6), f32::from(u8::from(implicit)), dt, feedback.catch_up],
+            backlog_kept: [feedback.backlog_kept, 0.0, 0.0, 0.0],
         };
         recorder.upload(&self.uniform, bytemuck::bytes_of(&uniform));
         let friction = if implicit { &feedback.rates } else { &feedback.shares };
@@ -209,6 +215,7 @@ impl GpuVolume {
         if volume.pressure_iterations == 0 {
             // Off: nothing left over from when it was on (`VolumeGrid::solve_pressure`).
             recorder.encoder().clear_buffer(&self.pressure, 0, None);
+            recorder.encoder().clear_buffer(&self.backlog, 0, None);
         } else {
             recorder.dispatch("hair_gpu volume overflow", predict, (&self.group, &[]), cells);
         }
@@ -221,14 +228,19 @@ impl GpuVolume {
         recorder.dispatch("hair_gpu volume feedback", feed_back, (&self.group, &[]), slots);
     }
 
-    /// Records `pressure` (one value per cell, as [`VolumeGrid::pressure`] holds it) as the
-    /// grid's pressure; `false` (and nothing recorded) where the count is not the grid's
-    /// or a value is not finite.
-    pub fn upload_pressure(&self, recorder: &mut Recorder, pressure: &[f32]) -> bool {
-        if pressure.len() != self.grid.rest_mass().len() || !pressure.iter().all(|p| p.is_finite()) {
+    /// Records `grid`'s pressure and backlog (one value per cell each, as
+    /// [`VolumeGrid::pressure`] and [`VolumeGrid::backlog`] hold them) as this grid's;
+    /// `false` (and nothing recorded) where its cell count is not this grid's or a value is
+    /// not finite.
+    pub fn upload_carried(&self, recorder: &mut Recorder, grid: &VolumeGrid) -> bool {
+        let cells = self.grid.rest_mass().len();
+        let carried = [(&self.pressure, grid.pressure()), (&self.backlog, grid.backlog())];
+        if carried.iter().any(|(_, values)| values.len() != cells || !values.iter().all(|v| v.is_finite())) {
             return false;
         }
-        recorder.upload(&self.pressure, bytemuck::cast_slice(pressure));
+        for (buffer, values) in carried {
+            recorder.upload(buffer, bytemuck::cast_slice(values));
+        }
         true
     }
 

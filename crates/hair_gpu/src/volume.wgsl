@@ -34,6 +34,9 @@ struct Volume {
     // step's length; the share of the density beyond a cell's target the pressure takes
     // away in the step (`Feedback::catch_up`).
     solve: vec4<f32>,
+    // The share of a cell's last overflow, where it was positive, that the step adds to its
+    // own (`Feedback::backlog_kept`); y, z and w unused.
+    backlog_kept: vec4<f32>,
 }
 
 @group(0) @binding(0) var<uniform> volume: Volume;
@@ -56,6 +59,9 @@ struct Volume {
 // Per cell, 1 where it lies inside the head (without hair, a wall: `VolumeGrid::solid`),
 // else 0.
 @group(0) @binding(8) var<storage, read> solid: array<u32>;
+// Per cell, the overflow the last step's pressure took away (`VolumeGrid::backlog`), kept
+// between steps.
+@group(0) @binding(9) var<storage, read_write> backlog: array<f32>;
 
 // hair_sim's `WEIGHT_BITS` (as a weight of one), `PARTICLE_MASS_UNITS`, `VELOCITY_BITS`
 // (as a scale) and `MAX_FIXED_VELOCITY` (a test checks).
@@ -189,8 +195,10 @@ fn resolve_cells(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_work
         let pz = loaded(at + 6u);
         mean = vec3<f32>(wide_f32(px.x, px.y), wide_f32(py.x, py.y), wide_f32(pz.x, pz.y)) * scale;
     } else {
-        // No hair, no pressure: the sweeps read it as such from their first pass.
+        // No hair, no pressure: the sweeps read it as such from their first pass. Nor a
+        // backlog.
         pressure[c] = 0.0;
+        backlog[c] = 0.0;
     }
     // The mass over the pressure's target, as `VolumeGrid::resolve_cells` works it out.
     let wanted = max(wide_f32(rest.x, rest.y) / PARTICLE_MASS_UNITS, volume.feedback.y * LIVE_FLOOR) * (1.0 + PRESSURE_SLACK);
@@ -231,7 +239,7 @@ fn mean_beside(n: u32, own: vec3<f32>) -> vec3<f32> {
 // Cell `c`'s overflow: the density beyond its target the step would leave were the hair
 // to go on spreading or packing as it does, `catch_up` of what is beyond it now taken away
 // (hair_sim's `VolumeGrid::resolve_overflow`), from the divergence of the mean velocity
-// along the head's axes.
+// along the head's axes, and a share of the last step's, kept for the next.
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn predict_overflow(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let c = invocation(id, groups);
@@ -252,7 +260,9 @@ fn predict_overflow(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_w
         let above = mean_beside(neighbour(c, at, a, true), own);
         divergence += dot(above - below, volume.rotation[a].xyz) * inverse_2h;
     }
-    let overflow = volume.solve.w * (cell.y - 1.0) - cell.y * volume.solve.z * divergence;
+    let overflow = volume.solve.w * (cell.y - 1.0) - cell.y * volume.solve.z * divergence
+        + volume.backlog_kept.x * max(backlog[c], 0.0);
+    backlog[c] = overflow;
     // Below the target, room the hair around may flow into; none inside the head.
     cells[2u * c + 1u].z = select(overflow, max(overflow, 0.0), solid[c] != 0u);
 }

@@ -429,9 +429,10 @@ fn bundle_on_a_floor(spacing: f32, volume: Volume) -> f32 {
 /// A bundle dropped onto a floor ([`bundle_on_a_floor`]), its strands 2, 4 and 6 mm apart:
 /// without volume the strands land on each other and it collapses into a layer. With the
 /// volume it keeps a tenth of its volume more, the pressure more than the push alone, and
-/// 0.6 of it where the bundle (9 cm across) spans several of the grid's cells (about 1 cm
-/// here). Packing within a cell the grid cannot see (`docs/simulation.md`, hair with
-/// volume).
+/// two thirds of it where the bundle (9 cm across) spans several of the grid's cells
+/// (about 1 cm here; 0.64 without the pressure's backlog, which holds the bundle's weight
+/// nearer its target). Packing within a cell the grid cannot see (`docs/simulation.md`,
+/// hair with volume).
 #[test]
 fn a_bundle_on_a_floor_keeps_its_volume() {
     for spacing in [0.002, 0.004, 0.006] {
@@ -446,7 +447,7 @@ fn a_bundle_on_a_floor_keeps_its_volume() {
         );
         assert!(on >= off + 0.1 && on > push_only, "{spacing} m apart: kept {on}, {push_only}, {off}");
         if spacing >= 0.006 {
-            assert!(on >= 0.6, "{spacing} m apart: kept {on}");
+            assert!(on >= 0.66, "{spacing} m apart: kept {on}");
         }
     }
 }
@@ -560,15 +561,18 @@ fn shaken_with_volume(rest: &RestShape, collider: &HeadCollider) -> ((f32, f32),
 /// After a shake ([`density_after_a_shake`]) hair lies in piles where it landed, the
 /// densest of hair near the roots lying on the skin at the sides of the head. The volume's
 /// pressure, which does not push into the head's cells, spreads them along the skin and
-/// off it: the largest ρ/ρ_rest drops from about 2 to under 1.4 (asked: 1.2), and the 99th
-/// percentile from 1.25 to 1.05, as asked, on this groom. With the pressure the shake is
-/// chaotic: nudging the groom by 0.1 µm moves the largest ratio by a tenth, so the
+/// off it: the largest ρ/ρ_rest drops from about 2 to under 1.25 (asked: 1.2), and the
+/// 99th percentile from 1.25 to 1.05, as asked, on this groom. With the pressure the shake
+/// is chaotic: nudging the groom by 0.1 µm moves the largest ratio by up to a tenth, so the
 /// pressure's figures are the median of three runs, nudged and not. The measure itself is
 /// sharp enough for the asked bounds (1.2, and 1.05 at the 99th percentile): the same
 /// groom kept still meets both. Grooms of other roots read differently (over nine runs
-/// each, largest 1.18–1.42 and 1.32–1.47, 99th percentile 1.04–1.08 and 1.04–1.07), so
-/// two of them are held to about what they reach (1.5 and 1.08): a change tuned to this
-/// groom must not lose the others.
+/// each, largest 1.13–1.29 and 1.15–1.33, 99th percentile 1.05–1.09 and 1.04–1.06), so
+/// two of them are held to about what they reach (1.35 and 1.08): a change tuned to this
+/// groom must not lose the others. Without the pressure's backlog (`FTL_BACKLOG_KEPT`),
+/// which pushes a cell that stays over its target harder step by step, the piles settle
+/// over their targets by as much as they weigh: about 1.3 on this groom and 1.4 on
+/// another.
 #[test]
 fn after_a_shake_the_volume_spreads_piled_hair() {
     let (_, collider, _, grown) = grown_on_the_shipped_head(1024, 7);
@@ -587,13 +591,13 @@ fn after_a_shake_the_volume_spreads_piled_hair() {
         off.0, off.1, push.0, push.1, on.0, on.1, still.0, still.1
     );
     assert!(still.0 <= 1.2 && still.1 <= 1.05, "kept still, the groom measures {still:?}: the measure is blunt");
-    assert!(on.0 <= 1.4 && on.1 <= 1.05 && off.0 >= 1.8 && off.1 >= 1.2, "{on:?} with the pressure, {off:?} without");
+    assert!(on.0 <= 1.25 && on.1 <= 1.05 && off.0 >= 1.8 && off.1 >= 1.2, "{on:?} with the pressure, {off:?} without");
     for seed in [3, 11] {
         let (_, _, _, grown) = grown_on_the_shipped_head(1024, seed);
         let rest = settle(grown, Some(&collider), &SimParams::default(), 180, Vec3::ZERO).expect("settle");
         let (on, runs) = shaken_with_volume(&rest, &collider);
         println!("roots seed {seed}: {:.2}, {:.2} with the pressure (median of {runs:.2?})", on.0, on.1);
-        assert!(on.0 <= 1.5 && on.1 <= 1.08, "roots seed {seed}: {on:?}");
+        assert!(on.0 <= 1.35 && on.1 <= 1.08, "roots seed {seed}: {on:?}");
     }
 }
 

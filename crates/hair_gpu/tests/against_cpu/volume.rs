@@ -194,10 +194,11 @@ fn in_the_spring_model_the_grids_answer_is_the_cpus() {
 }
 
 /// A groom stepped on the CPU with volume on under a swaying head, then handed to the GPU
-/// as the plugin hands one over (positions, velocities and the grid's pressure, which the
-/// next sweeps start from, `GpuStrands::set_volume_pressure`): one more step on both
-/// leaves the same velocities within 1 mm/s. Without the pressure the GPU's sweeps start
-/// from zero and the velocities part by fifty times that at least.
+/// as the plugin hands one over (positions, velocities and what the grid keeps from step to
+/// step: the pressure, which the next sweeps start from, and the backlog of overflow,
+/// `GpuStrands::set_volume_grid`): one more step on both leaves the same velocities within
+/// 1 mm/s. Without the grid the GPU's sweeps start from zero, with no backlog, and the
+/// velocities part by fifty times that at least.
 #[test]
 fn the_pressure_carries_over_to_the_gpu() {
     let Some(gpu) = gpu() else { return };
@@ -209,11 +210,12 @@ fn the_pressure_carries_over_to_the_gpu() {
     }
     let grid = cpu.volume_grid().expect("volume on").clone();
     assert!(grid.pressure().iter().any(|&p| p > 0.0), "no pressure to carry over: the test tests nothing");
+    assert!(grid.backlog().iter().any(|&b| b > 0.0), "no backlog to carry over: the test tests too little");
     let handed_over = |with_grid: bool| {
         let mut on_gpu = GpuStrands::new(&gpu, &rest, swaying(0.0), Some(&collider)).expect("GPU strands");
         assert!(on_gpu.set_positions(cpu.positions()) && on_gpu.set_velocities(cpu.velocities()));
         if with_grid {
-            assert!(on_gpu.set_volume_pressure(grid.resolution(), grid.pressure()));
+            assert!(on_gpu.set_volume_grid(&grid));
         }
         on_gpu.step(&input_at(20, swaying, &collider, &params)).expect("GPU step");
         on_gpu.velocities().expect("read back")

@@ -62,6 +62,9 @@ pub struct VolumeGrid {
     field: Vec<FieldCell>,
     /// Per cell, the pressure solve's answer, kept between steps as the next one's start.
     pressure: Vec<f32>,
+    /// Per cell, the overflow the last step's pressure took away, whose positive part the
+    /// next step adds to its own ([`Self::resolve_overflow`]).
+    backlog: Vec<f32>,
     /// The cells that hold hair and their coordinates, by colour (the parity of the
     /// coordinates' sum): the pressure's red–black sweeps visit no other cell.
     occupied: [Vec<(usize, [usize; 3])>; 2],
@@ -159,6 +162,7 @@ impl VolumeGrid {
             values: vec![CellValue::default(); cells],
             field: vec![FieldCell::default(); cells],
             pressure: vec![0.0; cells],
+            backlog: vec![0.0; cells],
             occupied: Default::default(),
             floor,
             splats: Vec::new(),
@@ -342,7 +346,7 @@ impl VolumeGrid {
                 let at = self.lattice.coordinates(c);
                 self.occupied[(at[0] + at[1] + at[2]) % 2].push((c, at));
             } else {
-                self.pressure[c] = 0.0;
+                (self.pressure[c], self.backlog[c]) = (0.0, 0.0);
             }
             if m == 0 && r == 0 {
                 // No hair, now or at rest: what the general case below gives.
@@ -396,20 +400,23 @@ impl VolumeGrid {
     /// density beyond the cell's target that the step would leave, were the hair to go on
     /// spreading or packing as it does, `catch_up` of what is beyond it now taken away
     /// (`catch_up × (fill − 1) − fill × dt × divergence`, as a share of the target;
-    /// [`Feedback::catch_up`]; the head turned by `rotation`, which turns the grid's axes).
+    /// [`Feedback::catch_up`]; the head turned by `rotation`, which turns the grid's axes),
+    /// plus `backlog_kept` of the last step's overflow where that was positive
+    /// ([`Feedback::backlog_kept`]).
     /// The pressure's gradient, taken off a particle's velocity, spreads that out of the
     /// cell in the step of `dt` seconds. Below its target a cell's overflow is negative:
     /// room that the hair around may flow into, so the pressure stays where the hair is too
     /// dense (a unilateral solve, as Unity's strand hair's "density less than" mode) instead
     /// of pressing through the whole groom as through a fluid that cannot be squeezed. A
     /// cell inside the head has no room: the collision keeps hair out of it.
-    pub fn solve_pressure(&mut self, sweeps: u32, dt: f32, rotation: glam::Quat, catch_up: f32) {
+    pub fn solve_pressure(&mut self, sweeps: u32, dt: f32, rotation: glam::Quat, (catch_up, backlog_kept): (f32, f32)) {
         if sweeps == 0 {
             // Off: nothing left over from when it was on.
             self.pressure.fill(0.0);
+            self.backlog.fill(0.0);
             return;
         }
-        self.resolve_overflow(dt, rotation, catch_up);
+        self.resolve_overflow(dt, rotation, (catch_up, backlog_kept));
         let h2 = self.lattice.cell * self.lattice.cell;
         let inverse_dt = 1.0 / dt.max(1e-6);
         let occupied = std::mem::take(&mut self.occupied);
@@ -428,8 +435,9 @@ impl VolumeGrid {
     /// turned by `rotation`, `catch_up` of the density beyond the target taken away. Hair
     /// already spreading out of a full cell needs less push, and hair packing into one
     /// more: a push for the density as it stands overshoots, and where springs pull the
-    /// hair back the two swing against each other.
-    fn resolve_overflow(&mut self, dt: f32, rotation: glam::Quat, catch_up: f32) {
+    /// hair back the two swing against each other. `backlog_kept` of the last step's
+    /// overflow, where it was positive, is added, and the sum kept for the next step.
+    fn resolve_overflow(&mut self, dt: f32, rotation: glam::Quat, (catch_up, backlog_kept): (f32, f32)) {
         let turn = glam::Mat3::from_quat(rotation);
         let axes = [turn.x_axis, turn.y_axis, turn.z_axis];
         let occupied = std::mem::take(&mut self.occupied);
@@ -437,7 +445,8 @@ impl VolumeGrid {
             let spreading = self.divergence(c, at, &axes);
             let fill = self.values[c].fill;
             // In the GPU's order (`predict_overflow`).
-            let overflow = catch_up * (fill - 1.0) - fill * dt * spreading;
+            let overflow = catch_up * (fill - 1.0) - fill * dt * spreading + backlog_kept * self.backlog[c].max(0.0);
+            self.backlog[c] = overflow;
             self.values[c].overflow = if self.solid[c] { overflow.max(0.0) } else { overflow };
         }
         self.occupied = occupied;
@@ -468,6 +477,13 @@ impl VolumeGrid {
     /// Each cell's pressure ([`Self::solve_pressure`]).
     pub fn pressure(&self) -> &[f32] {
         &self.pressure
+    }
+
+    /// Each cell's overflow as the last pressure solve took it, which the next adds a share
+    /// of where it is positive ([`Self::solve_pressure`]): with [`Self::pressure`], what a
+    /// grid carries from step to step.
+    pub fn backlog(&self) -> &[f32] {
+        &self.backlog
     }
 
     /// Whether cell `c` is a wall: inside the head, without hair.
@@ -599,7 +615,7 @@ pub(super) fn prepare(
         _ => grid.splat_on(rest, positions, Some(velocities), pose, (parts, simd), run),
     }
     let feedback = Feedback::new(grid, volume, mode, n, dt);
-    grid.solve_pressure(volume.pressure_iterations, dt, pose.rotation, feedback.catch_up);
+    grid.solve_pressure(volume.pressure_iterations, dt, pose.rotation, (feedback.catch_up, feedback.backlog_kept));
     grid.resolve_potential(feedback.push, volume.pressure);
     let step = VolumeStep { shares: feedback.shares, rates: feedback.rates, rotation: pose.rotation };
     if next == pose {
@@ -839,6 +855,10 @@ pub struct Feedback {
     /// this step ([`VolumeGrid::solve_pressure`]): [`FTL_CATCH_UP`] under
     /// Follow-The-Leader, [`SPRINGS_CATCH_UP`] in the spring model.
     pub catch_up: f32,
+    /// The share of a cell's last overflow, where it was positive, that this step's adds
+    /// to its own ([`VolumeGrid::solve_pressure`]): [`FTL_BACKLOG_KEPT`] under
+    /// Follow-The-Leader, 0 in the spring model.
+    pub backlog_kept: f32,
 }
 
 /// [`Feedback::catch_up`] under Follow-The-Leader: more than the whole overflow, because
@@ -856,6 +876,19 @@ pub const FTL_CATCH_UP: f32 = 1.5;
 /// overlap, the hair comes to the target slowing down.
 pub const SPRINGS_CATCH_UP: f32 = 0.5;
 
+/// [`Feedback::backlog_kept`] under Follow-The-Leader. Hair lying on hair is pulled into
+/// it by gravity every step, and the pressure, pushing in proportion to a cell's overflow,
+/// held it up only where the cell was dense enough for that push to match the pull: a
+/// pile settled over its target by as much as it weighed (a bundle on a floor kept less of
+/// its volume the stronger the gravity). Adding half the last step's overflow to the
+/// next, a cell that stays over its target is pushed harder step by step until it holds
+/// its load nearer the target (integral action, leaking, so that a load taken away is
+/// forgotten in a few steps). Much more than half, and the pressure overshoots: hair
+/// pushed out of a cell by what it remembers falls back into it, and a groom did not
+/// come to rest. The spring model keeps none: it keeps every speed the pressure gives, so
+/// the pressure's memory threw the hair again.
+pub const FTL_BACKLOG_KEPT: f32 = 0.5;
+
 /// What a friction of 1 keeps of the difference per 1/60 s, as a rate ([`Feedback::rates`]).
 pub const MIN_FRICTION_KEPT: f32 = 1e-6;
 
@@ -869,11 +902,11 @@ impl Feedback {
         };
         let shares = (0..n).map(|j| 1.0 - (1.0 - friction(j)).powf(dt * 60.0)).collect();
         let rates = (0..n).map(|j| -(1.0 - friction(j)).max(MIN_FRICTION_KEPT).ln() * 60.0).collect();
-        let catch_up = match mode {
-            LengthMode::Inextensible => FTL_CATCH_UP,
-            LengthMode::Springs => SPRINGS_CATCH_UP,
+        let (catch_up, backlog_kept) = match mode {
+            LengthMode::Inextensible => (FTL_CATCH_UP, FTL_BACKLOG_KEPT),
+            LengthMode::Springs => (SPRINGS_CATCH_UP, 0.0),
         };
-        Feedback { shares, push: -volume.density_push * grid.lattice.cell * dt, rates, catch_up }
+        Feedback { shares, push: -volume.density_push * grid.lattice.cell * dt, rates, catch_up, backlog_kept }
     }
 }
 

@@ -333,7 +333,7 @@ fn the_sweeps_over_the_cells_with_hair_are_the_sweeps_over_every_cell() {
     let packing: Vec<Vec3> = squeezed.iter().map(|&p| (centre - p) * 0.5).collect();
     let (dt, turn, sweeps) = (1.0 / 60.0, glam::Quat::IDENTITY, 8);
     grid.splat(&rest, &squeezed, Some(&packing), Pose::IDENTITY);
-    grid.solve_pressure(sweeps, dt, turn, 1.0);
+    grid.solve_pressure(sweeps, dt, turn, (1.0, 0.0));
     let before = grid.pressure().to_vec();
     let shifted: Vec<Vec3> = squeezed.iter().map(|&p| p + Vec3::X * 2.0 * grid.cell()).collect();
     grid.splat(&rest, &shifted, Some(&packing), Pose::IDENTITY);
@@ -348,7 +348,7 @@ fn the_sweeps_over_the_cells_with_hair_are_the_sweeps_over_every_cell() {
             every_cell.pressure[c] = 0.0;
         }
     }
-    every_cell.resolve_overflow(dt, turn, 1.0);
+    every_cell.resolve_overflow(dt, turn, (1.0, 0.0));
     let (h2, inverse_dt) = (grid.cell() * grid.cell(), 1.0 / dt);
     for _ in 0..sweeps {
         for colour in 0..2 {
@@ -361,7 +361,7 @@ fn the_sweeps_over_the_cells_with_hair_are_the_sweeps_over_every_cell() {
         }
     }
 
-    grid.solve_pressure(sweeps, dt, turn, 1.0);
+    grid.solve_pressure(sweeps, dt, turn, (1.0, 0.0));
     let bits = |p: &[f32]| p.iter().map(|p| p.to_bits()).collect::<Vec<_>>();
     assert!(grid.pressure().iter().any(|&p| p > 0.0), "no pressure: the test tests too little");
     assert!(lost.iter().all(|&c| grid.pressure()[c] == 0.0), "a cell that lost its hair keeps no pressure");
@@ -387,4 +387,50 @@ fn the_push_leaves_no_speed_of_its_own() {
     // No push, or one that is not finite: nothing taken.
     assert_eq!(after(Vec3::ZERO, Vec3::ZERO, Vec3::Y), Vec3::Y);
     assert_eq!(after(Vec3::NAN, Vec3::ZERO, Vec3::Y), Vec3::Y);
+}
+
+/// A block squeezed and held still ([`block`]): each step the pressure's overflow is the
+/// squeeze's own plus half the last step's, so over steps it grows to twice the first
+/// step's (a geometric series), and the pressure with it; keeping none, every step's is the
+/// first's. A cell below its target remembers nothing, and a cell that loses its hair
+/// forgets its backlog at once.
+#[test]
+fn a_cell_held_over_its_target_is_pushed_harder_step_by_step() {
+    let (positions, rest, centre) = block();
+    let squeezed: Vec<Vec3> = positions.iter().map(|&p| centre + (p - centre) * Vec3::new(0.5, 1.0, 0.5)).collect();
+    let still = vec![Vec3::ZERO; squeezed.len()];
+    let (dt, turn, sweeps) = (1.0 / 60.0, glam::Quat::IDENTITY, 8);
+    let steps = |kept: f32, count: usize| {
+        let mut grid = VolumeGrid::new(&rest, 12, None);
+        let mut first = Vec::new();
+        for k in 0..count {
+            grid.splat(&rest, &squeezed, Some(&still), Pose::IDENTITY);
+            grid.solve_pressure(sweeps, dt, turn, (1.5, kept));
+            if k == 0 {
+                first = grid.backlog().to_vec();
+            }
+        }
+        (grid, first)
+    };
+    let (kept, first) = steps(0.5, 40);
+    let (none, _) = steps(0.0, 40);
+    let over: Vec<usize> = (0..first.len()).filter(|&c| first[c] > 0.01).collect();
+    assert!(over.len() >= 8, "{} cells over their target: the test tests too little", over.len());
+    for &c in &over {
+        let (once, now) = (first[c], kept.backlog()[c]);
+        assert!((now - 2.0 * once).abs() <= 1e-5 * once, "cell {c}: {now} after 40 steps, {once} after one");
+        assert_eq!(none.backlog()[c].to_bits(), once.to_bits(), "cell {c}: kept none, it changed");
+    }
+    let room: Vec<usize> = (0..first.len()).filter(|&c| kept.values[c].occupied && first[c] < 0.0).collect();
+    assert!(!room.is_empty(), "no cell below its target: the test tests too little");
+    assert!(room.iter().all(|&c| kept.backlog()[c] == first[c]), "a cell with room remembered it");
+    let sum = |g: &VolumeGrid| over.iter().map(|&c| g.pressure()[c]).sum::<f32>();
+    assert!(sum(&kept) > 1.5 * sum(&none), "pressure {} remembering, {} not", sum(&kept), sum(&none));
+
+    let mut moved = kept.clone();
+    let shifted: Vec<Vec3> = squeezed.iter().map(|&p| p + Vec3::X * 3.0 * moved.cell()).collect();
+    moved.splat(&rest, &shifted, Some(&still), Pose::IDENTITY);
+    let lost: Vec<usize> = over.iter().copied().filter(|&c| !moved.values[c].occupied).collect();
+    assert!(!lost.is_empty(), "no cell lost its hair: the test tests too little");
+    assert!(lost.iter().all(|&c| moved.backlog()[c] == 0.0), "a cell without hair kept its backlog");
 }
