@@ -35,7 +35,7 @@ struct Volume {
     // away in the step (`Feedback::catch_up`).
     solve: vec4<f32>,
     // The share of a cell's last overflow, where it was positive, that the step adds to its
-    // own (`Feedback::backlog_kept`); y, z and w unused.
+    // own while the cell is over its target (`Feedback::backlog_kept`); y, z and w unused.
     backlog_kept: vec4<f32>,
 }
 
@@ -260,8 +260,9 @@ fn predict_overflow(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_w
         let above = mean_beside(neighbour(c, at, a, true), own);
         divergence += dot(above - below, volume.rotation[a].xyz) * inverse_2h;
     }
-    let overflow = volume.solve.w * (cell.y - 1.0) - cell.y * volume.solve.z * divergence
-        + volume.backlog_kept.x * max(backlog[c], 0.0);
+    // Remembered only while the cell is over its target, as on the CPU.
+    let held = select(0.0, volume.backlog_kept.x * max(backlog[c], 0.0), cell.y > 1.0);
+    let overflow = volume.solve.w * (cell.y - 1.0) - cell.y * volume.solve.z * divergence + held;
     backlog[c] = overflow;
     // Below the target, room the hair around may flow into; none inside the head.
     cells[2u * c + 1u].z = select(overflow, max(overflow, 0.0), solid[c] != 0u);

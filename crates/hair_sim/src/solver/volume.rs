@@ -63,7 +63,8 @@ pub struct VolumeGrid {
     /// Per cell, the pressure solve's answer, kept between steps as the next one's start.
     pressure: Vec<f32>,
     /// Per cell, the overflow the last step's pressure took away, whose positive part the
-    /// next step adds to its own ([`Self::resolve_overflow`]).
+    /// next step adds a share of to its own while the cell is over its target
+    /// ([`Self::resolve_overflow`]).
     backlog: Vec<f32>,
     /// The cells that hold hair and their coordinates, by colour (the parity of the
     /// coordinates' sum): the pressure's red–black sweeps visit no other cell.
@@ -401,8 +402,8 @@ impl VolumeGrid {
     /// spreading or packing as it does, `catch_up` of what is beyond it now taken away
     /// (`catch_up × (fill − 1) − fill × dt × divergence`, as a share of the target;
     /// [`Feedback::catch_up`]; the head turned by `rotation`, which turns the grid's axes),
-    /// plus `backlog_kept` of the last step's overflow where that was positive
-    /// ([`Feedback::backlog_kept`]).
+    /// plus, where the cell is over its target, `backlog_kept` of the last step's overflow
+    /// where that was positive ([`Feedback::backlog_kept`]).
     /// The pressure's gradient, taken off a particle's velocity, spreads that out of the
     /// cell in the step of `dt` seconds. Below its target a cell's overflow is negative:
     /// room that the hair around may flow into, so the pressure stays where the hair is too
@@ -435,8 +436,9 @@ impl VolumeGrid {
     /// turned by `rotation`, `catch_up` of the density beyond the target taken away. Hair
     /// already spreading out of a full cell needs less push, and hair packing into one
     /// more: a push for the density as it stands overshoots, and where springs pull the
-    /// hair back the two swing against each other. `backlog_kept` of the last step's
-    /// overflow, where it was positive, is added, and the sum kept for the next step.
+    /// hair back the two swing against each other. Where the cell is over its target,
+    /// `backlog_kept` of the last step's overflow, where it was positive, is added; the sum
+    /// is kept for the next step.
     fn resolve_overflow(&mut self, dt: f32, rotation: glam::Quat, (catch_up, backlog_kept): (f32, f32)) {
         let turn = glam::Mat3::from_quat(rotation);
         let axes = [turn.x_axis, turn.y_axis, turn.z_axis];
@@ -445,7 +447,10 @@ impl VolumeGrid {
             let spreading = self.divergence(c, at, &axes);
             let fill = self.values[c].fill;
             // In the GPU's order (`predict_overflow`).
-            let overflow = catch_up * (fill - 1.0) - fill * dt * spreading + backlog_kept * self.backlog[c].max(0.0);
+            // A cell back under its target has let go of what it held up: remembered, it
+            // pushed on, and hair at a groom's edge swung in and out of the cell for good.
+            let held = if fill > 1.0 { backlog_kept * self.backlog[c].max(0.0) } else { 0.0 };
+            let overflow = catch_up * (fill - 1.0) - fill * dt * spreading + held;
             self.backlog[c] = overflow;
             self.values[c].overflow = if self.solid[c] { overflow.max(0.0) } else { overflow };
         }
@@ -480,8 +485,8 @@ impl VolumeGrid {
     }
 
     /// Each cell's overflow as the last pressure solve took it, which the next adds a share
-    /// of where it is positive ([`Self::solve_pressure`]): with [`Self::pressure`], what a
-    /// grid carries from step to step.
+    /// of where it is positive and the cell still over its target ([`Self::solve_pressure`]):
+    /// with [`Self::pressure`], what a grid carries from step to step.
     pub fn backlog(&self) -> &[f32] {
         &self.backlog
     }
@@ -856,8 +861,8 @@ pub struct Feedback {
     /// Follow-The-Leader, [`SPRINGS_CATCH_UP`] in the spring model.
     pub catch_up: f32,
     /// The share of a cell's last overflow, where it was positive, that this step's adds
-    /// to its own ([`VolumeGrid::solve_pressure`]): [`FTL_BACKLOG_KEPT`] under
-    /// Follow-The-Leader, 0 in the spring model.
+    /// to its own while the cell is over its target ([`VolumeGrid::solve_pressure`]):
+    /// [`FTL_BACKLOG_KEPT`] under Follow-The-Leader, 0 in the spring model.
     pub backlog_kept: f32,
 }
 
@@ -883,10 +888,11 @@ pub const SPRINGS_CATCH_UP: f32 = 0.5;
 /// its volume the stronger the gravity). Adding half the last step's overflow to the
 /// next, a cell that stays over its target is pushed harder step by step until it holds
 /// its load nearer the target (integral action, leaking, so that a load taken away is
-/// forgotten in a few steps). Much more than half, and the pressure overshoots: hair
-/// pushed out of a cell by what it remembers falls back into it, and a groom did not
-/// come to rest. The spring model keeps none: it keeps every speed the pressure gives, so
-/// the pressure's memory threw the hair again.
+/// forgotten in a few steps, and forgotten at once where the cell falls under its target).
+/// Much more than half, and the pressure overshoots: hair pushed out of a cell by what it
+/// remembers falls back into it, and a groom did not come to rest. The spring model keeps
+/// none: it keeps every speed the pressure gives, so the pressure's memory threw the hair
+/// again.
 pub const FTL_BACKLOG_KEPT: f32 = 0.5;
 
 /// What a friction of 1 keeps of the difference per 1/60 s, as a rate ([`Feedback::rates`]).

@@ -392,8 +392,9 @@ fn the_push_leaves_no_speed_of_its_own() {
 /// A block squeezed and held still ([`block`]): each step the pressure's overflow is the
 /// squeeze's own plus half the last step's, so over steps it grows to twice the first
 /// step's (a geometric series), and the pressure with it; keeping none, every step's is the
-/// first's. A cell below its target remembers nothing, and a cell that loses its hair
-/// forgets its backlog at once.
+/// first's. A cell below its target remembers nothing; let go back to its rest pose, the
+/// block is under its targets everywhere and its backlog is a fresh grid's, and a cell
+/// that loses its hair forgets its backlog at once.
 #[test]
 fn a_cell_held_over_its_target_is_pushed_harder_step_by_step() {
     let (positions, rest, centre) = block();
@@ -426,6 +427,16 @@ fn a_cell_held_over_its_target_is_pushed_harder_step_by_step() {
     assert!(room.iter().all(|&c| kept.backlog()[c] == first[c]), "a cell with room remembered it");
     let sum = |g: &VolumeGrid| over.iter().map(|&c| g.pressure()[c]).sum::<f32>();
     assert!(sum(&kept) > 1.5 * sum(&none), "pressure {} remembering, {} not", sum(&kept), sum(&none));
+
+    let mut released = kept.clone();
+    released.splat(&rest, &positions, Some(&still), Pose::IDENTITY);
+    released.solve_pressure(sweeps, dt, turn, (1.5, 0.5));
+    let mut fresh = VolumeGrid::new(&rest, 12, None);
+    fresh.splat(&rest, &positions, Some(&still), Pose::IDENTITY);
+    fresh.solve_pressure(sweeps, dt, turn, (1.5, 0.5));
+    let remembering =
+        released.backlog().iter().zip(fresh.backlog()).filter(|(a, b)| a.to_bits() != b.to_bits()).count();
+    assert_eq!(remembering, 0, "back under its targets, cells of the block remembered its squeeze");
 
     let mut moved = kept.clone();
     let shifted: Vec<Vec3> = squeezed.iter().map(|&p| p + Vec3::X * 3.0 * moved.cell()).collect();
