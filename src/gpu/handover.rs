@@ -11,7 +11,7 @@ use bevy::render::storage::ShaderBuffer;
 use bevy::tasks::{ComputeTaskPool, TaskPool};
 use hair_sim::collide::HeadCollider;
 use hair_sim::math::{Pose, Vec3 as SimVec3};
-use hair_sim::solver::{StepInput, StepReport, Strands};
+use hair_sim::solver::{StepInput, StepReport, Strands, VolumeGrid};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 
@@ -137,8 +137,8 @@ impl GpuSolver {
             let n = strands.particles_per_strand().max(1);
             let roots = strands.rest().positions.iter().step_by(n).copied().collect();
             let (positions, velocities) = (strands.positions().to_vec(), strands.velocities().to_vec());
-            let pressure = strands.volume_grid().map(|grid| (grid.resolution(), grid.pressure().to_vec()));
-            link.outbox.push(GpuCommand::TakeOver { positions, velocities, roots, pose, pressure });
+            let volume = strands.volume_grid().map(VolumeGrid::state);
+            link.outbox.push(GpuCommand::TakeOver { positions, velocities, roots, pose, volume });
             link.running = true;
         }
         let mut changed = false;

@@ -6,7 +6,7 @@ use bevy::render::storage::ShaderBuffer;
 use hair_sim::collide::{ExtraCollider, HeadCollider, SurfacePatch};
 use hair_sim::math::{Pose, Vec3 as SimVec3};
 use hair_sim::shadow::{Fibres, LightSource};
-use hair_sim::solver::{RestShape, SimParams, StepInput, StepReport};
+use hair_sim::solver::{RestShape, SimParams, StepInput, StepReport, VolumeState};
 use std::sync::{Arc, Mutex};
 
 /// What the main world asks of a groom's GPU strands, recorded in the render world in the
@@ -17,13 +17,13 @@ pub(crate) enum GpuCommand {
     Start { rest: RestShape, pose: Pose, collider: Arc<HeadCollider>, inbox: Arc<Mutex<Inbox>> },
     /// Carry on from the CPU's strands: their positions and velocities, their rest roots,
     /// the pose they were stepped to (nothing drawn between before and after), and where
-    /// volume is on their hair–hair grid's resolution and pressure (which carries over).
+    /// volume is on what their hair–hair grid carries from step to step.
     TakeOver {
         positions: Vec<SimVec3>,
         velocities: Vec<SimVec3>,
         roots: Vec<SimVec3>,
         pose: Pose,
-        pressure: Option<(u32, Vec<f32>)>,
+        volume: Option<VolumeState>,
     },
     /// One step, then its positions kept for drawing.
     Step(Box<OwnedStep>),

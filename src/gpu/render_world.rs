@@ -155,12 +155,12 @@ impl RenderGroom {
         let Some(strands) = self.made() else { return Ok(()) };
         match letter {
             GpuCommand::Start { .. } => {}
-            GpuCommand::TakeOver { positions, velocities, roots, pose, pressure } => {
+            GpuCommand::TakeOver { positions, velocities, roots, pose, volume } => {
                 strands.set_positions(&positions);
                 strands.set_velocities(&velocities);
                 strands.set_rest_roots(&roots);
-                if let Some((resolution, pressure)) = pressure {
-                    strands.set_volume_pressure(resolution, &pressure);
+                if let Some(volume) = volume {
+                    strands.set_volume_state(&volume);
                 }
                 strands.publish(pose);
                 strands.publish(pose);

@@ -703,16 +703,15 @@ impl GpuStrands {
         }
     }
 
-    /// Carries on the CPU's hair–hair grid `grid` ([`hair_sim::solver::Strands::volume_grid`]
-    /// of strands of this rest shape): what it keeps from step to step, its pressure, which
-    /// the next step's sweeps start from, and its backlog
-    /// ([`hair_sim::solver::VolumeGrid::pressure`], [`hair_sim::solver::VolumeGrid::backlog`]).
-    /// `false` where it is not a grid of these strands (its cell count differs) or a value
-    /// is not finite.
-    pub fn set_volume_grid(&mut self, grid: &hair_sim::solver::VolumeGrid) -> bool {
-        self.make_volume(grid.resolution());
+    /// Carries on the CPU's hair–hair grid from `state`, what it keeps from step to step
+    /// ([`hair_sim::solver::VolumeGrid::state`] of the grid of strands of this rest shape,
+    /// [`hair_sim::solver::Strands::volume_grid`]): its pressure, which the next step's
+    /// sweeps start from, and its backlog. `false` where it is not a grid of these strands
+    /// (its cell count differs) or a value is not finite.
+    pub fn set_volume_state(&mut self, state: &hair_sim::solver::VolumeState) -> bool {
+        self.make_volume(state.resolution);
         let volume = self.volume.as_ref().expect("made above");
-        volume.upload_carried(recording(&mut self.recorder), grid)
+        volume.upload_state(recording(&mut self.recorder), state)
     }
 
     /// The hair–hair grid's integer sums after the last step with volume on, as

@@ -10,7 +10,7 @@ use crate::recorder::Recorder;
 use bytemuck::{Pod, Zeroable};
 use hair_sim::collide::HeadInterior;
 use hair_sim::math::Pose;
-use hair_sim::solver::{Feedback, LengthMode, RestShape, VolumeGrid};
+use hair_sim::solver::{Feedback, LengthMode, RestShape, VolumeGrid, VolumeState};
 
 /// The volume shader's source: `layout.wgsl`, then `volume.wgsl`.
 pub(crate) const VOLUME_SHADER: &str = concat!(include_str!("layout.wgsl"), "\n", include_str!("volume.wgsl"));
@@ -228,13 +228,13 @@ impl GpuVolume {
         recorder.dispatch("hair_gpu volume feedback", feed_back, (&self.group, &[]), slots);
     }
 
-    /// Records `grid`'s pressure and backlog (one value per cell each, as
+    /// Records `state`'s pressure and backlog (one value per cell each, as
     /// [`VolumeGrid::pressure`] and [`VolumeGrid::backlog`] hold them) as this grid's;
     /// `false` (and nothing recorded) where its cell count is not this grid's or a value is
     /// not finite.
-    pub fn upload_carried(&self, recorder: &mut Recorder, grid: &VolumeGrid) -> bool {
+    pub fn upload_state(&self, recorder: &mut Recorder, state: &VolumeState) -> bool {
         let cells = self.grid.rest_mass().len();
-        let carried = [(&self.pressure, grid.pressure()), (&self.backlog, grid.backlog())];
+        let carried = [(&self.pressure, &state.pressure), (&self.backlog, &state.backlog)];
         if carried.iter().any(|(_, values)| values.len() != cells || !values.iter().all(|v| v.is_finite())) {
             return false;
         }

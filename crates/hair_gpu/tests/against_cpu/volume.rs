@@ -196,7 +196,7 @@ fn in_the_spring_model_the_grids_answer_is_the_cpus() {
 /// A groom stepped on the CPU with volume on under a swaying head, then handed to the GPU
 /// as the plugin hands one over (positions, velocities and what the grid keeps from step to
 /// step: the pressure, which the next sweeps start from, and the backlog of overflow,
-/// `GpuStrands::set_volume_grid`): one more step on both leaves the same velocities within
+/// `GpuStrands::set_volume_state`): one more step on both leaves the same velocities within
 /// 1 mm/s. Without the grid the GPU's sweeps start from zero, with no backlog, and the
 /// velocities part by fifty times that at least.
 #[test]
@@ -215,7 +215,7 @@ fn the_pressure_carries_over_to_the_gpu() {
         let mut on_gpu = GpuStrands::new(&gpu, &rest, swaying(0.0), Some(&collider)).expect("GPU strands");
         assert!(on_gpu.set_positions(cpu.positions()) && on_gpu.set_velocities(cpu.velocities()));
         if with_grid {
-            assert!(on_gpu.set_volume_grid(&grid));
+            assert!(on_gpu.set_volume_state(&grid.state()));
         }
         on_gpu.step(&input_at(20, swaying, &collider, &params)).expect("GPU step");
         on_gpu.velocities().expect("read back")

@@ -19,8 +19,9 @@ use rest_lanes::RestLanes;
 
 pub use step::{MIN_STEP, StepConstants};
 pub use volume::{
-    FTL_CATCH_UP, Feedback, LIVE_FLOOR, MAX_FIXED_VELOCITY, MIN_FRICTION_KEPT, PARTICLE_MASS_UNITS, PRESSURE_SLACK,
-    SETTLING_FLOOR, SPRINGS_CATCH_UP, SplatPart, VELOCITY_BITS, VolumeGrid, WEIGHT_BITS, fixed_velocity,
+    FTL_BACKLOG_KEPT, FTL_CATCH_UP, Feedback, LIVE_FLOOR, MAX_FIXED_VELOCITY, MIN_FRICTION_KEPT, PARTICLE_MASS_UNITS,
+    PRESSURE_SLACK, SETTLING_FLOOR, SPRINGS_CATCH_UP, SplatPart, VELOCITY_BITS, VolumeGrid, VolumeState, WEIGHT_BITS,
+    fixed_velocity,
 };
 mod volume;
 mod wind;

@@ -89,6 +89,20 @@ pub struct VolumeGrid {
     head: Option<u32>,
 }
 
+/// What a [`VolumeGrid`] carries from one step to the next besides its rest density,
+/// which is made again from the rest pose ([`VolumeGrid::state`]): a solver that takes a
+/// groom over (the GPU's, `GpuStrands::set_volume_state`) takes it with the particles, so
+/// that its next step is the one the grid would have taken.
+#[derive(Clone, Debug, PartialEq)]
+pub struct VolumeState {
+    /// The grid's resolution ([`VolumeGrid::resolution`]).
+    pub resolution: u32,
+    /// Each cell's pressure ([`VolumeGrid::pressure`]).
+    pub pressure: Vec<f32>,
+    /// Each cell's backlog ([`VolumeGrid::backlog`]).
+    pub backlog: Vec<f32>,
+}
+
 /// What the pressure solve reads of a cell: whether it holds hair and its density beyond
 /// the rest pose's (0 where it is sparser) as a share of the grid's `rest_scale`.
 #[derive(Clone, Copy, Debug, Default)]
@@ -489,6 +503,12 @@ impl VolumeGrid {
     /// with [`Self::pressure`], what a grid carries from step to step.
     pub fn backlog(&self) -> &[f32] {
         &self.backlog
+    }
+
+    /// What it carries from step to step ([`VolumeState`]), copied out: for another solver
+    /// that takes over its strands.
+    pub fn state(&self) -> VolumeState {
+        VolumeState { resolution: self.resolution, pressure: self.pressure.clone(), backlog: self.backlog.clone() }
     }
 
     /// Whether cell `c` is a wall: inside the head, without hair.
