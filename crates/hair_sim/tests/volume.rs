@@ -457,10 +457,17 @@ fn a_bundle_on_a_floor_keeps_its_volume() {
 fn grown_on_the_shipped_head(strands: usize, seed: u64) -> (HeadMesh, HeadCollider, Vec<RootBinding>, RestShape) {
     let (head, weights) = common::shipped_head();
     let collider = HeadCollider::new(&head, DEFAULT_GRID_RESOLUTION).expect("the shipped head");
-    let roots = sample_roots(&head, &weights, strands, seed).expect("scalp");
-    let grow = GuideParams { segments: 15, length: 0.25, ..GuideParams::default() };
-    let grown = RestShape::new(grow_guides(&head, &roots, &grow, 7).expect("roots"), 16).expect("guides");
+    let (roots, grown) = grown_on(&head, &weights, strands, seed);
     (head, collider, roots, grown)
+}
+
+/// [`grown_on_the_shipped_head`] on `head` with its scalp's triangle `weights`, without
+/// baking its collider again: the roots and the guides.
+fn grown_on(head: &HeadMesh, weights: &[f32], strands: usize, seed: u64) -> (Vec<RootBinding>, RestShape) {
+    let roots = sample_roots(head, weights, strands, seed).expect("scalp");
+    let grow = GuideParams { segments: 15, length: 0.25, ..GuideParams::default() };
+    let grown = RestShape::new(grow_guides(head, &roots, &grow, 7).expect("roots"), 16).expect("guides");
+    (roots, grown)
 }
 
 /// The density of the hair at `positions` (head-local, strands of `n`, roots left out) at
@@ -575,8 +582,13 @@ fn shaken_with_volume(rest: &RestShape, collider: &HeadCollider) -> ((f32, f32),
 /// another.
 #[test]
 fn after_a_shake_the_volume_spreads_piled_hair() {
-    let (_, collider, _, grown) = grown_on_the_shipped_head(1024, 7);
-    let rest = settle(grown, Some(&collider), &SimParams::default(), 180, Vec3::ZERO).expect("settle");
+    let (head, weights) = common::shipped_head();
+    let collider = HeadCollider::new(&head, DEFAULT_GRID_RESOLUTION).expect("the shipped head");
+    let settled = |seed: u64| {
+        let (_, grown) = grown_on(&head, &weights, 1024, seed);
+        settle(grown, Some(&collider), &SimParams::default(), 180, Vec3::ZERO).expect("settle")
+    };
+    let rest = settled(7);
     let push_alone = SimParams {
         volume: Volume { enabled: true, pressure_iterations: 0, ..Volume::default() },
         ..SimParams::default()
@@ -593,8 +605,7 @@ fn after_a_shake_the_volume_spreads_piled_hair() {
     assert!(still.0 <= 1.2 && still.1 <= 1.05, "kept still, the groom measures {still:?}: the measure is blunt");
     assert!(on.0 <= 1.25 && on.1 <= 1.05 && off.0 >= 1.8 && off.1 >= 1.2, "{on:?} with the pressure, {off:?} without");
     for seed in [3, 11] {
-        let (_, _, _, grown) = grown_on_the_shipped_head(1024, seed);
-        let rest = settle(grown, Some(&collider), &SimParams::default(), 180, Vec3::ZERO).expect("settle");
+        let rest = settled(seed);
         let (on, runs) = shaken_with_volume(&rest, &collider);
         println!("roots seed {seed}: {:.2}, {:.2} with the pressure (median of {runs:.2?})", on.0, on.1);
         assert!(on.0 <= 1.3 && on.1 <= 1.08, "roots seed {seed}: {on:?}");
