@@ -89,8 +89,9 @@ pub(crate) struct GpuVolume {
     /// The cells' integer sums (the shader's `sums`), copied back by the tests.
     pub sums: wgpu::Buffer,
     shares: wgpu::Buffer,
-    /// Each cell's pressure and backlog ([`VolumeGrid::backlog`]), kept between steps.
+    /// Each cell's pressure, kept between steps.
     pressure: wgpu::Buffer,
+    /// Each cell's backlog of overflow ([`VolumeGrid::backlog`]), kept between steps.
     backlog: wgpu::Buffer,
     group: wgpu::BindGroup,
     /// Buffers made for it (kept alive with the bind group).
