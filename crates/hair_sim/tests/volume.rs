@@ -754,16 +754,26 @@ fn a_lock_swept_into_another_pushes_it_aside() {
     );
 }
 
-/// How far the hair stands off the scalp: per strand, the largest reach of its particles
-/// along the scalp's normal at its root, median over the strands.
-fn median_thickness(positions: &[Vec3], normals: &[Vec3], n: usize) -> f32 {
-    let mut reach: Vec<f32> = positions
+/// How far each strand (of `n` particles) stands off the scalp: the largest reach of its
+/// particles along the scalp's normal at its root.
+fn reach_along(positions: &[Vec3], normals: &[Vec3], n: usize) -> Vec<f32> {
+    positions
         .chunks_exact(n)
         .zip(normals)
         .map(|(strand, &normal)| strand.iter().map(|&x| (x - strand[0]).dot(normal)).fold(0.0, f32::max))
-        .collect();
-    reach.sort_by(f32::total_cmp);
-    reach[reach.len() / 2]
+        .collect()
+}
+
+/// The median of `values`.
+fn median(mut values: Vec<f32>) -> f32 {
+    values.sort_by(f32::total_cmp);
+    values[values.len() / 2]
+}
+
+/// How far the hair stands off the scalp: the median over the strands of
+/// [`reach_along`].
+fn median_thickness(positions: &[Vec3], normals: &[Vec3], n: usize) -> f32 {
+    median(reach_along(positions, normals, n))
 }
 
 /// The groom's thickness (its median reach along the scalp's normal) on the shipped head,
@@ -792,6 +802,44 @@ fn the_thickness_of_a_groom_settled_with_and_without_volume() {
         groomed * 1e3
     );
     assert!(off < 0.05 && (0.12..0.4).contains(&on), "off {off}, on {on}");
+}
+
+/// A groom that has a body keeps it: the groom settled with volume on (1,024 × 16 on the
+/// shipped head, about 5 cm thick: a groom as a user would have modelled it) taken as
+/// groomed, then 2 s still, a 1 s shake ([`shaking`]) and 2 s still. Per scalp sample, the
+/// hair's reach along the scalp's normal over its groomed reach ([`reach_along`]): with
+/// volume the median is within 0.85–1.15 and nine strands in ten are, as the issue asks;
+/// without it the hair sags toward the skin under the shape keeping alone, and under
+/// four in five are.
+#[test]
+fn a_groom_with_a_body_keeps_it_through_a_shake() {
+    let (head, collider, roots, grown) = grown_on_the_shipped_head(1024, 7);
+    let normals: Vec<Vec3> = roots.iter().map(|r| head.normal_at(r.triangle as usize, r.barycentric)).collect();
+    let groomed = settle(grown, Some(&collider), &with_volume(), 180, Vec3::ZERO).expect("settle");
+    let before = reach_along(&groomed.positions, &normals, 16);
+    let kept = |params: &SimParams| {
+        let yaw = |k: usize| shaking(k, 2.0);
+        let mut strands = Strands::new(groomed.clone(), Pose::IDENTITY);
+        for k in 0..300 {
+            strands.step(&step_input(k, yaw(k), yaw(k + 1), Some(&collider), params));
+        }
+        let after = reach_along(strands.positions(), &normals, 16);
+        let ratios: Vec<f32> = after.iter().zip(&before).map(|(a, b)| a / b).collect();
+        let within = ratios.iter().filter(|r| (0.85..=1.15).contains(*r)).count() as f32 / ratios.len() as f32;
+        (median(ratios), within)
+    };
+    let (off, on) = (kept(&SimParams::default()), kept(&with_volume()));
+    println!(
+        "a groom with a body ({:.1} mm) after a shake, its reach over groomed: median {:.2} and {:.0} % of the \
+         strands within 0.85-1.15 with volume, {:.2} and {:.0} % without",
+        median(before) * 1e3,
+        on.0,
+        on.1 * 100.0,
+        off.0,
+        off.1 * 100.0
+    );
+    assert!((0.85..=1.15).contains(&on.0) && on.1 >= 0.9, "with volume: {on:?}");
+    assert!(off.1 < 0.8, "without volume {off:?}: the test tests nothing");
 }
 
 /// The head-local 1 cm cubes that hold particles (roots left out) of strands of `n`.
