@@ -707,11 +707,18 @@ impl GpuStrands {
     /// ([`hair_sim::solver::VolumeGrid::state`] of the grid of strands of this rest shape,
     /// [`hair_sim::solver::Strands::volume_grid`]): its pressure, which the next step's
     /// sweeps start from, and its backlog. `false` where it is not a grid of these strands
-    /// (its cell count differs) or a value is not finite.
+    /// (its cell count differs) or a value is not finite; the grid is then left as it was.
     pub fn set_volume_state(&mut self, state: &hair_sim::solver::VolumeState) -> bool {
+        // A grid of another resolution is made for the state, and dropped if it is refused.
+        let replaced =
+            self.volume.as_ref().is_none_or(|v| v.resolution != state.resolution).then(|| self.volume.take());
         self.make_volume(state.resolution);
         let volume = self.volume.as_ref().expect("made above");
-        volume.upload_state(recording(&mut self.recorder), state)
+        let taken = volume.upload_state(recording(&mut self.recorder), state);
+        if let (false, Some(previous)) = (taken, replaced) {
+            self.volume = previous;
+        }
+        taken
     }
 
     /// The hair–hair grid's integer sums after the last step with volume on, as

@@ -2,7 +2,7 @@
 //! sums bit for bit, and the strands they push.
 
 use super::*;
-use hair_sim::solver::VolumeGrid;
+use hair_sim::solver::{VolumeGrid, VolumeState};
 
 fn with_volume(collision: bool) -> SimParams {
     SimParams { collision, volume: Volume { enabled: true, ..Volume::default() }, ..SimParams::default() }
@@ -198,7 +198,8 @@ fn in_the_spring_model_the_grids_answer_is_the_cpus() {
 /// step: the pressure, which the next sweeps start from, and the backlog of overflow,
 /// `GpuStrands::set_volume_state`): one more step on both leaves the same velocities within
 /// 1 mm/s. Without the grid the GPU's sweeps start from zero, with no backlog, and the
-/// velocities part by fifty times that at least.
+/// velocities part by fifty times that at least. A state that is not of this grid (a cell
+/// short, a NaN, another resolution) is refused and leaves the grid as it was.
 #[test]
 fn the_pressure_carries_over_to_the_gpu() {
     let Some(gpu) = gpu() else { return };
@@ -216,6 +217,15 @@ fn the_pressure_carries_over_to_the_gpu() {
         assert!(on_gpu.set_positions(cpu.positions()) && on_gpu.set_velocities(cpu.velocities()));
         if with_grid {
             assert!(on_gpu.set_volume_state(&grid.state()));
+            // Refused, and the state taken above kept: a cell short, a NaN, another grid.
+            let mut short = grid.state();
+            short.pressure.pop();
+            let mut not_finite = grid.state();
+            not_finite.backlog[0] = f32::NAN;
+            let coarser = VolumeState { resolution: grid.resolution() / 2, ..grid.state() };
+            for refused in [short, not_finite, coarser] {
+                assert!(!on_gpu.set_volume_state(&refused), "took a state of {} cells", refused.pressure.len());
+            }
         }
         on_gpu.step(&input_at(20, swaying, &collider, &params)).expect("GPU step");
         on_gpu.velocities().expect("read back")
