@@ -12,8 +12,8 @@ const DT: f32 = 1.0 / 60.0;
 /// How a test groom grows: 25 cm guides, combed by `comb`.
 #[derive(Clone, Copy)]
 enum Recipe {
-    /// 16 particles, roots sampled uniformly (seed 7).
-    Test,
+    /// 16 particles, roots sampled uniformly with this seed (7 unless a test asks for more).
+    Test(u64),
     /// As the plugin grows its default `HairGroom`: 11 particles, lengths varied by 20 %,
     /// roots spaced by Poisson-disc sampling (seed 1).
     PluginDefault,
@@ -32,9 +32,9 @@ fn settled_groom(
 ) -> (HeadCollider, RestShape) {
     let collider = HeadCollider::new(head, DEFAULT_GRID_RESOLUTION).expect("a head");
     let (roots, grow, seed) = match recipe {
-        Recipe::Test => {
+        Recipe::Test(roots_seed) => {
             let grow = GuideParams { segments: 15, length: 0.25, comb, ..GuideParams::default() };
-            (sample_roots(head, weights, strands, 7), grow, 7)
+            (sample_roots(head, weights, strands, roots_seed), grow, 7)
         }
         Recipe::PluginDefault => {
             let grow =
@@ -51,7 +51,7 @@ fn settled_groom(
 /// A groom on the procedural head ([`settled_groom`]), uncombed.
 fn procedural_groom(strands: usize, params: &SimParams) -> (HeadCollider, RestShape) {
     let head = test_head(4);
-    settled_groom(&head, &test_scalp(&head), strands, Recipe::Test, Vec3::ZERO, params)
+    settled_groom(&head, &test_scalp(&head), strands, Recipe::Test(7), Vec3::ZERO, params)
 }
 
 /// A groom on the shipped head, as its converter reads it, on its painted scalp.
@@ -140,8 +140,8 @@ fn hair_under_a_still_head_is_still() {
     let back = Vec3::new(0.0, 0.0, -1.5);
     let grooms = [
         ("procedural head", 512, procedural_groom(512, &settled)),
-        ("shipped head", 512, shipped_groom(512, Recipe::Test, Vec3::ZERO, &settled)),
-        ("shipped head, combed back", 512, shipped_groom(512, Recipe::Test, back, &settled)),
+        ("shipped head", 512, shipped_groom(512, Recipe::Test(7), Vec3::ZERO, &settled)),
+        ("shipped head, combed back", 512, shipped_groom(512, Recipe::Test(7), back, &settled)),
         ("plugin's groom", 600, shipped_groom(600, Recipe::PluginDefault, Vec3::ZERO, &settled)),
         ("plugin's groom, combed back", 600, shipped_groom(600, Recipe::PluginDefault, back, &settled)),
     ];
@@ -171,6 +171,43 @@ fn hair_under_a_still_head_is_still() {
     }
     println!("{moving_cases} of 60 cases with a strand still moving; of the plugin's groom, {plugin_moving} in all");
     assert!(plugin_moving <= 1, "{plugin_moving} strands of the plugin's groom still moving");
+}
+
+/// Hair comes to rest whatever the hair clock's rate: 1,024 test guides on the shipped head
+/// (roots seeds 3, 5 and 11), settled, then shaken for 1 s (yaw ±0.8 rad at 12 rad/s) or
+/// kept still, stepped at 30 and at 120 Hz under the default settings: after 10 s every
+/// strand is asleep. Substeps are counted per 1/60 s ([`SimParams::substeps`]); counted
+/// per step, a 30 Hz clock took substeps twice as long, and in each of these grooms a
+/// strand swung for good.
+#[test]
+fn hair_comes_to_rest_at_any_hair_rate() {
+    let (head, weights) = common::shipped_head();
+    let params = SimParams::default();
+    for (roots_seed, shaken) in [(3, true), (5, false), (11, true)] {
+        let (collider, rest) = settled_groom(&head, &weights, 1024, Recipe::Test(roots_seed), Vec3::ZERO, &params);
+        for hz in [30.0, 120.0] {
+            let dt = 1.0 / hz;
+            let pose = |k: usize| {
+                let t = k as f32 * dt;
+                let yaw = if shaken && t < 1.0 { 0.8 * (12.0 * t).sin() } else { 0.0 };
+                Pose::new(Quat::from_rotation_y(yaw), Vec3::ZERO)
+            };
+            let mut strands = Strands::new(rest.clone(), Pose::IDENTITY);
+            let mut asleep = 0;
+            for k in 0..(10.0 * hz) as usize {
+                let input = StepInput {
+                    dt,
+                    time: k as f32 * dt,
+                    ..step_input(k, pose(k), pose(k + 1), Some(&collider), &params)
+                };
+                asleep = strands.step(&input).sleeping;
+            }
+            let fastest = strands.velocities().iter().map(|v| v.length()).fold(0.0, f32::max);
+            let case = format!("roots seed {roots_seed}{}, {hz} Hz", if shaken { ", shaken" } else { "" });
+            println!("{case}: {asleep} of 1024 strands asleep after 10 s, the fastest particle at {fastest:.1e} m/s");
+            assert!(asleep == 1024 && fastest == 0.0, "{case}: {asleep} asleep, the fastest at {fastest} m/s");
+        }
+    }
 }
 
 /// One strand of `n` particles, 25 cm, from the origin along +X (horizontal).

@@ -210,7 +210,10 @@ impl fmt::Display for SimdPath {
 pub struct SimParams {
     /// Acceleration of gravity, world space, m/s².
     pub gravity: [f32; 3],
-    /// Substeps per step; roots follow the head's interpolated pose across them.
+    /// Substeps per 1/60 s of hair time: a step is cut into substeps no longer than
+    /// `1 / (60 · substeps)` s (at least one), so a hair clock at 30 Hz takes twice as many
+    /// per step as one at 60 Hz, and the hair comes to rest alike at any rate. Roots follow
+    /// the head's interpolated pose across them.
     pub substeps: u32,
     /// Constraint iterations per substep.
     pub iterations: u32,

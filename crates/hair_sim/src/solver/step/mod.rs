@@ -136,7 +136,7 @@ impl StepConstants {
         let p = input.params;
         let dt = step_length(input)?;
         let from = if input.head_from.is_valid() { input.head_from } else { input.head_to };
-        let substeps = p.substeps.max(1);
+        let substeps = substeps_of(p.substeps, dt);
         let h = dt / substeps as f32;
         let poses = (0..=substeps).map(|s| from.lerp(&input.head_to, s as f32 / substeps as f32)).collect();
         // Shape constraints run `iterations` times per substep.
@@ -165,6 +165,16 @@ impl StepConstants {
             ftl_velocity: p.ftl_damping / h,
         })
     }
+}
+
+/// How many substeps a step of `dt` seconds takes for `per_sixtieth` substeps per 1/60 s
+/// ([`SimParams::substeps`](crate::solver::SimParams::substeps)):
+/// enough that none is longer than `1 / (60 · per_sixtieth)` s, and at least one. Where hair
+/// comes to rest depends on the substep's length (contacts, the length pass and the springs
+/// act per substep), so the same settings give the same hair at any hair-clock rate.
+pub(crate) fn substeps_of(per_sixtieth: u32, dt: f32) -> u32 {
+    // The slack keeps a step of 1/60 s, not exact in binary, from taking one more.
+    (per_sixtieth.max(1) as f32 * dt * 60.0 - 1e-3).ceil().max(1.0) as u32
 }
 
 /// The step `input` asks for, clamped to [`MAX_STEP`]; `None` when no step is taken (too

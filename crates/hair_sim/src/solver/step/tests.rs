@@ -206,3 +206,27 @@ fn a_contact_in_a_crease_leaves_the_particle_outside_both_shells() {
     println!("one projection leaves a particle in the crease up to {:.3} mm inside the shell", worst_single * 1e3);
     assert!(worst_single > 0.5e-3, "one projection left it {worst_single} m inside");
 }
+
+/// Substeps are counted per 1/60 s: the same substep length at any step, none longer than
+/// asked, at least one, and a step of 1/60 s (not exact in binary, nor as the hair clock's
+/// nanoseconds) takes exactly the count asked.
+#[test]
+fn substeps_keep_their_length_at_any_step() {
+    let clock_sixtieth = std::time::Duration::from_nanos(16_666_667).as_secs_f32();
+    for (per_sixtieth, dt, expected) in [
+        (2, 1.0 / 60.0, 2),
+        (2, clock_sixtieth, 2),
+        (1, 1.0 / 60.0, 1),
+        (2, 1.0 / 30.0, 4),
+        (2, 1.0 / 120.0, 1),
+        (3, 1.0 / 120.0, 2),
+        (8, 1.0 / 144.0, 4),
+        (0, 1.0 / 30.0, 2),
+        (2, 1e-6, 1),
+        (64, MAX_STEP, 256),
+    ] {
+        let substeps = substeps_of(per_sixtieth, dt);
+        assert_eq!(substeps, expected, "{per_sixtieth} per 1/60 s, a step of {dt} s");
+        assert!(dt / substeps as f32 <= 1.0001 / (60.0 * per_sixtieth.max(1) as f32), "longer than asked");
+    }
+}
