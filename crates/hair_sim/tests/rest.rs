@@ -128,28 +128,28 @@ fn print(name: &str, r: &StillReport) {
 /// 600 guides on the shipped head, combed and not; inextensible and on springs, at 1, 2
 /// and 8 substeps, friction on and off. The groom is settled as inextensible hair (a
 /// groom settled on springs would take their stretch into its rest lengths), so the soft
-/// default springs (20 N/m) first sag by up to their 10 % and are watched after 8 s; the
+/// default springs (20 N/m) first sag by up to their 10 % and are watched after 10 s; the
 /// inextensible after 4 s.
 ///
-/// Everywhere the stored speeds average under 0.01 m/s, and every strand of the test
-/// guides falls asleep and holds still exactly. Of the plugin's groom at most one strand
-/// of the 600 still moves (`docs/simulation.md`, hair at rest).
+/// Everywhere the stored speeds average under 0.01 m/s, and every strand falls asleep and
+/// holds still exactly. (With sleep anchors left where the watch began, one strand of the
+/// plugin's groom combed back stepped 2.7 mm to and fro for good: `docs/simulation.md`,
+/// hair at rest.)
 #[test]
 fn hair_under_a_still_head_is_still() {
     let settled = SimParams::default();
     let back = Vec3::new(0.0, 0.0, -1.5);
     let grooms = [
-        ("procedural head", 512, procedural_groom(512, &settled)),
-        ("shipped head", 512, shipped_groom(512, Recipe::Test(7), Vec3::ZERO, &settled)),
-        ("shipped head, combed back", 512, shipped_groom(512, Recipe::Test(7), back, &settled)),
-        ("plugin's groom", 600, shipped_groom(600, Recipe::PluginDefault, Vec3::ZERO, &settled)),
-        ("plugin's groom, combed back", 600, shipped_groom(600, Recipe::PluginDefault, back, &settled)),
+        ("procedural head", procedural_groom(512, &settled)),
+        ("shipped head", shipped_groom(512, Recipe::Test(7), Vec3::ZERO, &settled)),
+        ("shipped head, combed back", shipped_groom(512, Recipe::Test(7), back, &settled)),
+        ("plugin's groom", shipped_groom(600, Recipe::PluginDefault, Vec3::ZERO, &settled)),
+        ("plugin's groom, combed back", shipped_groom(600, Recipe::PluginDefault, back, &settled)),
     ];
     let models =
-        [("inextensible", settled, 240), ("springs", SimParams { length_mode: LengthMode::Springs, ..settled }, 480)];
-    let (mut moving_cases, mut plugin_moving) = (0, 0);
+        [("inextensible", settled, 240), ("springs", SimParams { length_mode: LengthMode::Springs, ..settled }, 600)];
     for (model, base, still_steps) in models {
-        for (name, strands, (collider, rest)) in &grooms {
+        for (name, (collider, rest)) in &grooms {
             for substeps in [1, 2, 8] {
                 for friction in [base.friction, 0.0] {
                     let params = SimParams { substeps, friction, ..base };
@@ -157,20 +157,11 @@ fn hair_under_a_still_head_is_still() {
                     let case = format!("{name}, {model}, {substeps} substeps, friction {friction}");
                     print(&case, &report);
                     assert!(report.mean_speed < 0.01, "{case}: hair at rest keeps {report:?}");
-                    if report.moving_strands > 0 {
-                        moving_cases += 1;
-                    }
-                    if *strands == 600 {
-                        plugin_moving += report.moving_strands;
-                    } else {
-                        assert!(report.max_move <= 1e-5 && report.alternations == 0, "{case}: {report:?}");
-                    }
+                    assert!(report.max_move <= 1e-5 && report.alternations == 0, "{case}: {report:?}");
                 }
             }
         }
     }
-    println!("{moving_cases} of 60 cases with a strand still moving; of the plugin's groom, {plugin_moving} in all");
-    assert!(plugin_moving <= 1, "{plugin_moving} strands of the plugin's groom still moving");
 }
 
 /// Hair comes to rest whatever the hair clock's rate: 1,024 test guides on the shipped head

@@ -138,17 +138,32 @@ fn asleep(first: u32) -> bool {
 }
 
 // After a step in which the strand was stepped, its sleep watch (hair_sim's `sleep::watch`):
-// it goes on while every particle stays near its anchor in a still step; else it starts
-// over from here. A strand that falls asleep keeps no velocity.
+// in a still step each anchor follows its particle by dt / sleep_time of the way (where it
+// has been on average), and the watch goes on while every particle is near its anchor and
+// starts over where one is not; in any other step it starts over with the anchors where
+// the particles are. A strand that falls asleep keeps no velocity.
 fn watch(first: u32, n: u32) {
+    if !(step.sleep.z == 1.0 && watching(first)) {
+        for (var j = 0u; j < n; j++) {
+            let i = particle_slot(first, j);
+            motion[4u * slots() + i] = vec4<f32>(positions[i].xyz, 0.0);
+        }
+        motion[3u * slots() + first].w = 1.0;
+        return;
+    }
+    let follow = step.sleep.w / max(step.sleep.y, step.sleep.w);
     let limit = step.sleep.x * step.sleep.x;
     var near = true;
     for (var j = 0u; j < n; j++) {
         let i = particle_slot(first, j);
-        let d = positions[i].xyz - anchor(i);
+        let x = positions[i].xyz;
+        let a = anchor(i) + (x - anchor(i)) * follow;
+        // The root's slot keeps the watch's time in w.
+        motion[4u * slots() + i] = vec4<f32>(a, motion[4u * slots() + i].w);
+        let d = x - a;
         near = near && dot(d, d) <= limit;
     }
-    if step.sleep.z == 1.0 && watching(first) && near {
+    if near {
         motion[4u * slots() + first].w = quiet(first) + step.sleep.w;
         if asleep(first) {
             for (var j = 0u; j < n; j++) {
@@ -156,11 +171,7 @@ fn watch(first: u32, n: u32) {
             }
         }
     } else {
-        for (var j = 0u; j < n; j++) {
-            let i = particle_slot(first, j);
-            motion[4u * slots() + i] = vec4<f32>(positions[i].xyz, 0.0);
-        }
-        motion[3u * slots() + first].w = 1.0;
+        motion[4u * slots() + first].w = 0.0;
     }
 }
 

@@ -263,8 +263,9 @@ pub struct SimParams {
     pub friction: f32,
     /// Speed limit, m/s, per particle (the per-step displacement clamp).
     pub max_speed: f32,
-    /// A strand whose every particle stays within this distance, m, of where it was for
-    /// [`Self::sleep_time`] under a still head sleeps: it is no longer stepped, and holds
+    /// A strand whose every particle stays within this distance, m, of where it has been on
+    /// average (over about [`Self::sleep_time`]) for [`Self::sleep_time`] under a still
+    /// head sleeps: it is no longer stepped, and holds
     /// its place exactly, until the head moves, the wind blows, the skin moves or a setting
     /// changes ([`Stillness`]). 0 never sleeps: for measuring where hair comes to rest
     /// more finely than this distance.
@@ -272,6 +273,7 @@ pub struct SimParams {
     /// The default is as wide as the default collision shell: a strand pressed into a
     /// crease or draped over an ear's rim can step between places a millimetre or two apart
     /// without ever settling, and a narrower distance left it buzzing there for good.
+    /// Measured from the average, a cycle up to twice this distance across sleeps.
     ///
     /// [`Stillness`]: super::Stillness
     pub sleep_distance: f32,
