@@ -42,8 +42,9 @@ fn set_final(i: u32, placed: vec3<f32>) {
 // contact's normal until it lies on the tangent plane of the shell there (1 µm above), a few
 // turns at most, or straight out along the normal where the parent lies behind that plane.
 // Where that ends inside a collider itself, the nearest direction around the normal that is
-// outside and reached without passing through the head, else the nearest outside at all;
-// failing that, onto the surface, stretching the segment. hair_sim's `outside_at_length`.
+// outside and reached without passing through the head, else the nearest outside at all,
+// else the same over the sphere; failing that, onto the surface, stretching the segment.
+// hair_sim's `outside_at_length`.
 fn outside_at_length(placed_in: vec3<f32>, parent: vec3<f32>, segment: f32, now: Pose) -> vec3<f32> {
     var placed = placed_in;
     // MAX_TURNS turns, each place tested, the last turned one too.
@@ -76,12 +77,20 @@ fn outside_at_length(placed_in: vec3<f32>, parent: vec3<f32>, segment: f32, now:
     // then the nearest to `wanted`; hair_sim's `around`): the first out of every collider
     // that the segment reaches without passing through the head, and the first out of every
     // collider at all, reached only through a thin part that the segment pass then turns it
-    // out of (w: the direction's rank; -2: none).
+    // out of (w: the direction's rank; -2: none). Where none of those is out (that half of
+    // space is all inside: the contact is on the far side of a cheek), the same over the
+    // sphere (hair_sim's `sphere_nearest`).
     var reached = vec4<f32>(0.0, 0.0, 0.0, -2.0);
     var out_of_it = reached;
-    for (var k = 0u; k <= TILTED; k++) {
+    for (var k = 0u; k <= TILTED + SPHERE_DIRECTIONS; k++) {
+        let on_sphere = k > TILTED;
+        if on_sphere && out_of_it.w > -2.0 {
+            break;
+        }
         var d = deep.normal;
-        if k > 0u {
+        if on_sphere {
+            d = sphere_direction(k - 1u - TILTED);
+        } else if k > 0u {
             d = tilted(deep.normal, k - 1u);
         }
         let rank = select(dot(d, wanted), 2.0, k == 0u);

@@ -2,7 +2,7 @@
 //! GPU twin: `hair_gpu`'s `step/final_length.wgsl`.
 
 use super::contacts::FRICTION_SLACK;
-use super::segments::around;
+use super::segments::{around, sphere_nearest};
 use super::{GroupState, SubstepPoses};
 use crate::collide::{Contact, ContactHint};
 use crate::math::Vec3;
@@ -166,8 +166,8 @@ pub(super) fn contact_at<S: Simd>(
 /// the particle stays where the last turn put it if that is outside the collider itself,
 /// else goes to the nearest direction [`around`] the contact's normal that is outside it
 /// and that the segment `reaches` without passing through the head, else to the nearest
-/// that is outside it at all, and only where none is goes onto the surface, stretching the
-/// segment.
+/// that is outside it at all, else the same over the whole sphere ([`sphere_nearest`]), and
+/// only where none is goes onto the surface, stretching the segment.
 pub(super) fn outside_at_length(
     mut placed: Vec3,
     parent: Vec3,
@@ -200,19 +200,24 @@ pub(super) fn outside_at_length(
     // length that is out of it (and reached without passing through it), nearest the one
     // the turns arrived at; failing that, one out of it that the segment reaches only
     // through a thin part (the segment pass turns it out of that; stretched onto the
-    // surface instead, a strand below an ear's rim was left half as long again); failing
-    // that, onto its surface (1 µm out), stretching the segment.
+    // surface instead, a strand below an ear's rim was left half as long again). Around the
+    // contact's normal first, then, where the whole of that half of space is inside (the
+    // contact is on the far side of a nose or a cheek from the parent), over the sphere.
+    // Failing all, onto its surface (1 µm out), stretching the segment.
     let wanted = (placed - parent) / length;
-    let mut out_of_it = None;
-    for x in around(deep.normal, wanted).map(|d| parent + d * length) {
-        if outside(&contact_at(x)) {
-            if reaches(x) {
-                return (x, true);
+    let mut out_of_it = |directions: &mut dyn Iterator<Item = Vec3>| {
+        let mut outside_only = None;
+        for x in directions.map(|d| parent + d * length) {
+            if outside(&contact_at(x)) {
+                if reaches(x) {
+                    return Some(x);
+                }
+                outside_only.get_or_insert(x);
             }
-            out_of_it.get_or_insert(x);
         }
-    }
-    match out_of_it {
+        outside_only
+    };
+    match out_of_it(&mut around(deep.normal, wanted)).or_else(|| out_of_it(&mut sphere_nearest(wanted))) {
         Some(x) => (x, true),
         None => (deep.position - deep.normal * (thickness - 1e-6), false),
     }

@@ -193,14 +193,19 @@ pub(super) fn clear_direction(
     length: f32,
 ) -> Option<Vec3> {
     let clear = |d: &Vec3| collider.segment_crossing(parent, parent + *d * length).is_none();
-    around(out, wanted).find(clear).or_else(|| {
-        let mut sphere: Vec<Vec3> = (0..SPHERE_DIRECTIONS).map(sphere_direction).collect();
-        sphere.sort_by(|a, b| b.dot(wanted).total_cmp(&a.dot(wanted)));
-        sphere.into_iter().find(clear)
-    })
+    around(out, wanted).find(clear).or_else(|| sphere_nearest(wanted).find(clear))
 }
 
-/// How many directions [`clear_direction`] tries over the whole sphere as its last resort.
+/// The [`SPHERE_DIRECTIONS`], nearest to `wanted` first: the last resort of a search for a
+/// way out of a pocket of the surface.
+pub(super) fn sphere_nearest(wanted: Vec3) -> impl Iterator<Item = Vec3> {
+    let mut sphere: Vec<Vec3> = (0..SPHERE_DIRECTIONS).map(sphere_direction).collect();
+    sphere.sort_by(|a, b| b.dot(wanted).total_cmp(&a.dot(wanted)));
+    sphere.into_iter()
+}
+
+/// How many directions [`clear_direction`] and the final length pass try over the whole
+/// sphere as their last resort.
 pub(super) const SPHERE_DIRECTIONS: usize = 96;
 
 /// The `k`-th of [`SPHERE_DIRECTIONS`] unit vectors spread evenly over the sphere (a

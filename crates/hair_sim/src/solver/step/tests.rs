@@ -230,3 +230,23 @@ fn substeps_keep_their_length_at_any_step() {
         assert!(dt / substeps as f32 <= 1.0001 / (60.0 * per_sixtieth.max(1) as f32), "longer than asked");
     }
 }
+
+/// Where the whole half of space around a deep contact's normal is inside the collider (a
+/// contact on the far side of a cheek from the parent), the final length pass finds a
+/// direction at full length over the sphere before it puts the particle onto the surface,
+/// shortening the segment; it does that only where every direction is inside.
+#[test]
+fn the_final_length_pass_looks_over_the_sphere_before_shortening_a_segment() {
+    let (parent, length, thickness) = (Vec3::ZERO, 0.02, 0.003);
+    // Inside: all beyond the plane x = `plane`, the contact's normal along +x.
+    let beyond = |plane: f32| {
+        move |x: Vec3| {
+            (x.x > plane).then(|| Contact { position: Vec3::new(plane, x.y, x.z), normal: Vec3::X, depth: 1.0 })
+        }
+    };
+    let placed = Vec3::new(length, 0.0, 0.0);
+    let (x, kept) = final_length::outside_at_length(placed, parent, length, thickness, beyond(-0.3 * length), |_| true);
+    assert!(kept && x.x <= -0.3 * length && ((x - parent).length() - length).abs() < 1e-7, "{x}, kept {kept}");
+    let (x, kept) = final_length::outside_at_length(placed, parent, length, thickness, beyond(-2.0 * length), |_| true);
+    assert!(!kept && x.x == -2.0 * length - (thickness - 1e-6), "nowhere out at full length: {x}, kept {kept}");
+}
