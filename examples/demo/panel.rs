@@ -184,7 +184,7 @@ fn slider<T: egui::emath::Numeric>(
 
 fn simulation_section(ui: &mut egui::Ui, p: &mut SimParams) {
     slider(ui, &mut p.gravity[1], -30.0..=0.0, "gravity (m/s²)");
-    slider(ui, &mut p.substeps, 1..=8, "substeps");
+    slider(ui, &mut p.substeps, 1..=8, "substeps per 1/60 s");
     slider(ui, &mut p.iterations, 1..=8, "iterations");
     slider(ui, &mut p.drag, 0.0..=10.0, "air drag (1/s)");
     ui.horizontal(|ui| {
