@@ -786,7 +786,7 @@ fn median_thickness(positions: &[Vec3], normals: &[Vec3], n: usize) -> f32 {
 #[test]
 fn the_thickness_of_a_groom_settled_with_and_without_volume() {
     let (head, collider, roots, grown) = grown_on_the_shipped_head(1024, 7);
-    let normals: Vec<Vec3> = roots.iter().map(|r| head.normal_at(r.triangle as usize, r.barycentric)).collect();
+    let normals: Vec<Vec3> = roots.iter().map(|r| r.normal(&head)).collect();
     let groomed = median_thickness(&grown.positions, &normals, 16);
     let thickness = |params: &SimParams| {
         let rest = settle(grown.clone(), Some(&collider), params, 180, Vec3::ZERO).expect("settle");
@@ -814,7 +814,7 @@ fn the_thickness_of_a_groom_settled_with_and_without_volume() {
 #[test]
 fn a_groom_with_a_body_keeps_it_through_a_shake() {
     let (head, collider, roots, grown) = grown_on_the_shipped_head(1024, 7);
-    let normals: Vec<Vec3> = roots.iter().map(|r| head.normal_at(r.triangle as usize, r.barycentric)).collect();
+    let normals: Vec<Vec3> = roots.iter().map(|r| r.normal(&head)).collect();
     let groomed = settle(grown, Some(&collider), &with_volume(), 180, Vec3::ZERO).expect("settle");
     let before = reach_along(&groomed.positions, &normals, 16);
     let kept = |params: &SimParams| {
