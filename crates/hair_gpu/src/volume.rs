@@ -34,7 +34,7 @@ struct VolumeUniform {
     rotation: [[f32; 4]; 3],
     feedback: [f32; 4],
     solve: [f32; 4],
-    backlog_kept: [f32; 4],
+    overflow: [f32; 4],
 }
 
 /// The volume shader's passes (`splat_particles`, `resolve_cells`, `predict_overflow`,
@@ -203,7 +203,7 @@ impl GpuVolume {
             rotation: columns(rotation),
             feedback: [feedback.push, self.grid.rest_scale(), volume.pressure, self.grid.cell() * self.grid.cell()],
             solve: [1.0 / dt.max(1e-6), f32::from(u8::from(implicit)), dt, feedback.catch_up],
-            backlog_kept: [feedback.backlog_kept, 0.0, 0.0, 0.0],
+            overflow: [feedback.backlog_kept, self.grid.floor(), 0.0, 0.0],
         };
         recorder.upload(&self.uniform, bytemuck::bytes_of(&uniform));
         let friction = if implicit { &feedback.rates } else { &feedback.shares };
@@ -278,7 +278,6 @@ mod tests {
         assert_eq!(constant("MAX_FIXED_VELOCITY"), MAX_FIXED_VELOCITY as f64);
         assert_eq!(constant("WORDS_PER_CELL"), WORDS_PER_CELL as f64);
         assert_eq!(constant("PRESSURE_SLACK"), f64::from(hair_sim::solver::PRESSURE_SLACK));
-        assert_eq!(constant("LIVE_FLOOR"), f64::from(hair_sim::solver::LIVE_FLOOR));
         assert_eq!(std::mem::size_of::<VolumeUniform>(), crate::pass::validated_struct_size(VOLUME_SHADER, "Volume"));
     }
 

@@ -35,8 +35,10 @@ struct Volume {
     // away in the step (`Feedback::catch_up`).
     solve: vec4<f32>,
     // The share of a cell's last overflow, where it was positive, that the step adds to its
-    // own while the cell is over its target (`Feedback::backlog_kept`); y, z and w unused.
-    backlog_kept: vec4<f32>,
+    // own while the cell is over its target (`Feedback::backlog_kept`); the mass, in
+    // particles, that any cell may fill up to before the pressure pushes
+    // (`VolumeGrid::floor`); z and w unused.
+    overflow: vec4<f32>,
 }
 
 @group(0) @binding(0) var<uniform> volume: Volume;
@@ -72,8 +74,6 @@ const MAX_FIXED_VELOCITY: f32 = 65535.0;
 const WORDS_PER_CELL: u32 = 8u;
 // hair_sim's `PRESSURE_SLACK`.
 const PRESSURE_SLACK: f32 = 0.05;
-// hair_sim's `LIVE_FLOOR`: the share of the mean rest density any cell may fill up to.
-const LIVE_FLOOR: f32 = 0.5;
 
 // A point's cell (its lowest corner) and fixed-point weights per axis, as
 // `VolumeGrid::splat_of` finds them; `inside` false outside the grid.
@@ -201,7 +201,7 @@ fn resolve_cells(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_work
         backlog[c] = 0.0;
     }
     // The mass over the pressure's target, as `VolumeGrid::resolve_cells` works it out.
-    let wanted = max(wide_f32(rest.x, rest.y) / PARTICLE_MASS_UNITS, volume.feedback.y * LIVE_FLOOR) * (1.0 + PRESSURE_SLACK);
+    let wanted = max(wide_f32(rest.x, rest.y) / PARTICLE_MASS_UNITS, volume.overflow.y) * (1.0 + PRESSURE_SLACK);
     cells[2u * c] = vec4<f32>(mean, excess);
     cells[2u * c + 1u] = vec4<f32>(m, m / PARTICLE_MASS_UNITS / wanted, 0.0, 0.0);
 }
@@ -261,7 +261,7 @@ fn predict_overflow(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_w
         divergence += dot(above - below, volume.rotation[a].xyz) * inverse_2h;
     }
     // Remembered only while the cell is over its target, as on the CPU.
-    let held = select(0.0, volume.backlog_kept.x * max(backlog[c], 0.0), cell.y > 1.0);
+    let held = select(0.0, volume.overflow.x * max(backlog[c], 0.0), cell.y > 1.0);
     let overflow = volume.solve.w * (cell.y - 1.0) - cell.y * volume.solve.z * divergence + held;
     backlog[c] = overflow;
     // Below the target, room the hair around may flow into; none inside the head.

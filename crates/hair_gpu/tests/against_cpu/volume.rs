@@ -163,6 +163,32 @@ fn one_step_beside_the_cpu(
     (largest(&cpu, &on_gpu), largest(&cpu, &cpu_off))
 }
 
+/// A sparse groom out of its rest pose: 8 strands, each moved 3 cm sideways into cells
+/// that held no hair at rest, stepped once from the same state on both with the pressure
+/// solve as the volume's only effect. A cell may hold what one strand leaves in it before
+/// the pressure pushes (`VolumeGrid::floor`), so the pressure barely moves them (only
+/// where a strand's particles bunch about a cell's node), and the GPU's velocities are the
+/// CPU's to rounding. (With the floor at half the mean rest density alone, the pressure
+/// moves them by metres a second, and a GPU that floors so parts from the CPU by as much.)
+#[test]
+fn a_strand_alone_is_barely_pressed_by_its_own_density() {
+    let Some(gpu) = gpu() else { return };
+    let (_, collider, rest) = groom(8);
+    let n = rest.particles_per_strand;
+    let moved: Vec<Vec3> =
+        rest.positions.iter().enumerate().map(|(i, &x)| if i % n == 0 { x } else { x + Vec3::X * 0.03 }).collect();
+    let pressure_only =
+        Volume { enabled: true, friction_root: 0.0, friction_tip: 0.0, density_push: 0.0, ..Volume::default() };
+    let base = SimParams { collision: false, global_stiffness_root: 0.0, local_stiffness: 0.0, ..SimParams::default() };
+    let (apart, pushed) = one_step_beside_the_cpu(&gpu, (&rest, &collider), base, pressure_only, (Some(&moved), None));
+    eprintln!(
+        "a sparse groom moved sideways: the pressure changed velocities by up to {pushed:.1e} m/s, the GPU's \
+         {apart:.1e} m/s apart"
+    );
+    assert!(pushed < 0.2, "the pressure pushed strands alone by {pushed} m/s");
+    assert!(apart < 1e-4, "{apart} m/s apart");
+}
+
 /// The spring model, one step from the same moving state on both (strands in turn moving
 /// one way and the other, so that each differs from the hair's mean velocity around it),
 /// with the grid's friction and density push as the volume's only effect: the velocities

@@ -158,6 +158,12 @@ impl RestShape {
     pub fn longest_strand(&self) -> f32 {
         self.lengths.chunks(self.particles_per_strand).map(|strand| strand.iter().sum::<f32>()).fold(0.0, f32::max)
     }
+
+    /// The mean rest length of a segment, m (0 for none).
+    pub fn mean_segment(&self) -> f32 {
+        let segments = self.strand_count() * (self.particles_per_strand - 1);
+        self.lengths.iter().sum::<f32>() / segments.max(1) as f32
+    }
 }
 
 /// What one step did, summed over strands.

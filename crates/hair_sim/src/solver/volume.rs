@@ -69,8 +69,8 @@ pub struct VolumeGrid {
     /// The cells that hold hair and their coordinates, by colour (the parity of the
     /// coordinates' sum): the pressure's red–black sweeps visit no other cell.
     occupied: [Vec<(usize, [usize; 3])>; 2],
-    /// The share of `rest_scale` any cell may fill up to before the pressure pushes
-    /// ([`LIVE_FLOOR`], or [`SETTLING_FLOOR`] while a grown groom settles).
+    /// The mass (in particles) any cell may fill up to before the pressure pushes, what
+    /// it held at rest aside ([`Self::floor`]).
     floor: f32,
     /// Each particle's splat, kept from the sums for the feedback, and its velocity as
     /// splatted ([`fixed_velocity`]): what [`Self::resplat`] takes away again.
@@ -157,7 +157,9 @@ impl VolumeGrid {
         Self::with_floor(rest, resolution, head, SETTLING_FLOOR)
     }
 
-    fn with_floor(rest: &RestShape, resolution: u32, head: Option<&HeadInterior>, floor: f32) -> Self {
+    /// [`Self::new`] with the pressure's floor at `floor_share` of the mean rest density
+    /// ([`Self::floor`]).
+    fn with_floor(rest: &RestShape, resolution: u32, head: Option<&HeadInterior>, floor_share: f32) -> Self {
         let (mut min, mut max) = crate::math::bounds(&rest.positions);
         if rest.positions.is_empty() {
             (min, max) = (Vec3::ZERO, Vec3::ZERO);
@@ -179,7 +181,7 @@ impl VolumeGrid {
             pressure: vec![0.0; cells],
             backlog: vec![0.0; cells],
             occupied: Default::default(),
-            floor,
+            floor: 0.0,
             splats: Vec::new(),
             fixed: Vec::new(),
             partials: Vec::new(),
@@ -199,6 +201,10 @@ impl VolumeGrid {
         let reached: Vec<i64> = grid.rest_mass.iter().copied().filter(|&m| m > 0).collect();
         let mean = reached.iter().map(|&m| m as f64).sum::<f64>() / reached.len().max(1) as f64;
         grid.rest_scale = (mean / PARTICLE_MASS_UNITS as f64).max(1e-6) as f32;
+        // What a strand leaves, on average, in a cell it runs through: a cell's side of
+        // it, a particle per segment.
+        let one_strand = cell / rest.mean_segment().max(1e-6);
+        grid.floor = (grid.rest_scale * floor_share).max(one_strand);
         grid
     }
 
@@ -243,6 +249,17 @@ impl VolumeGrid {
     /// [`PARTICLE_MASS_UNITS`]: the unit of the density excess the push reads.
     pub fn rest_scale(&self) -> f32 {
         self.rest_scale
+    }
+
+    /// The mass, in particles, that any cell may fill up to before the pressure pushes,
+    /// however little it held at rest: [`LIVE_FLOOR`] of [`Self::rest_scale`] (or
+    /// [`SETTLING_FLOOR`] while a grown groom settles), and at least what one strand
+    /// leaves, on average, in a cell it runs through (a cell's side over the mean
+    /// segment). The grid is there to keep bulk hair apart, not single strands: with less,
+    /// a strand that strayed from the groom, or any strand of a sparse one, was pushed by
+    /// its own density wherever it went and never came to rest.
+    pub fn floor(&self) -> f32 {
+        self.floor
     }
 
     /// Each cell's mass, in units of [`PARTICLE_MASS_UNITS`] per particle (copied out).
@@ -379,11 +396,11 @@ impl VolumeGrid {
             // the pressure's push out of a full one, and kept a strand at the groom's edge
             // swinging between the two under a still head.
             let excess = (m - r).max(0) as f32 / units / self.rest_scale;
-            // The target: what the cell held at rest, or the floor's share of the mean rest
-            // density where that is more (a cell the rest pose barely reaches, or hair far
-            // from its rest pose, may fill up to it), with a little room, so that hair
-            // settling about its rest pose is left alone.
-            let target = (r as f32 / units).max(self.rest_scale * self.floor) * (1.0 + PRESSURE_SLACK);
+            // The target: what the cell held at rest, or the floor where that is more (a
+            // cell the rest pose barely reaches, or hair far from its rest pose, may fill up
+            // to it), with a little room, so that hair settling about its rest pose is left
+            // alone.
+            let target = (r as f32 / units).max(self.floor) * (1.0 + PRESSURE_SLACK);
             let fill = m as f32 / units / target;
             *value = CellValue { occupied: m > 0, excess, fill, overflow: 0.0 };
             *field = FieldCell { motion: mean_velocity.extend(if m > 0 { 1.0 } else { 0.0 }), slope: Vec4::ZERO };
@@ -595,7 +612,7 @@ const SPLAT_PER_CELL_ADD: usize = 20;
 pub const PRESSURE_SLACK: f32 = 0.05;
 
 /// The share of the mean rest density any cell may fill up to before the pressure pushes,
-/// for a groom at its rest pose (the GPU's `resolve_cells` uses the same).
+/// for a groom at its rest pose ([`VolumeGrid::floor`]).
 pub const LIVE_FLOOR: f32 = 0.5;
 
 /// [`LIVE_FLOOR`] while a grown groom settles: dense enough for hanging, combed hair,
