@@ -17,6 +17,9 @@ enum Recipe {
     /// As the plugin grows its default `HairGroom`: 11 particles, lengths varied by 20 %,
     /// roots spaced by Poisson-disc sampling (seed 1).
     PluginDefault,
+    /// As the plugin grows a `HairGroom` of these guides (roots spaced by Poisson-disc
+    /// sampling, seed 1), settled for this many steps.
+    Style(GuideParams, usize),
 }
 
 /// `strands` guides grown by `recipe` on the scalp `weights` of `head`, combed by `comb`
@@ -31,20 +34,22 @@ fn settled_groom(
     params: &SimParams,
 ) -> (HeadCollider, RestShape) {
     let collider = HeadCollider::new(head, DEFAULT_GRID_RESOLUTION).expect("a head");
-    let (roots, grow, seed) = match recipe {
+    let poisson = || hair_sim::groom::sample_roots_poisson(head, weights, strands, 1);
+    let (roots, grow, seed, settle_steps) = match recipe {
         Recipe::Test(roots_seed) => {
             let grow = GuideParams { segments: 15, length: 0.25, comb, ..GuideParams::default() };
-            (sample_roots(head, weights, strands, roots_seed), grow, 7)
+            (sample_roots(head, weights, strands, roots_seed), grow, 7, 180)
         }
         Recipe::PluginDefault => {
             let grow =
                 GuideParams { segments: 10, length: 0.25, length_variation: 0.2, comb, ..GuideParams::default() };
-            (hair_sim::groom::sample_roots_poisson(head, weights, strands, 1), grow, 1)
+            (poisson(), grow, 1, 180)
         }
+        Recipe::Style(grow, settle_steps) => (poisson(), GuideParams { comb, ..grow }, 1, settle_steps),
     };
     let guides = grow_guides(head, &roots.expect("scalp"), &grow, seed).expect("roots");
     let rest = RestShape::new(guides, grow.segments + 1).expect("guides");
-    let rest = settle(rest, Some(&collider), params, 180, comb).expect("settle");
+    let rest = settle(rest, Some(&collider), params, settle_steps, comb).expect("settle");
     (collider, rest)
 }
 
@@ -197,6 +202,83 @@ fn hair_comes_to_rest_at_any_hair_rate() {
             let case = format!("roots seed {roots_seed}{}, {hz} Hz", if shaken { ", shaken" } else { "" });
             println!("{case}: {asleep} of 1024 strands asleep after 10 s, the fastest particle at {fastest:.1e} m/s");
             assert!(asleep == 1024 && fastest == 0.0, "{case}: {asleep} asleep, the fastest at {fastest} m/s");
+        }
+    }
+}
+
+/// The demo's styles (`examples/demo/presets.rs`) as the plugin grows them, guides only
+/// (children follow their guides), combed back, each settled and stepped under its own
+/// settings: shoulder length (1,200 × 11, 22 cm), short and stiff (2,000 × 7, 7 cm), long
+/// and soft (1,200 × 17, 42 cm, 3 substeps) and curly (1,200 × 21, 24 cm, curl 0.6, two
+/// iterations). Kept still, or shaken for 1 s (yaw ±0.8 rad at 12 rad/s), each comes to
+/// rest: after 10 s every strand is asleep.
+#[test]
+fn the_demo_styles_come_to_rest() {
+    let (head, weights) = common::shipped_head();
+    let back = Vec3::new(0.0, 0.0, -1.5);
+    let d = SimParams::default();
+    let style = |segments, length, length_variation, curl| GuideParams {
+        segments,
+        length,
+        length_variation,
+        curl,
+        comb: Vec3::ZERO,
+    };
+    let styles = [
+        ("shoulder", 1200, style(10, 0.22, 0.2, 0.0), 180, back, d),
+        (
+            "short",
+            2000,
+            style(6, 0.07, 0.15, 0.0),
+            180,
+            back,
+            SimParams { local_stiffness: 0.7, global_stiffness_root: 0.6, global_stiffness_tip: 0.3, ..d },
+        ),
+        (
+            "long",
+            1200,
+            style(16, 0.42, 0.15, 0.0),
+            180,
+            back,
+            SimParams { substeps: 3, local_stiffness: 0.2, global_stiffness_root: 0.1, ..d },
+        ),
+        (
+            "curly",
+            1200,
+            style(20, 0.24, 0.2, 0.6),
+            60,
+            back * 0.7,
+            SimParams {
+                local_stiffness: 0.85,
+                global_stiffness_root: 0.3,
+                global_stiffness_tip: 0.1,
+                iterations: 2,
+                ..d
+            },
+        ),
+    ];
+    for (name, guides, grow, settle_steps, comb, params) in styles {
+        let (collider, rest) = settled_groom(&head, &weights, guides, Recipe::Style(grow, settle_steps), comb, &params);
+        for shaken in [false, true] {
+            let pose = |k: usize| {
+                let t = k as f32 * DT;
+                let yaw = if shaken && t < 1.0 { 0.8 * (12.0 * t).sin() } else { 0.0 };
+                Pose::new(Quat::from_rotation_y(yaw), Vec3::ZERO)
+            };
+            let mut strands = Strands::new(rest.clone(), Pose::IDENTITY);
+            let mut asleep = 0;
+            for k in 0..600 {
+                asleep = strands.step(&step_input(k, pose(k), pose(k + 1), Some(&collider), &params)).sleeping;
+            }
+            let fastest = strands.velocities().iter().map(|v| v.length()).fold(0.0, f32::max);
+            let case = format!("{name}{}", if shaken { ", shaken" } else { "" });
+            println!(
+                "{case}: {asleep} of {guides} strands asleep after 10 s, the fastest particle at {fastest:.1e} m/s"
+            );
+            assert!(
+                asleep as usize == guides && fastest == 0.0,
+                "{case}: {asleep} asleep, the fastest at {fastest} m/s"
+            );
         }
     }
 }
