@@ -1,4 +1,5 @@
 use super::*;
+use crate::solver::params::{LengthMode, Volume};
 
 /// Three strands of 5 particles, 4 cm apart, hanging 1 cm per segment.
 fn rest() -> RestShape {
