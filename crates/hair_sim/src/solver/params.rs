@@ -98,11 +98,11 @@ pub struct Volume {
     pub density_push: f32,
     /// Sweeps of the pressure solve (0: none, up to 64): each a red and a black
     /// Gauss–Seidel pass over the grid. The pressure pushes hair out of a cell holding more
-    /// than it held at rest or half the mean rest density, whichever is more (and 5 %
-    /// more), about as fast as a step lets it, into the room of sparser cells around it,
-    /// and never pulls hair together ("density less than", as Unity's strand hair): what
-    /// keeps a pile of hair from packing tighter than the groom. Left between steps, so
-    /// that a few sweeps a step converge over a few steps.
+    /// than it held at rest, half the mean rest density or one strand's worth, whichever is
+    /// most (and 5 % more), about as fast as a step lets it, into the room of sparser cells
+    /// around it, and never pulls hair together ("density less than", as Unity's strand
+    /// hair): what keeps a pile of hair from packing tighter than the groom. Left between
+    /// steps, so that a few sweeps a step converge over a few steps.
     pub pressure_iterations: u32,
     /// Share, 0..1, of the pressure's velocity change applied.
     pub pressure: f32,
