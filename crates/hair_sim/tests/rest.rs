@@ -183,22 +183,8 @@ fn hair_comes_to_rest_at_any_hair_rate() {
         let (collider, rest) = settled_groom(&head, &weights, 1024, Recipe::Test(roots_seed), Vec3::ZERO, &params);
         for hz in [30.0, 120.0] {
             let dt = 1.0 / hz;
-            let pose = |k: usize| {
-                let t = k as f32 * dt;
-                let yaw = if shaken && t < 1.0 { 0.8 * (12.0 * t).sin() } else { 0.0 };
-                Pose::new(Quat::from_rotation_y(yaw), Vec3::ZERO)
-            };
-            let mut strands = Strands::new(rest.clone(), Pose::IDENTITY);
-            let mut asleep = 0;
-            for k in 0..(10.0 * hz) as usize {
-                let input = StepInput {
-                    dt,
-                    time: k as f32 * dt,
-                    ..step_input(k, pose(k), pose(k + 1), Some(&collider), &params)
-                };
-                asleep = strands.step(&input).sleeping;
-            }
-            let fastest = strands.velocities().iter().map(|v| v.length()).fold(0.0, f32::max);
+            let pose = |k: usize| if shaken { common::shake(k as f32 * dt) } else { Pose::IDENTITY };
+            let (asleep, fastest) = common::asleep_after(&rest, &collider, &params, ((10.0 * hz) as usize, dt), pose);
             let case = format!("roots seed {roots_seed}{}, {hz} Hz", if shaken { ", shaken" } else { "" });
             println!("{case}: {asleep} of 1024 strands asleep after 10 s, the fastest particle at {fastest:.1e} m/s");
             assert!(asleep == 1024 && fastest == 0.0, "{case}: {asleep} asleep, the fastest at {fastest} m/s");
@@ -260,25 +246,13 @@ fn the_demo_styles_come_to_rest() {
     for (name, guides, grow, settle_steps, comb, params) in styles {
         let (collider, rest) = settled_groom(&head, &weights, guides, Recipe::Style(grow, settle_steps), comb, &params);
         for shaken in [false, true] {
-            let pose = |k: usize| {
-                let t = k as f32 * DT;
-                let yaw = if shaken && t < 1.0 { 0.8 * (12.0 * t).sin() } else { 0.0 };
-                Pose::new(Quat::from_rotation_y(yaw), Vec3::ZERO)
-            };
-            let mut strands = Strands::new(rest.clone(), Pose::IDENTITY);
-            let mut asleep = 0;
-            for k in 0..600 {
-                asleep = strands.step(&step_input(k, pose(k), pose(k + 1), Some(&collider), &params)).sleeping;
-            }
-            let fastest = strands.velocities().iter().map(|v| v.length()).fold(0.0, f32::max);
+            let pose = |k: usize| if shaken { common::shake(k as f32 * DT) } else { Pose::IDENTITY };
+            let (asleep, fastest) = common::asleep_after(&rest, &collider, &params, (600, DT), pose);
             let case = format!("{name}{}", if shaken { ", shaken" } else { "" });
             println!(
                 "{case}: {asleep} of {guides} strands asleep after 10 s, the fastest particle at {fastest:.1e} m/s"
             );
-            assert!(
-                asleep as usize == guides && fastest == 0.0,
-                "{case}: {asleep} asleep, the fastest at {fastest} m/s"
-            );
+            assert!(asleep == guides && fastest == 0.0, "{case}: {asleep} asleep, the fastest at {fastest} m/s");
         }
     }
 }

@@ -522,9 +522,7 @@ fn densest(rest: &RestShape, positions: &[Vec3], pose: Pose) -> (f32, f32) {
 /// The head's pose at step `k` (1/60 s) of a 1 s shake from `start` seconds on (yaw ±0.8
 /// rad at 12 rad/s), still before and after it.
 fn shaking(k: usize, start: f32) -> Pose {
-    let t = k as f32 / 60.0 - start;
-    let angle = if (0.0..1.0).contains(&t) { 0.8 * (12.0 * t).sin() } else { 0.0 };
-    Pose::new(Quat::from_rotation_y(angle), Vec3::ZERO)
+    common::shake(k as f32 / 60.0 - start)
 }
 
 /// 1,024 guides × 16 on the shipped head, settled, then 2 s still, a 1 s shake
@@ -957,13 +955,8 @@ fn grooms_settled_with_volume_come_to_rest_under_a_still_head() {
         let yaw = |k: usize| if shaken { shaking(k, 0.0) } else { Pose::IDENTITY };
         let (_, collider, _, grown) = grown_on_the_shipped_head(count, seed);
         let rest = settle(grown, Some(&collider), &params, 180, Vec3::ZERO).expect("settle");
-        let mut strands = Strands::new(rest, Pose::IDENTITY);
         let steps = if shaken { 300 } else { 240 };
-        let mut asleep = 0;
-        for k in 0..steps {
-            asleep = strands.step(&step_input(k, yaw(k), yaw(k + 1), Some(&collider), &params)).sleeping as usize;
-        }
-        let fastest = strands.velocities().iter().map(|v| v.length()).fold(0.0, f32::max);
+        let (asleep, fastest) = common::asleep_after(&rest, &collider, &params, (steps, 1.0 / 60.0), yaw);
         println!(
             "{count} strands (roots seed {seed}{}): {asleep} asleep after {:.0} s, the fastest particle {fastest:.1e} m/s",
             if shaken { ", shaken" } else { "" },
@@ -1002,12 +995,7 @@ fn sparse_grooms_with_volume_come_to_rest() {
         let rest = settle(grown, Some(&collider), &params, 180, comb).expect("settle");
         for shaken in [false, true] {
             let yaw = |k: usize| if shaken { shaking(k, 0.0) } else { Pose::IDENTITY };
-            let mut strands = Strands::new(rest.clone(), Pose::IDENTITY);
-            let mut asleep = 0;
-            for k in 0..600 {
-                asleep = strands.step(&step_input(k, yaw(k), yaw(k + 1), Some(&collider), &params)).sleeping as usize;
-            }
-            let fastest = strands.velocities().iter().map(|v| v.length()).fold(0.0, f32::max);
+            let (asleep, fastest) = common::asleep_after(&rest, &collider, &params, (600, 1.0 / 60.0), yaw);
             let case = format!("{guides} guides{}", if shaken { ", shaken" } else { "" });
             println!("{case}: {asleep} asleep after 10 s, the fastest particle {fastest:.1e} m/s");
             assert_eq!(asleep, guides, "{case}: not all asleep, the fastest particle at {fastest} m/s");

@@ -115,3 +115,30 @@ pub fn step_input<'a>(
         params,
     }
 }
+
+/// The head's pose `t` seconds into a 1 s shake (yaw ±0.8 rad at 12 rad/s), still before
+/// and after it.
+pub fn shake(t: f32) -> Pose {
+    let angle = if (0.0..1.0).contains(&t) { 0.8 * (12.0 * t).sin() } else { 0.0 };
+    Pose::new(Quat::from_rotation_y(angle), Vec3::ZERO)
+}
+
+/// `rest` stepped from its rest pose with `collider` for `steps` steps of `dt` seconds,
+/// the head at `pose(k)` at the start of step `k`: the strands asleep after the last step,
+/// and the fastest particle's speed then.
+pub fn asleep_after(
+    rest: &RestShape,
+    collider: &HeadCollider,
+    params: &SimParams,
+    (steps, dt): (usize, f32),
+    pose: impl Fn(usize) -> Pose,
+) -> (usize, f32) {
+    let mut strands = Strands::new(rest.clone(), Pose::IDENTITY);
+    let mut asleep = 0;
+    for k in 0..steps {
+        let input =
+            StepInput { dt, time: k as f32 * dt, ..step_input(k, pose(k), pose(k + 1), Some(collider), params) };
+        asleep = strands.step(&input).sleeping as usize;
+    }
+    (asleep, strands.velocities().iter().map(|v| v.length()).fold(0.0, f32::max))
+}
