@@ -83,7 +83,8 @@ pub use wgpu;
 
 /// The solver's WGSL source: `layout.wgsl`, then the step shader's sections in `step/` (common
 /// declarations, wind, the head, whole segments, the final length pass, the skin, the
-/// substep, the springs, the entry points), assembled into one module.
+/// substep, the springs, the spring model's hold under a still head, the entry points), assembled into
+/// one module.
 pub const SHADER: &str = concat!(
     include_str!("layout.wgsl"),
     "\n",
@@ -102,6 +103,8 @@ pub const SHADER: &str = concat!(
     include_str!("step/substep.wgsl"),
     "\n",
     include_str!("step/springs.wgsl"),
+    "\n",
+    include_str!("step/contact_hold.wgsl"),
     "\n",
     include_str!("step/entry.wgsl"),
 );

@@ -257,6 +257,38 @@ fn the_demo_styles_come_to_rest() {
     }
 }
 
+/// The demo's "Reference" style as the plugin grows it: the spring model without shape
+/// keeping (`SimParams::reference`), 1,200 guides of 11 particles (25 cm, lengths varied by
+/// 20 %) on the scalp's vertices, uncombed, so that many hang over the ears' rims and the
+/// nape; and the same guides on Poisson-disc roots. Kept still, or shaken for 1 s, every
+/// strand is asleep after 10 s. Strands on springs hanging over a rim swung through it and
+/// back for good, each turn out of it or push off it adding energy, until the head's touch
+/// was made unable to add any (`solver/step/contact_hold.rs`).
+#[test]
+fn the_reference_style_on_springs_comes_to_rest() {
+    let (head, labels) = common::shipped_head_by_vertex();
+    let weights = hair_sim::groom::triangle_weights(&head, &labels);
+    let collider = HeadCollider::new(&head, DEFAULT_GRID_RESOLUTION).expect("the shipped head");
+    let params = SimParams::reference();
+    let grow = GuideParams { segments: 10, length: 0.25, length_variation: 0.2, ..GuideParams::default() };
+    let placements = [
+        ("on the vertices", hair_sim::groom::sample_roots_at_vertices(&head, &labels, 1200, 0.0, 1)),
+        ("Poisson-disc", hair_sim::groom::sample_roots_poisson(&head, &weights, 1200, 1)),
+    ];
+    for (placement, roots) in placements {
+        let guides = grow_guides(&head, &roots.expect("scalp"), &grow, 1).expect("roots");
+        let rest = RestShape::new(guides, grow.segments + 1).expect("guides");
+        let rest = settle(rest, Some(&collider), &params, 180, Vec3::ZERO).expect("settle");
+        for shaken in [false, true] {
+            let pose = |k: usize| if shaken { common::shake(k as f32 * DT) } else { Pose::IDENTITY };
+            let (asleep, fastest) = common::asleep_after(&rest, &collider, &params, (600, DT), pose);
+            let case = format!("roots {placement}, {}", if shaken { "shaken" } else { "still" });
+            println!("{case}: {asleep} of 1200 strands asleep after 10 s, the fastest particle at {fastest:.1e} m/s");
+            assert!(asleep == 1200 && fastest == 0.0, "{case}: {asleep} asleep, the fastest at {fastest} m/s");
+        }
+    }
+}
+
 /// One strand of `n` particles, 25 cm, from the origin along +X (horizontal).
 fn horizontal(n: usize) -> RestShape {
     let positions = (0..n).map(|j| Vec3::new(0.25 * j as f32 / (n - 1) as f32, 0.0, 0.0)).collect();

@@ -180,6 +180,9 @@ fn watch(first: u32, n: u32) {
 // did goes into the strand's report.
 fn end_substep(strand: u32, first: u32, n: u32, k: u32) {
     if k == step.counts.z {
+        if contact_hold_applies() {
+            hold_where_touches_gained(first, n, tally.segment_turns > 0.0);
+        }
         if step.volume.y == 1u {
             take_back_grid_push(first, n);
         }

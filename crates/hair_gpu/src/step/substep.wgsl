@@ -33,6 +33,13 @@ fn move_strand(strand: u32, first: u32, n: u32, k: u32) {
     //    follows the head.
     let wind = wind_at(step.flags.w + strand, time);
     let integrate = step.spring_flags.x == 0u;
+    // The spring model's hold where the head touches it compares with the step's start
+    // (`contact_hold.wgsl`).
+    let hold = k == 1u && contact_hold_applies();
+    var start_energy = 0.0;
+    if hold {
+        start_energy = motion_and_stretch(first, n);
+    }
     for (var j = 0u; j < n; j++) {
         let i = particle_slot(first, j);
         let x = positions[i].xyz;
@@ -45,6 +52,9 @@ fn move_strand(strand: u32, first: u32, n: u32, k: u32) {
             let v = velocity(i) * step.motion.x + acceleration(i, wind) * h;
             positions[i] = vec4<f32>(x + clamp_length_max(v * h, step.motion.y), 0.0);
         }
+    }
+    if hold {
+        keep_start_energy(first, start_energy);
     }
     positions[first] = vec4<f32>(world_point(now, rest_position(first)), 0.0);
     // The integrator's step: the particles end at `base + step_length · velocity`.

@@ -9,11 +9,17 @@ use proptest::prelude::*;
 /// The shipped head as its converter reads `assets/head.glb`, and the weights per triangle
 /// of its painted scalp (for `sample_roots`).
 pub fn shipped_head() -> (HeadMesh, Vec<f32>) {
-    let asset = head_asset::read_committed().expect("assets/head.glb is committed and parses");
-    let head = asset.head_mesh();
-    let labels: Vec<f32> = asset.scalp_vertices().iter().map(|&s| f32::from(u8::from(s))).collect();
+    let (head, labels) = shipped_head_by_vertex();
     let weights = hair_sim::groom::triangle_weights(&head, &labels);
     (head, weights)
+}
+
+/// The shipped head, and 1 on each vertex of its painted scalp, 0 elsewhere (for
+/// `sample_roots_at_vertices`).
+pub fn shipped_head_by_vertex() -> (HeadMesh, Vec<f32>) {
+    let asset = head_asset::read_committed().expect("assets/head.glb is committed and parses");
+    let labels = asset.scalp_vertices().iter().map(|&s| f32::from(u8::from(s))).collect();
+    (asset.head_mesh(), labels)
 }
 
 /// A groom on the procedural head, with the collider it was grown against.

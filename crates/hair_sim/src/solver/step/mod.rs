@@ -22,6 +22,7 @@
 //! [`contacts`], [`final_length`] and [`segments`], each naming its GPU twin in
 //! `hair_gpu`'s `step/` (this driver's: `substep.wgsl` and `entry.wgsl`).
 
+mod contact_hold;
 mod contacts;
 mod final_length;
 mod segments;
@@ -282,6 +283,9 @@ struct GroupState<S: Simd> {
     root_frames: [Quat; MAX_LANES],
     /// Wind seeds: the strands' indices in the whole groom.
     seeds: [u32; MAX_LANES],
+    /// The lanes a segment turn moved in the step ([`keep_segments_outside`]): with the
+    /// last substep's contacts (`moved`), where the head touched the strand.
+    turned_lanes: u64,
 }
 
 impl<S: Simd> GroupState<S> {
@@ -337,6 +341,7 @@ impl<S: Simd> GroupState<S> {
             lengths: vec![Wide::zero(); n],
             root_frames: [Quat::IDENTITY; MAX_LANES],
             seeds: [0; MAX_LANES],
+            turned_lanes: 0,
         }
     }
 
@@ -610,6 +615,11 @@ fn step_group<S: Simd>(
     report: &mut StepReport,
 ) {
     g.step_start.copy_from_slice(&g.positions);
+    // The spring model's hold where the head touches it ([`contact_hold`]) compares with
+    // the step's start.
+    let start_energy =
+        contact_hold::applies(input).then(|| contact_hold::motion_and_stretch(g, c, input.params.particle_mass));
+    g.turned_lanes = 0;
     for s in 1..c.shared.poses.len() {
         let poses = SubstepPoses {
             step_start: &c.matrices[0],
@@ -623,6 +633,9 @@ fn step_group<S: Simd>(
         };
         let time = input.time + c.shared.h * s as f32;
         substep(g, state, c, time, &poses, input, report);
+    }
+    if let Some(start) = start_energy {
+        contact_hold::hold_where_touches_gained(g, c, input, start);
     }
 }
 

@@ -92,6 +92,7 @@ pub(super) fn keep_segments_outside<S: Simd>(
             g.collided[j].set_lane(l, turned);
             report.segment_turns += 1;
             turned_lanes |= 1 << l;
+            g.turned_lanes |= 1 << l;
             place_outside(g, state, p, poses, input, report, l, j, true);
             // Placing the particle on the shell turns the segment once more, which can take
             // it back through (a fold of the surface): there, the turned segment stands (its
