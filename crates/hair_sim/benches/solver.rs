@@ -109,6 +109,19 @@ fn strand_step(c: &mut Criterion) {
             })
         });
     }
+    // The spring model under a still head, kept awake (no sleep): every step weighs the
+    // strands the head touched for the energy it may not add (`contact_hold`).
+    let springs = SimParams { length_mode: LengthMode::Springs, sleep_distance: 0.0, ..SimParams::default() };
+    let mut strands = Strands::new(rest.clone(), head_pose(0));
+    let mut frame = 0u64;
+    group.bench_function("springs, still head, awake", |b| {
+        b.iter(|| {
+            let input =
+                StepInput { time: frame as f32 * DT, head_to: head_pose(0), ..input_at(0, &collider, &springs) };
+            frame += 1;
+            strands.step(black_box(&input))
+        })
+    });
     group.finish();
 }
 
