@@ -83,8 +83,8 @@ pub use wgpu;
 
 /// The solver's WGSL source: `layout.wgsl`, then the step shader's sections in `step/` (common
 /// declarations, wind, the head, whole segments, the final length pass, the skin, the
-/// substep, the springs, the spring model's hold under a still head, the entry points), assembled into
-/// one module.
+/// substep, the springs, the spring model's hold under a still head, the entry points),
+/// assembled into one module.
 pub const SHADER: &str = concat!(
     include_str!("layout.wgsl"),
     "\n",

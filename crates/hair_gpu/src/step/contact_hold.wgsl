@@ -1,17 +1,18 @@
 // --- Static friction for the spring model under a still head: hair_sim's `contact_hold` ---
 //
-// Under a still head without wind, a strand that the head touched in the step (a segment
-// turn, or a contact in the last substep) and that it left with more energy than it
-// started with is put back where it lay, motionless, with the spring model's memory
-// started over there. The energy at the step's start is kept in the root's slot of the
-// step-start plane, in w.
+// In a still step under the extra colliders and settings of the step before, a strand
+// that the head touched in the step (a segment turn, or a contact in the last substep)
+// and that it left with more energy than it started with is put back where it lay,
+// motionless, with the spring model's memory started over there. The energy at the
+// step's start is kept in the root's slot of the step-start plane, in w.
 
-// Whether the step is one where only the head's touch can feed a strand energy (hair_sim's
-// `contact_hold::applies`): the spring model, collision with a head that keeps its pose,
-// no wind.
-fn contact_hold_applies() -> bool {
-    return step.spring_flags.x == 1u && step.flags.x == 1u && step.grid_dims.w == 1u && step.spring_flags.w == 1u
-        && step.wind.w == 0.0;
+// Whether the step may hold the strand whose root is in slot `first` (hair_sim's
+// `contact_hold::applies` and `lanes_under`): the spring model, collision with the head,
+// a step that may keep strands asleep (still, under the settings of the step before), and
+// a strand whose sleep watch runs (not started over at rest). Asked before `watch`.
+fn contact_hold_applies(first: u32) -> bool {
+    return step.spring_flags.x == 1u && step.flags.x == 1u && step.grid_dims.w == 1u && step.sleep.z == 1.0
+        && watching(first);
 }
 
 // The strand's energy per unit mass in its motion and its springs' stretch (hair_sim's

@@ -180,7 +180,7 @@ fn watch(first: u32, n: u32) {
 // did goes into the strand's report.
 fn end_substep(strand: u32, first: u32, n: u32, k: u32) {
     if k == step.counts.z {
-        if contact_hold_applies() {
+        if contact_hold_applies(first) {
             hold_where_touches_gained(first, n, tally.segment_turns > 0.0);
         }
         if step.volume.y == 1u {

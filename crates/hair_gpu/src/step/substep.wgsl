@@ -35,7 +35,7 @@ fn move_strand(strand: u32, first: u32, n: u32, k: u32) {
     let integrate = step.spring_flags.x == 0u;
     // The spring model's hold where the head touches it compares with the step's start
     // (`contact_hold.wgsl`).
-    let hold = k == 1u && contact_hold_applies();
+    let hold = k == 1u && contact_hold_applies(first);
     var start_energy = 0.0;
     if hold {
         start_energy = motion_and_stretch(first, n);

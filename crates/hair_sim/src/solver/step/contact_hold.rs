@@ -9,29 +9,34 @@
 //! springs spend that lift as speed. Follow-The-Leader's brake takes it out again. The
 //! spring model has no brake: a strand hanging over an ear or the nape swung through the
 //! rim and back for good, each turn or push adding more than the springs' damping took
-//! out in between. Under a still head without wind nothing else feeds a strand energy, so
-//! a step that the head touched the strand in (a segment turn, or a contact in the last
-//! substep) and that left it with more energy than it started with is undone: the strand
+//! out in between. In a still step (the head keeps its pose, no wind, no skin moving
+//! against the head) under the extra colliders and settings of the step before, nothing
+//! else feeds a strand energy, so a step that the head touched the strand in (a segment
+//! turn, or a contact in the last substep) and that left it with more energy than it
+//! started with is undone: the strand
 //! goes back to where it began, motionless, with the spring model's memory started over
 //! there (BDF2 would throw it on with the speed it remembers). It rests where the head
 //! holds it, as static friction would hold it, and falls asleep.
 
 use super::{Constants, GroupState};
 use crate::math::Vec3;
-use crate::solver::StepInput;
 use crate::solver::lanes::{Simd, V3, Wide};
 use crate::solver::params::LengthMode;
-use crate::solver::wind::is_calm;
+use crate::solver::{ChunkState, StepInput, Stillness};
 
-/// Whether the step is one where only the head's touch can feed a strand energy: the
-/// spring model, collision with a head that keeps its pose through the step, no wind.
-pub(super) fn applies(input: &StepInput) -> bool {
+/// Whether the step (of `stillness`) may hold strands: the spring model, collision with
+/// the head, and a still step ([`Stillness::still`]).
+pub(super) fn applies(input: &StepInput, stillness: Stillness) -> bool {
     let p = input.params;
-    p.length_mode == LengthMode::Springs
-        && p.collision
-        && input.collider.is_some()
-        && input.head_from == input.head_to
-        && is_calm(&p.wind)
+    p.length_mode == LengthMode::Springs && p.collision && input.collider.is_some() && stillness.still
+}
+
+/// The lanes whose strands the step of stillness `key` may hold: those stepped under the
+/// same extra colliders and settings before, as their sleep watch says (a moved collider
+/// feeds energy too), which a strand started over at rest has not.
+#[inline(always)]
+pub(super) fn lanes_under<S: Simd>(g: &GroupState<S>, state: &ChunkState, key: u64) -> u64 {
+    (0..g.lanes).filter(|&l| state.sleep[g.strands[l]].key == key).fold(0, |lanes, l| lanes | 1 << l)
 }
 
 /// Each lane's energy per unit mass in its motion and its springs' stretch: at the step's
@@ -50,18 +55,19 @@ pub(super) fn motion_and_stretch<S: Simd>(g: &GroupState<S>, c: &Constants<S>, p
     energy
 }
 
-/// Puts the strands that the head touched in the step and that it left with more energy
-/// than they started with (`start`, [`motion_and_stretch`] then) back where they lay at
-/// the step's start, motionless, with the spring model's memory started over there.
+/// Puts the strands of `lanes` that the head touched in the step and that it left with more
+/// energy than they started with (`start`, [`motion_and_stretch`] then) back where they
+/// lay at the step's start, motionless, with the spring model's memory started over there.
 #[inline(always)]
 pub(super) fn hold_where_touches_gained<S: Simd>(
     g: &mut GroupState<S>,
     c: &Constants<S>,
     input: &StepInput,
+    lanes: u64,
     start: Wide<S>,
 ) {
     let n = g.positions.len();
-    let touched = g.moved[1..].iter().fold(g.turned_lanes, |lanes, &moved| lanes | moved);
+    let touched = g.moved[1..].iter().fold(g.turned_lanes, |touched, &moved| touched | moved) & lanes;
     if touched == 0 {
         return;
     }

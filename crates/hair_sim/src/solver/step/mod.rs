@@ -535,6 +535,7 @@ fn step_chunk_on<S: Simd>(
     let mut pushes = vec![GridPush::default(); if volume.is_some() { MAX_LANES * n } else { 0 }];
 
     let stillness = Stillness::of(input);
+    let hold = contact_hold::applies(input, stillness).then_some(stillness.key);
 
     // Chunk-local indices of the strands gathered for the next group.
     let mut group = [0usize; MAX_LANES];
@@ -571,7 +572,7 @@ fn step_chunk_on<S: Simd>(
             if to_springs {
                 group_state.load_grid(&for_springs[..lanes * n]);
             }
-            step_group(&mut group_state, state, &c, input, &mut report);
+            step_group(&mut group_state, state, &c, input, hold, &mut report);
             group_state.store(state, history);
             for (l, &k) in group[..lanes].iter().enumerate() {
                 let (xs, vs) = (&state.positions[k * n..][..n], &mut state.velocities[k * n..][..n]);
@@ -612,13 +613,14 @@ fn step_group<S: Simd>(
     state: &mut ChunkState,
     c: &Constants<S>,
     input: &StepInput,
+    hold: Option<u64>,
     report: &mut StepReport,
 ) {
     g.step_start.copy_from_slice(&g.positions);
     // The spring model's hold where the head touches it ([`contact_hold`]) compares with
     // the step's start.
-    let start_energy =
-        contact_hold::applies(input).then(|| contact_hold::motion_and_stretch(g, c, input.params.particle_mass));
+    let held = hold.map(|key| contact_hold::lanes_under(g, state, key)).filter(|&lanes| lanes != 0);
+    let start_energy = held.map(|lanes| (lanes, contact_hold::motion_and_stretch(g, c, input.params.particle_mass)));
     g.turned_lanes = 0;
     for s in 1..c.shared.poses.len() {
         let poses = SubstepPoses {
@@ -634,8 +636,8 @@ fn step_group<S: Simd>(
         let time = input.time + c.shared.h * s as f32;
         substep(g, state, c, time, &poses, input, report);
     }
-    if let Some(start) = start_energy {
-        contact_hold::hold_where_touches_gained(g, c, input, start);
+    if let Some((lanes, start)) = start_energy {
+        contact_hold::hold_where_touches_gained(g, c, input, lanes, start);
     }
 }
 
