@@ -551,12 +551,8 @@ fn shipped_head() -> (HeadMesh, Vec<f32>, HeadCollider) {
 #[test]
 fn strands_on_springs_rest_where_the_head_holds_them_as_on_the_cpu() {
     let Some(gpu) = gpu() else { return };
-    let (head, labels, collider) = shipped_head();
+    let (collider, rest) = reference_style(true);
     let params = SimParams::reference();
-    let roots = hair_sim::groom::sample_roots_at_vertices(&head, &labels, 1200, 0.0, 1).expect("scalp");
-    let grow = GuideParams { segments: 10, length: 0.25, length_variation: 0.2, ..GuideParams::default() };
-    let rest = RestShape::new(grow_guides(&head, &roots, &grow, 1).expect("roots"), 11).expect("guides");
-    let rest = settle(rest, Some(&collider), &params, 180, Vec3::ZERO).expect("settle");
     let pose = |_| Pose::new(Quat::IDENTITY, Vec3::new(0.0, 1.6, 0.0));
     let mut cpu = Strands::new(rest.clone(), pose(0.0));
     let mut on_gpu = GpuStrands::new(&gpu, &rest, pose(0.0), Some(&collider)).expect("GPU strands");
@@ -587,6 +583,50 @@ fn strands_on_springs_rest_where_the_head_holds_them_as_on_the_cpu() {
     );
     assert_eq!((cpu_report.sleeping, gpu_report.sleeping), (1200, 1200), "asleep on the CPU and the GPU");
     assert!(parted <= 120 && mean < 2e-4, "{parted} strands more than 1 mm apart, {mean} m on average");
+}
+
+/// The demo's "Reference" style on the shipped head (hair_sim's `rest.rs` grows the same):
+/// 1,200 guides of 11 particles, 25 cm, lengths varied by 20 %, uncombed, its roots on the
+/// scalp's vertices or Poisson-disc roots, settled under `SimParams::reference`; with the
+/// head's collider.
+fn reference_style(on_vertices: bool) -> (HeadCollider, RestShape) {
+    let (head, labels, collider) = shipped_head();
+    let roots = if on_vertices {
+        hair_sim::groom::sample_roots_at_vertices(&head, &labels, 1200, 0.0, 1)
+    } else {
+        hair_sim::groom::sample_roots_poisson(&head, &hair_sim::groom::triangle_weights(&head, &labels), 1200, 1)
+    };
+    let grow = GuideParams { segments: 10, length: 0.25, length_variation: 0.2, ..GuideParams::default() };
+    let rest =
+        RestShape::new(grow_guides(&head, &roots.expect("scalp"), &grow, 1).expect("roots"), 11).expect("guides");
+    let rest = settle(rest, Some(&collider), &SimParams::reference(), 180, Vec3::ZERO).expect("settle");
+    (collider, rest)
+}
+
+/// hair_sim's `a_ball_swept_through_hair_on_springs_under_a_still_head_leaves_none_inside`
+/// on the GPU: a ball (4 cm) swept at 0.25 m/s across the back of the still head through
+/// the Reference style's hair feeds the strands energy, so the hold, whose step is the one
+/// that may keep strands asleep, leaves them alone, and no particle is ever inside the
+/// ball. Held, strands went back inside it.
+#[test]
+fn a_ball_swept_through_hair_on_springs_leaves_none_inside_as_on_the_cpu() {
+    let Some(gpu) = gpu() else { return };
+    let (collider, rest) = reference_style(false);
+    let params = SimParams::reference();
+    let head = Vec3::new(0.0, 1.6, 0.0);
+    let pose = |_| Pose::from_translation(head);
+    let mut on_gpu = GpuStrands::new(&gpu, &rest, pose(0.0), Some(&collider)).expect("GPU strands");
+    let radius = 0.04;
+    let mut deepest = 0.0f32;
+    for k in 0..120 {
+        let centre = head + Vec3::new(-0.25 + 0.25 * (k as f32 * DT).min(2.0), 0.05, -0.09);
+        let ball = [ExtraCollider::Sphere { center: centre, radius }];
+        on_gpu.step(&StepInput { extra_colliders: &ball, ..input_at(k, pose, &collider, &params) }).expect("GPU step");
+        let positions = on_gpu.positions().expect("read back");
+        deepest = positions.iter().map(|x| radius - x.distance(centre)).fold(deepest, f32::max);
+    }
+    eprintln!("deepest inside the ball on the GPU: {:.2} mm", deepest * 1e3);
+    assert!(deepest <= 1e-4, "{deepest} m inside the ball");
 }
 
 /// A particle placed as far out as an `f32` reaches (finite, so `set_positions` takes it)
