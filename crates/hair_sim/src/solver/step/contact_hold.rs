@@ -13,10 +13,10 @@
 //! against the head) under the extra colliders and settings of the step before, nothing
 //! else feeds a strand energy, so a step that the head touched the strand in (a segment
 //! turn, or a contact in the last substep) and that left it with more energy than it
-//! started with is undone: the strand
-//! goes back to where it began, motionless, with the spring model's memory started over
-//! there (BDF2 would throw it on with the speed it remembers). It rests where the head
-//! holds it, as static friction would hold it, and falls asleep.
+//! started with is undone: the strand goes back to where it began, motionless, with the
+//! spring model's memory started over there (BDF2 would throw it on with the speed it
+//! remembers). It rests where the head holds it, as static friction would hold it, and
+//! falls asleep: the same step comes again, and is undone again.
 
 use super::{Constants, GroupState};
 use crate::math::Vec3;

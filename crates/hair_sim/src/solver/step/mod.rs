@@ -11,7 +11,9 @@
 //!    ([`ftl_brake`]).
 //!
 //! With volume on, the grid's feedback reaches each strand before its substeps, and after
-//! them what the grid's push left of speed along itself is taken back ([`GridPush`]).
+//! them what the grid's push left of speed along itself is taken back ([`GridPush`]). In
+//! the spring model, a still step that the head's touch left a strand with more energy
+//! than it started with is undone ([`contact_hold`]).
 //!
 //! Strands go through this 16, 32 or 64 at a time (by the SIMD path), side by side in
 //! SIMD lanes ([`lanes`](super::lanes)); collision, whose path differs per particle, takes
@@ -19,8 +21,8 @@
 //! the rest pose instead; a strand that somehow produced a non-finite value is reset too.
 //!
 //! The stages live beside this driver, one file each: [`springs`], [`shape`],
-//! [`contacts`], [`final_length`] and [`segments`], each naming its GPU twin in
-//! `hair_gpu`'s `step/` (this driver's: `substep.wgsl` and `entry.wgsl`).
+//! [`contacts`], [`final_length`], [`segments`] and [`contact_hold`], each naming its GPU
+//! twin in `hair_gpu`'s `step/` (this driver's: `substep.wgsl` and `entry.wgsl`).
 
 mod contact_hold;
 mod contacts;
@@ -283,8 +285,9 @@ struct GroupState<S: Simd> {
     root_frames: [Quat; MAX_LANES],
     /// Wind seeds: the strands' indices in the whole groom.
     seeds: [u32; MAX_LANES],
-    /// The lanes a segment turn moved in the step ([`keep_segments_outside`]): with the
-    /// last substep's contacts (`moved`), where the head touched the strand.
+    /// The lanes a segment turn moved in the step ([`keep_segments_outside`], whose
+    /// particles from the turn on have an unknown clearance): with the last substep's
+    /// contacts (`moved`), where the head touched the strand ([`contact_hold`]).
     turned_lanes: u64,
 }
 

@@ -40,8 +40,9 @@ pub(super) fn keep_segments_outside<S: Simd>(
     let head_still = input.head_from == input.head_to;
     let n = g.positions.len();
     let real_lanes = g.real_lanes();
-    // Lanes whose particles from here on were moved by a turn: their clearance is unknown.
-    let mut turned_lanes = 0u64;
+    // Lanes whose particles from here on were moved by a turn: their clearance is unknown
+    // (none yet: this pass runs once a step, on its last substep).
+    debug_assert_eq!(g.turned_lanes, 0, "a step's first turns");
     // What collision knew, less how far the final pass moved each particle since.
     for j in 1..n {
         g.clearance[j] = (g.clearance[j] - (g.positions[j] - g.collided[j]).length()).max(Wide::zero());
@@ -51,7 +52,7 @@ pub(super) fn keep_segments_outside<S: Simd>(
         (V3::splat(cells.origin), Wide::splat(cells.inverse_cell), V3::splat(cells.last));
     for j in 2..n {
         let length = (g.positions[j] - g.positions[j - 1]).length();
-        let turned = Mask::from_bits(turned_lanes);
+        let turned = Mask::from_bits(g.turned_lanes);
         let clear_parent = Wide::select(turned, Wide::zero(), g.clearance[j - 1]);
         let clear_child = Wide::select(turned, Wide::zero(), g.clearance[j]);
         // Every point of the segment is within `length` of an end together.
@@ -91,7 +92,6 @@ pub(super) fn keep_segments_outside<S: Simd>(
             }
             g.collided[j].set_lane(l, turned);
             report.segment_turns += 1;
-            turned_lanes |= 1 << l;
             g.turned_lanes |= 1 << l;
             place_outside(g, state, p, poses, input, report, l, j, true);
             // Placing the particle on the shell turns the segment once more, which can take
