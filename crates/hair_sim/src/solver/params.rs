@@ -23,7 +23,10 @@ pub enum LengthMode {
     /// rest length. Integrated implicitly (BDF2), so any stiffness is stable: a hanging
     /// strand stretches by its weight over `k_s`, and a spring swings with the period
     /// `2π √(m / k_s)` while a substep resolves it (within 2.3 % at 20 substeps per
-    /// period); faster modes are damped rather than resolved.
+    /// period); faster modes are damped rather than resolved. In a still step (the head,
+    /// the wind, the skin and the extra colliders as they were), a strand that the head's
+    /// touch would leave with more energy than it had stays where it lay, as static
+    /// friction holds hair on an ear's rim: contacts do not keep it swinging.
     Springs,
 }
 
