@@ -85,7 +85,8 @@ struct Step {
 @group(0) @binding(2) var<storage, read_write> positions: array<vec4<f32>>;
 // `PLANES` planes: velocity, position at the substep's start, FTL correction, position
 // before collision, sleep anchor (the last two's root slots hold the strand's sleep watch),
-// position at the step's start, and the hair–hair grid's answer (`volume.wgsl` writes
+// position at the step's start (its root slot's w: the strand's energy then, for
+// `contact_hold.wgsl`), and the hair–hair grid's answer (`volume.wgsl` writes
 // them): for the spring model, the mean velocity around the particle with the friction's
 // rate in w; the velocity change of the density push and the pressure, with the
 // particle's velocity before it, dotted with it (0 where coming in), in w. Then per
