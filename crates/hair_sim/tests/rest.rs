@@ -6,12 +6,13 @@ mod common;
 
 use common::step_input;
 use hair_sim::prelude::*;
+use std::sync::OnceLock;
 
 const DT: f32 = 1.0 / 60.0;
 
 /// How a test groom grows: 25 cm guides, combed by `comb`.
 #[derive(Clone, Copy)]
-enum Recipe {
+enum Recipe<'a> {
     /// 16 particles, roots sampled uniformly with this seed (7 unless a test asks for more).
     Test(u64),
     /// As the plugin grows its default `HairGroom`: 11 particles, lengths varied by 20 %,
@@ -20,6 +21,9 @@ enum Recipe {
     /// As the plugin grows a `HairGroom` of these guides (roots spaced by Poisson-disc
     /// sampling, seed 1), settled for this many steps.
     Style(GuideParams, usize),
+    /// The same with a root on each vertex these labels (1 per vertex of the scalp) mark,
+    /// as `RootDistribution::Vertices` without jitter places them.
+    StyleOnVertices(GuideParams, usize, &'a [f32]),
 }
 
 /// `strands` guides grown by `recipe` on the scalp `weights` of `head`, combed by `comb`
@@ -29,7 +33,7 @@ fn settled_groom(
     head: &HeadMesh,
     weights: &[f32],
     strands: usize,
-    recipe: Recipe,
+    recipe: Recipe<'_>,
     comb: Vec3,
     params: &SimParams,
 ) -> (HeadCollider, RestShape) {
@@ -46,6 +50,10 @@ fn settled_groom(
             (poisson(), grow, 1, 180)
         }
         Recipe::Style(grow, settle_steps) => (poisson(), GuideParams { comb, ..grow }, 1, settle_steps),
+        Recipe::StyleOnVertices(grow, settle_steps, labels) => {
+            let roots = hair_sim::groom::sample_roots_at_vertices(head, labels, strands, 0.0, 1);
+            (roots, GuideParams { comb, ..grow }, 1, settle_steps)
+        }
     };
     let guides = grow_guides(head, &roots.expect("scalp"), &grow, seed).expect("roots");
     let rest = RestShape::new(guides, grow.segments + 1).expect("guides");
@@ -281,20 +289,17 @@ fn the_reference_style_on_springs_comes_to_rest() {
 
 /// The demo's "Reference" style on the shipped head (1,200 guides of 11 particles, 25 cm,
 /// lengths varied by 20 %, uncombed), its roots on the scalp's vertices or Poisson-disc
-/// roots, settled under `SimParams::reference`, with the head's collider.
-fn reference_style(on_vertices: bool) -> (HeadCollider, RestShape) {
-    let (head, labels) = common::shipped_head_by_vertex();
-    let collider = HeadCollider::new(&head, DEFAULT_GRID_RESOLUTION).expect("the shipped head");
-    let roots = if on_vertices {
-        hair_sim::groom::sample_roots_at_vertices(&head, &labels, 1200, 0.0, 1)
-    } else {
-        hair_sim::groom::sample_roots_poisson(&head, &hair_sim::groom::triangle_weights(&head, &labels), 1200, 1)
-    };
-    let grow = GuideParams { segments: 10, length: 0.25, length_variation: 0.2, ..GuideParams::default() };
-    let guides = grow_guides(&head, &roots.expect("scalp"), &grow, 1).expect("roots");
-    let rest = RestShape::new(guides, grow.segments + 1).expect("guides");
-    let rest = settle(rest, Some(&collider), &SimParams::reference(), 180, Vec3::ZERO).expect("settle");
-    (collider, rest)
+/// roots, settled under `SimParams::reference`, with the head's collider: grown once for
+/// the tests that share it.
+fn reference_style(on_vertices: bool) -> &'static (HeadCollider, RestShape) {
+    static GROOMS: [OnceLock<(HeadCollider, RestShape)>; 2] = [const { OnceLock::new() }; 2];
+    GROOMS[usize::from(on_vertices)].get_or_init(|| {
+        let (head, labels) = common::shipped_head_by_vertex();
+        let weights = hair_sim::groom::triangle_weights(&head, &labels);
+        let grow = GuideParams { segments: 10, length: 0.25, length_variation: 0.2, ..GuideParams::default() };
+        let recipe = if on_vertices { Recipe::StyleOnVertices(grow, 180, &labels) } else { Recipe::Style(grow, 180) };
+        settled_groom(&head, &weights, 1200, recipe, Vec3::ZERO, &SimParams::reference())
+    })
 }
 
 /// The hold that rests strands on springs where the head touches them
@@ -307,7 +312,7 @@ fn reference_style(on_vertices: bool) -> (HeadCollider, RestShape) {
 fn a_ball_swept_through_hair_on_springs_under_a_still_head_leaves_none_inside() {
     let params = SimParams::reference();
     let (collider, rest) = reference_style(false);
-    let mut strands = Strands::new(rest, Pose::IDENTITY);
+    let mut strands = Strands::new(rest.clone(), Pose::IDENTITY);
     let radius = 0.04;
     let (mut deepest, mut steps_inside) = (0.0f32, 0);
     for k in 0..120 {
@@ -333,7 +338,7 @@ fn hair_on_springs_blows_in_the_wind_under_a_still_head() {
     params.wind = Wind { direction: [1.0, 0.0, 0.0], strength: 2.0, gust_strength: 0.5, gust_frequency: 1.0 };
     let (collider, rest) = reference_style(false);
     let n = rest.particles_per_strand;
-    let mut strands = Strands::new(rest, Pose::IDENTITY);
+    let mut strands = Strands::new(rest.clone(), Pose::IDENTITY);
     let (mut last, mut moving) = (strands.positions().to_vec(), 0);
     for k in 0..300 {
         strands.step(&step_input(k, Pose::IDENTITY, Pose::IDENTITY, Some(&collider), &params));
