@@ -279,7 +279,7 @@ fn the_reference_style_on_springs_comes_to_rest() {
         let (collider, rest) = reference_style(on_vertices);
         for shaken in [false, true] {
             let pose = |k: usize| if shaken { common::shake(k as f32 * DT) } else { Pose::IDENTITY };
-            let (asleep, fastest) = common::asleep_after(&rest, &collider, &params, (600, DT), pose);
+            let (asleep, fastest) = common::asleep_after(rest, collider, &params, (600, DT), pose);
             let case = format!("roots {placement}, {}", if shaken { "shaken" } else { "still" });
             println!("{case}: {asleep} of 1200 strands asleep after 10 s, the fastest particle at {fastest:.1e} m/s");
             assert!(asleep == 1200 && fastest == 0.0, "{case}: {asleep} asleep, the fastest at {fastest} m/s");
