@@ -319,7 +319,7 @@ fn a_ball_swept_through_hair_on_springs_under_a_still_head_leaves_none_inside() 
         let t = k as f32 * DT;
         let centre = Vec3::new(-0.25 + 0.25 * t.min(2.0), 0.05, -0.09);
         let ball = [ExtraCollider::Sphere { center: centre, radius }];
-        let still = step_input(k, Pose::IDENTITY, Pose::IDENTITY, Some(&collider), &params);
+        let still = step_input(k, Pose::IDENTITY, Pose::IDENTITY, Some(collider), &params);
         strands.step(&StepInput { extra_colliders: &ball, ..still });
         let depth = strands.positions().iter().map(|x| radius - x.distance(centre)).fold(f32::MIN, f32::max);
         deepest = deepest.max(depth);
@@ -341,7 +341,7 @@ fn hair_on_springs_blows_in_the_wind_under_a_still_head() {
     let mut strands = Strands::new(rest.clone(), Pose::IDENTITY);
     let (mut last, mut moving) = (strands.positions().to_vec(), 0);
     for k in 0..300 {
-        strands.step(&step_input(k, Pose::IDENTITY, Pose::IDENTITY, Some(&collider), &params));
+        strands.step(&step_input(k, Pose::IDENTITY, Pose::IDENTITY, Some(collider), &params));
         if k >= 240 {
             let strand_moved = |(a, b): (&[Vec3], &[Vec3])| a.iter().zip(b).any(|(x, y)| x.distance(*y) > 1e-5);
             moving += strands.positions().chunks(n).zip(last.chunks(n)).filter(|&pair| strand_moved(pair)).count();
