@@ -646,7 +646,7 @@ impl GpuStrands {
         // What the next step may remember: this one's spring memory, or none.
         self.springs_remembered = springs;
         if p.volume.enabled {
-            self.record_volume(&p.volume, constants.poses[0], constants.dt, springs);
+            self.record_volume(&p.volume, constants.poses[0], (constants.dt, substeps), springs);
         }
         let recorder = recording(&mut self.recorder);
         recorder.upload(&self.uniform, bytemuck::bytes_of(&uniform));
@@ -685,13 +685,14 @@ impl GpuStrands {
         Ok(())
     }
 
-    /// Records the volume's effect on a step of `dt` ([`GpuVolume`]), the head at `pose` at
-    /// its start, making the grid first where there is none at `volume`'s resolution.
-    fn record_volume(&mut self, volume: &hair_sim::solver::Volume, pose: Pose, dt: f32, springs: bool) {
+    /// Records the volume's effect on a step of `dt` in `substeps` substeps ([`GpuVolume`]),
+    /// the head at `pose` at its start, making the grid first where there is none at
+    /// `volume`'s resolution.
+    fn record_volume(&mut self, volume: &hair_sim::solver::Volume, pose: Pose, steps: (f32, u32), springs: bool) {
         self.make_volume(volume.resolution);
         let grid = self.volume.as_ref().expect("made above");
         let counts = (self.strands, self.particles_per_strand, self.slots.count() as u32);
-        grid.record(&self.volume_passes, recording(&mut self.recorder), volume, pose, dt, springs, counts);
+        grid.record(&self.volume_passes, recording(&mut self.recorder), volume, pose, steps, springs, counts);
     }
 
     /// Makes the hair–hair grid at `resolution` where there is none at it.

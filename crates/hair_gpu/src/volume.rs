@@ -171,7 +171,8 @@ impl GpuVolume {
         }
     }
 
-    /// Records the volume's effect on one step of `dt` seconds under `volume`'s settings,
+    /// Records the volume's effect on one step of `dt` seconds in `substeps` substeps under
+    /// `volume`'s settings,
     /// the head at `pose` at the step's start, for `strands` strands of `n` particles in
     /// `slots` slots; with `implicit`, the friction is left for the spring model's solve
     /// (as [`hair_sim::solver::Feedback::rates`] says).
@@ -182,12 +183,12 @@ impl GpuVolume {
         recorder: &mut Recorder,
         volume: &hair_sim::solver::Volume,
         pose: Pose,
-        dt: f32,
+        (dt, substeps): (f32, u32),
         implicit: bool,
         (strands, n, slots): (u32, u32, u32),
     ) {
         let mode = if implicit { LengthMode::Springs } else { LengthMode::Inextensible };
-        let feedback = Feedback::new(&self.grid, volume, mode, n as usize, dt);
+        let feedback = Feedback::new(&self.grid, volume, mode, n as usize, (dt, substeps));
         let cells = self.grid.rest_mass().len() as u32;
         let [dx, dy, dz] = self.grid.dims();
         let columns = |m: glam::Mat3| [m.x_axis, m.y_axis, m.z_axis].map(|c| [c.x, c.y, c.z, 0.0]);
@@ -203,7 +204,7 @@ impl GpuVolume {
             rotation: columns(rotation),
             feedback: [feedback.push, self.grid.rest_scale(), volume.pressure, self.grid.cell() * self.grid.cell()],
             solve: [1.0 / dt.max(1e-6), f32::from(u8::from(implicit)), dt, feedback.catch_up],
-            overflow: [feedback.backlog_kept, self.grid.floor(), 0.0, 0.0],
+            overflow: [feedback.backlog_kept, self.grid.floor(), feedback.push_scale, 0.0],
         };
         recorder.upload(&self.uniform, bytemuck::bytes_of(&uniform));
         let friction = if implicit { &feedback.rates } else { &feedback.shares };

@@ -7,10 +7,10 @@
 // (`resolve_potential`) and carried into the walls, the cells inside the head without hair
 // (`extend_potential`); each particle's velocity then moves toward the mean around it and
 // down the potential (`feed_back`), or for the spring model that answer is left for its
-// implicit solve; the push is left for the step's end too, which takes back the speed it
-// left (`take_back_grid_push` in `step/entry.wgsl`). The splat is the CPU's, integer for
-// integer: a particle adds at most 2^31 to a cell's sum, and the sums are 64-bit, held as
-// two words (low, high), so they are the same in any order.
+// implicit solve; the push is left for the end of the step's first substep too, which
+// takes back the speed it left (`take_back_grid_push` in `step/entry.wgsl`). The splat is
+// the CPU's, integer for integer: a particle adds at most 2^31 to a cell's sum, and the
+// sums are 64-bit, held as two words (low, high), so they are the same in any order.
 // `layout.wgsl` is prepended: where each particle's values live.
 
 struct Volume {
@@ -37,7 +37,8 @@ struct Volume {
     // The share of a cell's last overflow, where it was positive, that the step adds to its
     // own while the cell is over its target (`Feedback::backlog_kept`); the mass, in
     // particles, that any cell may fill up to before the pressure pushes
-    // (`VolumeGrid::floor`); z and w unused.
+    // (`VolumeGrid::floor`); what the push's and the pressure's velocity change is scaled
+    // by, as it acts over the step's first substep alone (`Feedback::push_scale`); w unused.
     overflow: vec4<f32>,
 }
 
@@ -409,12 +410,12 @@ fn feed_back(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgrou
     if weight > 0.0 {
         velocity /= weight;
     }
-    let push = gradient * (volume.origin.w / PARTICLE_MASS_UNITS);
+    let push = gradient * (volume.origin.w * volume.overflow.z / PARTICLE_MASS_UNITS);
     let world_push = volume.rotation[0].xyz * push.x + volume.rotation[1].xyz * push.y + volume.rotation[2].xyz * push.z;
     let j = slot_particle(i, volume.counts.y).y;
     let v = motion[i];
     // The push and how fast the particle was leaving along it, times its size, for the
-    // step's end (`take_back_grid_push`; hair_sim's `GridPush::new`).
+    // end of the step's first substep (`take_back_grid_push`; hair_sim's `GridPush::new`).
     motion[7u * slots + i] = vec4<f32>(world_push, max(dot(v.xyz, world_push), 0.0));
     if implicit {
         motion[6u * slots + i] = vec4<f32>(velocity, shares[j]);

@@ -72,7 +72,7 @@ struct Step {
     sleep: vec4<f32>,
     // Hair volume: 1 in x where the spring model takes the grid's answer into its solve
     // (`grid_friction`, `grid_kick`); 1 in y where the grid pushed this step, whose speed
-    // the step's end takes back (`take_back_grid_push`).
+    // the end of its first substep takes back (`take_back_grid_push`).
     volume: vec4<u32>,
 }
 

@@ -175,16 +175,17 @@ fn watch(first: u32, n: u32) {
     }
 }
 
-// A strand's substep ends: on the step's last, the grid's push leaves no speed of its own,
-// and a particle or velocity that is not finite starts it over at rest; what the substep
-// did goes into the strand's report.
+// A strand's substep ends: on the step's first, the grid's push leaves no speed of its
+// own; on its last, the contact hold may undo the step, and a particle or velocity that is
+// not finite starts the strand over at rest; what the substep did goes into the strand's
+// report.
 fn end_substep(strand: u32, first: u32, n: u32, k: u32) {
+    if k == 1u && step.volume.y == 1u {
+        take_back_grid_push(first, n);
+    }
     if k == step.counts.z {
         if contact_hold_applies(first) {
             hold_where_touches_gained(first, n, tally.segment_turns > 0.0);
-        }
-        if step.volume.y == 1u {
-            take_back_grid_push(first, n);
         }
         if !reset_if_not_finite(first, n, pose(k)) {
             watch(first, n);

@@ -511,7 +511,7 @@ impl Strands {
             velocities,
             head,
             settings,
-            dt,
+            (dt, step::substeps_of(params.substeps, dt)),
             (parts, params.simd, run),
         );
         self.volume_step = Some(step);

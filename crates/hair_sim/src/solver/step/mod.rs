@@ -11,7 +11,7 @@
 //!    ([`ftl_brake`]).
 //!
 //! With volume on, the grid's feedback reaches each strand before its substeps, and after
-//! them what the grid's push left of speed along itself is taken back ([`GridPush`]). In
+//! the first what the grid's push left of speed along itself is taken back ([`GridPush`]). In
 //! the spring model, a still step that the head's touch left a strand with more energy
 //! than it started with is undone ([`contact_hold`]).
 //!
@@ -534,7 +534,8 @@ fn step_chunk_on<S: Simd>(
     let mut group_state = GroupState::<S>::new(n, history, to_springs);
     let mut for_springs = vec![SpringFeedback::default(); if to_springs { MAX_LANES * n } else { 0 }];
     // The grid's push on each particle of the group, strand by strand in lane order, taken
-    // back from the velocities after the step where it left them faster ([`GridPush`]).
+    // back from the velocities after the first substep where it left them faster
+    // ([`GridPush`]).
     let mut pushes = vec![GridPush::default(); if volume.is_some() { MAX_LANES * n } else { 0 }];
 
     let stillness = Stillness::of(input);
@@ -575,13 +576,11 @@ fn step_chunk_on<S: Simd>(
             if to_springs {
                 group_state.load_grid(&for_springs[..lanes * n]);
             }
-            step_group(&mut group_state, state, &c, input, hold, &mut report);
+            let group_pushes = pushes.get(..lanes * n).unwrap_or_default();
+            step_group(&mut group_state, state, &c, input, (hold, group_pushes), &mut report);
             group_state.store(state, history);
-            for (l, &k) in group[..lanes].iter().enumerate() {
+            for &k in &group[..lanes] {
                 let (xs, vs) = (&state.positions[k * n..][..n], &mut state.velocities[k * n..][..n]);
-                for (v, push) in vs.iter_mut().zip(pushes.get(l * n..).unwrap_or_default()) {
-                    *v = push.take_back(*v);
-                }
                 if !xs.iter().chain(vs.iter()).all(|v| v.is_finite()) {
                     reset_strand(state, k, n, &rest.shape.positions[(first_strand + k) * n..][..n], &head_to);
                     report.nan_resets += 1;
@@ -616,7 +615,7 @@ fn step_group<S: Simd>(
     state: &mut ChunkState,
     c: &Constants<S>,
     input: &StepInput,
-    hold: Option<u64>,
+    (hold, pushes): (Option<u64>, &[GridPush]),
     report: &mut StepReport,
 ) {
     g.step_start.copy_from_slice(&g.positions);
@@ -638,9 +637,25 @@ fn step_group<S: Simd>(
         };
         let time = input.time + c.shared.h * s as f32;
         substep(g, state, c, time, &poses, input, report);
+        if poses.first {
+            take_back_grid_push(g, pushes);
+        }
     }
     if let Some((lanes, start)) = start_energy {
         contact_hold::hold_where_touches_gained(g, c, input, lanes, start);
+    }
+}
+
+/// Takes back from the group's velocities what the grid's push left of speed along itself
+/// ([`GridPush::take_back`]): `pushes` holds each real lane's, strand by strand, or none
+/// without volume.
+#[inline(always)]
+fn take_back_grid_push<S: Simd>(g: &mut GroupState<S>, pushes: &[GridPush]) {
+    let n = g.positions.len();
+    for (l, strand) in pushes.chunks_exact(n).enumerate() {
+        for (v, push) in g.velocities.iter_mut().zip(strand).skip(1) {
+            v.set_lane(l, push.take_back(v.lane(l)));
+        }
     }
 }
 

@@ -39,12 +39,14 @@ pub(in crate::solver) struct VolumeStep {
     rates: Vec<f32>,
     /// The head's rotation the grid's axes turn by.
     rotation: glam::Quat,
+    /// [`Feedback::push_scale`].
+    push_scale: f32,
 }
 
 impl VolumeStep {
     /// The step's `feedback` on a grid whose axes the head's `rotation` turns.
     pub(super) fn new(feedback: Feedback, rotation: glam::Quat) -> Self {
-        VolumeStep { shares: feedback.shares, rates: feedback.rates, rotation }
+        VolumeStep { shares: feedback.shares, rates: feedback.rates, rotation, push_scale: feedback.push_scale }
     }
 }
 
@@ -100,13 +102,14 @@ impl VolumeGrid {
     /// through memory.
     #[inline(always)]
     fn answer_each(&self, step: &VolumeStep, first: usize, count: usize, mut then: impl FnMut(usize, Answer)) {
-        let VolumeStep { shares, rates, rotation } = step;
+        let VolumeStep { shares, rates, rotation, push_scale } = step;
         let n = shares.len().max(1);
         debug_assert_eq!(first % n, 0, "whole strands");
         let splats = self.splats.get(first..).unwrap_or_default();
         let splats = &splats[..count.min(splats.len())];
-        // A matrix turns a vector in half the arithmetic of a quaternion.
-        let turn = glam::Mat3A::from_quat(*rotation);
+        // A matrix turns a vector in half the arithmetic of a quaternion, and scales it
+        // for free.
+        let turn = glam::Mat3A::from_quat(*rotation) * *push_scale;
         for (s, strand) in splats.chunks(n).enumerate() {
             for (j, ((splat, &share), &rate)) in strand.iter().zip(shares).zip(rates).enumerate() {
                 if let Some(splat) = splat {
@@ -120,12 +123,13 @@ impl VolumeGrid {
 }
 
 /// The density push's and the pressure's velocity change on one particle in a step, kept
-/// for the step's end, which takes back the speed it left along it
+/// for the end of the step's first substep, which takes back the speed it left along it
 /// ([`Self::take_back`]): the grid moves hair out of a full cell but, as a contact,
 /// does not send it on. Counted whole, the push carried hair past the cell it was pushed
 /// out of until gravity or the strand brought it back and it was pushed again: a strand at
 /// the edge of a still groom never came to rest, and a pile held up by the pressure was
-/// slower to.
+/// slower to. The push acts over the first substep alone, scaled to move the hair as far
+/// as over the whole step ([`Feedback::push_scale`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(in crate::solver) struct GridPush {
     /// The push, m/s (zero: none).
@@ -142,7 +146,7 @@ impl GridPush {
         GridPush { push, leaving_before: velocity.dot(push).max(0.0) }
     }
 
-    /// `velocity`, the particle's at the step's end, less what it leaves along the push
+    /// `velocity`, the particle's at the end of the step's first substep, less what it leaves along the push
     /// beyond how fast it was leaving before, up to the push's size: speed from elsewhere
     /// (the head's pull, gravity) is left alone. The GPU's `take_back_grid_push`.
     #[inline]
@@ -208,15 +212,25 @@ pub struct Feedback {
     /// to its own while the cell is over its target ([`VolumeGrid::solve_pressure`]):
     /// [`FTL_BACKLOG_KEPT`] under Follow-The-Leader, 0 in the spring model.
     pub backlog_kept: f32,
+    /// What the density push's and the pressure's velocity change is scaled by: the step's
+    /// substep count. It acts over the step's first substep alone, whose end takes its
+    /// speed back ([`GridPush`]), so it moves the hair as far as it would over the whole
+    /// step, and the hair answers it as at one substep. Carried through the later
+    /// substeps, its speed met their length passes and contacts again, and at two substeps
+    /// or more a strand lying over a pile of hair bounced on it for good.
+    pub push_scale: f32,
 }
 
-/// [`Feedback::catch_up`] under Follow-The-Leader: more than the whole overflow, because
-/// the hair moves less than the grid asks. The push reaches a particle through its eight
-/// cells' gradients, blurred over two cells, and the length pass then pulls each pushed
-/// particle back toward its parent, so a pile taken away once a step shrank by only part
-/// of its overflow and after a shake stayed denser than its target. The take-back
-/// at the step's end leaves no speed for the extra push to carry on with.
-pub const FTL_CATCH_UP: f32 = 1.5;
+/// [`Feedback::catch_up`] under Follow-The-Leader: a little more than the whole overflow,
+/// because the hair moves a little less than the grid asks. The push reaches a particle
+/// through its eight cells' gradients, blurred over two cells, and the length pass then
+/// pulls each pushed particle back toward its parent, so a pile taken away once a step
+/// shrank by only part of its overflow and after a shake stayed denser than its target.
+/// Much more, and a strand lying over a pile was pushed past its place every step and
+/// fell back: the push moves the hair all the way within the step's first substep
+/// ([`Feedback::push_scale`]), and the take-back after it leaves no speed for the extra
+/// push to carry on with.
+pub const FTL_CATCH_UP: f32 = 1.1;
 
 /// [`Feedback::catch_up`] in the spring model. Its integrator keeps every speed the
 /// pressure gives, so hair pushed out of a full cell in one step flies on past its target
@@ -243,9 +257,9 @@ pub const FTL_BACKLOG_KEPT: f32 = 0.5;
 pub const MIN_FRICTION_KEPT: f32 = 1e-6;
 
 impl Feedback {
-    /// The feedback of a step of `dt` seconds on `grid`, for strands of `n` particles
-    /// stepped in the length model `mode`.
-    pub fn new(grid: &VolumeGrid, volume: &Volume, mode: LengthMode, n: usize, dt: f32) -> Self {
+    /// The feedback of a step of `dt` seconds in `substeps` substeps on `grid`, for strands
+    /// of `n` particles stepped in the length model `mode`.
+    pub fn new(grid: &VolumeGrid, volume: &Volume, mode: LengthMode, n: usize, (dt, substeps): (f32, u32)) -> Self {
         let friction = |j: usize| {
             let t = j as f32 / (n - 1).max(1) as f32;
             volume.friction_root + (volume.friction_tip - volume.friction_root) * t
@@ -256,6 +270,13 @@ impl Feedback {
             LengthMode::Inextensible => (FTL_CATCH_UP, FTL_BACKLOG_KEPT),
             LengthMode::Springs => (SPRINGS_CATCH_UP, 0.0),
         };
-        Feedback { shares, push: -volume.density_push * grid.lattice.cell * dt, rates, catch_up, backlog_kept }
+        Feedback {
+            shares,
+            push: -volume.density_push * grid.lattice.cell * dt,
+            rates,
+            catch_up,
+            backlog_kept,
+            push_scale: substeps.max(1) as f32,
+        }
     }
 }

@@ -6,7 +6,7 @@ use crate::math::{Pose, Vec3};
 use crate::solver::RestShape;
 use crate::solver::params::{LengthMode, SimdPath, Volume};
 
-/// The volume's part of one step of `dt` seconds, before the strands move: the grid made
+/// The volume's part of one step of `dt` seconds in `substeps` substeps, before the strands move: the grid made
 /// from `positions` and `velocities` (head-local by `pose`, the head's pose at the step's
 /// start; `next` is its pose at the step's end), its pressure solved
 /// (`volume.pressure_iterations` sweeps, as much of the overflow as the length model
@@ -30,11 +30,11 @@ pub(in crate::solver) fn prepare(
     velocities: &[Vec3],
     (pose, next): (Pose, Pose),
     (volume, mode): (&Volume, LengthMode),
-    dt: f32,
+    (dt, substeps): (f32, u32),
     (parts, simd, run): (usize, SimdPath, impl FnOnce(&mut [SplatPart<'_>])),
 ) -> VolumeStep {
     let n = rest.particles_per_strand.max(1);
-    let under = (pose, dt, *volume, mode);
+    let under = (pose, (dt, substeps), *volume, mode);
     let moved = made_from.as_ref().and_then(|made| made.moved(positions, velocities, n, under));
     match moved {
         Some(moved) if moved.is_empty() => return made_from.as_ref().expect("compared with").step.clone(),
@@ -43,7 +43,7 @@ pub(in crate::solver) fn prepare(
         }
         _ => grid.splat_on(rest, positions, Some(velocities), pose, (parts, simd), run),
     }
-    let feedback = Feedback::new(grid, volume, mode, n, dt);
+    let feedback = Feedback::new(grid, volume, mode, n, (dt, substeps));
     grid.solve_pressure(volume.pressure_iterations, dt, pose.rotation, (feedback.catch_up, feedback.backlog_kept));
     grid.resolve_potential(feedback.push, volume.pressure);
     let step = VolumeStep::new(feedback, pose.rotation);
@@ -64,8 +64,8 @@ const RESPLAT_SHARE: usize = 8;
 pub(in crate::solver) struct MadeFrom {
     positions: Vec<Vec3>,
     velocities: Vec<Vec3>,
-    /// The head's pose, the step's length, the settings and the length model.
-    under: (Pose, f32, Volume, LengthMode),
+    /// The head's pose, the step's length and substeps, the settings and the length model.
+    under: (Pose, (f32, u32), Volume, LengthMode),
     step: VolumeStep,
 }
 
@@ -77,7 +77,7 @@ impl MadeFrom {
         positions: &[Vec3],
         velocities: &[Vec3],
         n: usize,
-        under: (Pose, f32, Volume, LengthMode),
+        under: (Pose, (f32, u32), Volume, LengthMode),
     ) -> Option<Vec<usize>> {
         if self.under != under || self.positions.len() != positions.len() {
             return None;
@@ -100,7 +100,7 @@ impl MadeFrom {
         slot: &mut Option<MadeFrom>,
         positions: &[Vec3],
         velocities: &[Vec3],
-        under: (Pose, f32, Volume, LengthMode),
+        under: (Pose, (f32, u32), Volume, LengthMode),
         step: &VolumeStep,
     ) {
         let made = slot.get_or_insert_with(|| MadeFrom {

@@ -30,7 +30,7 @@ fn apply(
         velocities,
         (pose, pose),
         (volume, LengthMode::Inextensible),
-        dt,
+        (dt, 1),
         (1, SimdPath::Baseline, |_: &mut [SplatPart]| {}),
     );
     grid.feed_back(&step, 0, velocities, &mut vec![GridPush::default(); velocities.len()]);
@@ -225,7 +225,7 @@ fn a_step_makes_the_grid_again_only_from_what_moved() {
             &still,
             (Pose::IDENTITY, Pose::IDENTITY),
             (&volume, LengthMode::Inextensible),
-            dt,
+            (dt, 1),
             (1, SimdPath::Baseline, |_: &mut [SplatPart]| splatted.set(true)),
         );
         (step, splatted.get())
@@ -254,7 +254,7 @@ fn a_step_makes_the_grid_again_only_from_what_moved() {
             &still,
             head,
             settings,
-            dt,
+            (dt, 1),
             (1, SimdPath::Baseline, |_: &mut [SplatPart]| {}),
         );
     };
