@@ -204,8 +204,13 @@ fn hair_comes_to_rest_at_any_hair_rate() {
 /// (children follow their guides), combed back, each settled and stepped under its own
 /// settings: shoulder length (1,200 × 11, 22 cm), short and stiff (2,000 × 7, 7 cm), long
 /// and soft (1,200 × 17, 42 cm, 3 substeps) and curly (1,200 × 21, 24 cm, curl 0.6, two
-/// iterations). Kept still, or shaken for 1 s (yaw ±0.8 rad at 12 rad/s), each comes to
-/// rest: after 10 s every strand is asleep.
+/// iterations). Settled and stepped with volume off and on; kept still, or shaken for 1 s
+/// (yaw ±0.8 rad at 12 rad/s), each comes to rest: after 10 s every strand is asleep.
+/// With volume on, strands lying over a pile of hair bounced on it for good while the
+/// grid's push was carried through the substeps (long: 9 of 1,200, 10 after a shake;
+/// shoulder: 3 after a shake); with the push within the first substep but the pressure
+/// taking 1.5 times a cell's overflow a step, a curly strand lying on the forehead was
+/// thrown about (1 of 1,200, still and shaken).
 #[test]
 fn the_demo_styles_come_to_rest() {
     let (head, weights) = common::shipped_head();
@@ -251,12 +256,16 @@ fn the_demo_styles_come_to_rest() {
             },
         ),
     ];
-    for (name, guides, grow, settle_steps, comb, params) in styles {
-        let (collider, rest) = settled_groom(&head, &weights, guides, Recipe::Style(grow, settle_steps), comb, &params);
+    for (style, volume) in styles.iter().flat_map(|s| [(s, false), (s, true)]) {
+        let (name, guides, grow, settle_steps, comb, params) = style.clone();
+        let params = SimParams { volume: Volume { enabled: volume, ..Volume::default() }, ..params };
+        let recipe = Recipe::Style(grow, settle_steps);
+        let (collider, rest) = settled_groom(&head, &weights, guides, recipe, comb, &params);
         for shaken in [false, true] {
             let pose = |k: usize| if shaken { common::shake(k as f32 * DT) } else { Pose::IDENTITY };
             let (asleep, fastest) = common::asleep_after(&rest, &collider, &params, (600, DT), pose);
-            let case = format!("{name}{}", if shaken { ", shaken" } else { "" });
+            let case =
+                format!("{name}{}{}", if volume { ", volume on" } else { "" }, if shaken { ", shaken" } else { "" });
             println!(
                 "{case}: {asleep} of {guides} strands asleep after 10 s, the fastest particle at {fastest:.1e} m/s"
             );
@@ -268,15 +277,19 @@ fn the_demo_styles_come_to_rest() {
 /// The demo's "Reference" style as the plugin grows it: the spring model without shape
 /// keeping (`SimParams::reference`), 1,200 guides of 11 particles (25 cm, lengths varied by
 /// 20 %) on the scalp's vertices, uncombed, so that many hang over the ears' rims and the
-/// nape; and the same guides on Poisson-disc roots. Kept still, or shaken for 1 s, every
-/// strand is asleep after 10 s. Strands on springs hanging over a rim swung through it and
-/// back for good, each turn out of it or push off it adding energy, until the head's touch
-/// was made unable to add any (`solver/step/contact_hold.rs`).
+/// nape; and the same guides on Poisson-disc roots; and those on the vertices settled and
+/// stepped with volume on. Kept still, or shaken for 1 s, every strand is asleep after
+/// 10 s. Strands on springs hanging over a rim swung through it and back for good, each
+/// turn out of it or push off it adding energy, until the head's touch was made unable to
+/// add any (`solver/step/contact_hold.rs`). With volume on, 18 (30 after a shake) still
+/// swung while the grid's push was carried through the substeps (`Feedback::push_scale`).
 #[test]
 fn the_reference_style_on_springs_comes_to_rest() {
-    let params = SimParams::reference();
-    for (placement, on_vertices) in [("on the vertices", true), ("Poisson-disc", false)] {
-        let (collider, rest) = reference_style(on_vertices);
+    let cases =
+        [("on the vertices", true, false), ("Poisson-disc", false, false), ("on the vertices, volume on", true, true)];
+    for (placement, on_vertices, volume) in cases {
+        let (collider, rest) = reference_style(on_vertices, volume);
+        let params = reference_params(volume);
         for shaken in [false, true] {
             let pose = |k: usize| if shaken { common::shake(k as f32 * DT) } else { Pose::IDENTITY };
             let (asleep, fastest) = common::asleep_after(rest, collider, &params, (600, DT), pose);
@@ -289,17 +302,22 @@ fn the_reference_style_on_springs_comes_to_rest() {
 
 /// The demo's "Reference" style on the shipped head (1,200 guides of 11 particles, 25 cm,
 /// lengths varied by 20 %, uncombed), its roots on the scalp's vertices or Poisson-disc
-/// roots, settled under `SimParams::reference`, with the head's collider: grown once for
+/// roots, settled under [`reference_params`], with the head's collider: grown once for
 /// the tests that share it.
-fn reference_style(on_vertices: bool) -> &'static (HeadCollider, RestShape) {
-    static GROOMS: [OnceLock<(HeadCollider, RestShape)>; 2] = [const { OnceLock::new() }; 2];
-    GROOMS[usize::from(on_vertices)].get_or_init(|| {
+fn reference_style(on_vertices: bool, volume: bool) -> &'static (HeadCollider, RestShape) {
+    static GROOMS: [OnceLock<(HeadCollider, RestShape)>; 4] = [const { OnceLock::new() }; 4];
+    GROOMS[usize::from(on_vertices) + 2 * usize::from(volume)].get_or_init(|| {
         let (head, labels) = common::shipped_head_by_vertex();
         let weights = hair_sim::groom::triangle_weights(&head, &labels);
         let grow = GuideParams { segments: 10, length: 0.25, length_variation: 0.2, ..GuideParams::default() };
         let recipe = if on_vertices { Recipe::StyleOnVertices(grow, 180, &labels) } else { Recipe::Style(grow, 180) };
-        settled_groom(&head, &weights, 1200, recipe, Vec3::ZERO, &SimParams::reference())
+        settled_groom(&head, &weights, 1200, recipe, Vec3::ZERO, &reference_params(volume))
     })
+}
+
+/// `SimParams::reference`, with hair volume on or off.
+fn reference_params(volume: bool) -> SimParams {
+    SimParams { volume: Volume { enabled: volume, ..Volume::default() }, ..SimParams::reference() }
 }
 
 /// The hold that rests strands on springs where the head touches them
@@ -311,7 +329,7 @@ fn reference_style(on_vertices: bool) -> &'static (HeadCollider, RestShape) {
 #[test]
 fn a_ball_swept_through_hair_on_springs_under_a_still_head_leaves_none_inside() {
     let params = SimParams::reference();
-    let (collider, rest) = reference_style(false);
+    let (collider, rest) = reference_style(false, false);
     let mut strands = Strands::new(rest.clone(), Pose::IDENTITY);
     let radius = 0.04;
     let (mut deepest, mut steps_inside) = (0.0f32, 0);
@@ -336,7 +354,7 @@ fn a_ball_swept_through_hair_on_springs_under_a_still_head_leaves_none_inside() 
 fn hair_on_springs_blows_in_the_wind_under_a_still_head() {
     let mut params = SimParams::reference();
     params.wind = Wind { direction: [1.0, 0.0, 0.0], strength: 2.0, gust_strength: 0.5, gust_frequency: 1.0 };
-    let (collider, rest) = reference_style(false);
+    let (collider, rest) = reference_style(false, false);
     let n = rest.particles_per_strand;
     let mut strands = Strands::new(rest.clone(), Pose::IDENTITY);
     let (mut last, mut moving) = (strands.positions().to_vec(), 0);
