@@ -257,7 +257,7 @@ fn the_demo_styles_come_to_rest() {
         ),
     ];
     for (style, volume) in styles.iter().flat_map(|s| [(s, false), (s, true)]) {
-        let (name, guides, grow, settle_steps, comb, params) = style.clone();
+        let (name, guides, grow, settle_steps, comb, params) = *style;
         let params = SimParams { volume: Volume { enabled: volume, ..Volume::default() }, ..params };
         let recipe = Recipe::Style(grow, settle_steps);
         let (collider, rest) = settled_groom(&head, &weights, guides, recipe, comb, &params);
