@@ -214,7 +214,7 @@ pub struct Feedback {
     pub backlog_kept: f32,
     /// What the density push's and the pressure's velocity change is scaled by: the step's
     /// substep count. It acts over the step's first substep alone, whose end takes its
-    /// speed back ([`GridPush`]), so it moves the hair as far as it would over the whole
+    /// speed back along the push, so it moves the hair as far as it would over the whole
     /// step, and the hair answers it as at one substep. Carried through the later
     /// substeps, its speed met their length passes and contacts again, and at two substeps
     /// or more a strand lying over a pile of hair bounced on it for good.
