@@ -195,7 +195,9 @@ fn end_substep(strand: u32, first: u32, n: u32, k: u32) {
 }
 
 // Takes back from each velocity what it leaves along the grid's push beyond how fast the
-// particle was leaving before, up to the push's size (hair_sim's `GridPush::take_back`).
+// particle was leaving before, up to the push's size (hair_sim's `GridPush::take_back`),
+// and the same from the spring model's memory of it, which took the push with the
+// velocity (hair_sim's `take_back_grid_push`).
 fn take_back_grid_push(first: u32, n: u32) {
     for (var j = 1u; j < n; j++) {
         let i = particle_slot(first, j);
@@ -205,7 +207,12 @@ fn take_back_grid_push(first: u32, n: u32) {
         if finite(vec3<f32>(size_squared)) && size_squared > 0.0 {
             let v = velocity(i);
             let gained = clamp(dot(v, push) - grid_leaving_before(i), 0.0, size_squared);
-            motion[i] = vec4<f32>(v - push * (gained / size_squared), motion[i].w);
+            let taken = push * (gained / size_squared);
+            motion[i] = vec4<f32>(v - taken, motion[i].w);
+            if step.spring_flags.x == 1u {
+                let memory = springs[slots() + i];
+                springs[slots() + i] = vec4<f32>(memory.xyz - taken, memory.w);
+            }
         }
     }
 }

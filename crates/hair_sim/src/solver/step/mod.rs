@@ -647,14 +647,23 @@ fn step_group<S: Simd>(
 }
 
 /// Takes back from the group's velocities what the grid's push left of speed along itself
-/// ([`GridPush::take_back`]): `pushes` holds each real lane's, strand by strand, or none
-/// without volume.
+/// ([`GridPush::taken_back`]): `pushes` holds each real lane's, strand by strand, or none
+/// without volume. The spring model's memory of the substep before loses the same, as it
+/// took the push with the velocity ([`implicit_springs`]): else BDF2 read the push's
+/// going as a trend and sent the hair back into the cell it was pushed out of.
 #[inline(always)]
 fn take_back_grid_push<S: Simd>(g: &mut GroupState<S>, pushes: &[GridPush]) {
     let n = g.positions.len();
+    let memory = !g.previous_velocities.is_empty();
     for (l, strand) in pushes.chunks_exact(n).enumerate() {
-        for (v, push) in g.velocities.iter_mut().zip(strand).skip(1) {
-            v.set_lane(l, push.take_back(v.lane(l)));
+        for (j, push) in strand.iter().enumerate().skip(1) {
+            let v = g.velocities[j].lane(l);
+            let taken = push.taken_back(v);
+            g.velocities[j].set_lane(l, v - taken);
+            if memory {
+                let before = g.previous_velocities[j].lane(l);
+                g.previous_velocities[j].set_lane(l, before - taken);
+            }
         }
     }
 }

@@ -124,7 +124,7 @@ impl VolumeGrid {
 
 /// The density push's and the pressure's velocity change on one particle in a step, kept
 /// for the end of the step's first substep, which takes back the speed it left along it
-/// ([`Self::take_back`]): the grid moves hair out of a full cell but, as a contact,
+/// ([`Self::taken_back`]): the grid moves hair out of a full cell but, as a contact,
 /// does not send it on. Counted whole, the push carried hair past the cell it was pushed
 /// out of until gravity or the strand brought it back and it was pushed again: a strand at
 /// the edge of a still groom never came to rest, and a pile held up by the pressure was
@@ -146,19 +146,20 @@ impl GridPush {
         GridPush { push, leaving_before: velocity.dot(push).max(0.0) }
     }
 
-    /// `velocity`, the particle's at the end of the step's first substep, less what it leaves along the push
-    /// beyond how fast it was leaving before, up to the push's size: speed from elsewhere
-    /// (the head's pull, gravity) is left alone. The GPU's `take_back_grid_push`.
+    /// What is taken back from `velocity`, the particle's at the end of the step's first
+    /// substep: what it leaves along the push beyond how fast it was leaving before, up to
+    /// the push's size; speed from elsewhere (the head's pull, gravity) is left alone. The
+    /// GPU's `take_back_grid_push`.
     #[inline]
-    pub(in crate::solver) fn take_back(self, velocity: Vec3) -> Vec3 {
+    pub(in crate::solver) fn taken_back(self, velocity: Vec3) -> Vec3 {
         // In units of the push's size squared, so that the push need not be normalized
         // where it is made, once per particle per step.
         let size_squared = self.push.length_squared();
         if !(size_squared > 0.0 && size_squared.is_finite()) {
-            return velocity;
+            return Vec3::ZERO;
         }
         let gained = (velocity.dot(self.push) - self.leaving_before).clamp(0.0, size_squared);
-        velocity - self.push * (gained / size_squared)
+        self.push * (gained / size_squared)
     }
 }
 
@@ -212,12 +213,15 @@ pub struct Feedback {
     /// to its own while the cell is over its target ([`VolumeGrid::solve_pressure`]):
     /// [`FTL_BACKLOG_KEPT`] under Follow-The-Leader, 0 in the spring model.
     pub backlog_kept: f32,
-    /// What the density push's and the pressure's velocity change is scaled by: the step's
-    /// substep count. It acts over the step's first substep alone, whose end takes its
-    /// speed back along the push, so it moves the hair as far as it would over the whole
-    /// step, and the hair answers it as at one substep. Carried through the later
-    /// substeps, its speed met their length passes and contacts again, and at two substeps
-    /// or more a strand lying over a pile of hair bounced on it for good.
+    /// What the density push's and the pressure's velocity change is scaled by. It acts
+    /// over the step's first substep alone, whose end takes its speed back along the push.
+    /// Carried through the later substeps, its speed met their length passes and contacts
+    /// again, and at two substeps or more a strand lying over a pile of hair bounced on it
+    /// for good. Under Follow-The-Leader it is scaled by the step's substep count, so that
+    /// it moves the hair as far as it would over the whole step, and the hair answers it
+    /// as at one substep. The spring model takes it unscaled: a kick that many times as
+    /// large in one substep of its implicit solve threw strands against their springs
+    /// (at four substeps the default spring groom kept strands swinging by centimetres).
     pub push_scale: f32,
 }
 
@@ -276,7 +280,10 @@ impl Feedback {
             rates,
             catch_up,
             backlog_kept,
-            push_scale: substeps.max(1) as f32,
+            push_scale: match mode {
+                LengthMode::Inextensible => substeps.max(1) as f32,
+                LengthMode::Springs => 1.0,
+            },
         }
     }
 }

@@ -375,7 +375,7 @@ fn the_sweeps_over_the_cells_with_hair_are_the_sweeps_over_every_cell() {
 #[test]
 fn the_push_leaves_no_speed_of_its_own() {
     let up = Vec3::new(0.0, 0.2, 0.0);
-    let after = |push: Vec3, before: Vec3, after: Vec3| GridPush::new(push, before).take_back(after);
+    let after = |push: Vec3, before: Vec3, after: Vec3| after - GridPush::new(push, before).taken_back(after);
     // At rest, pushed and still moving at the push's speed: stopped, and the sideways
     // speed kept.
     assert_eq!(after(up, Vec3::ZERO, Vec3::new(0.1, 0.2, 0.0)), Vec3::new(0.1, 0.0, 0.0));
