@@ -172,10 +172,9 @@ impl GpuVolume {
     }
 
     /// Records the volume's effect on one step of `dt` seconds in `substeps` substeps under
-    /// `volume`'s settings,
-    /// the head at `pose` at the step's start, for `strands` strands of `n` particles in
-    /// `slots` slots; with `implicit`, the friction is left for the spring model's solve
-    /// (as [`hair_sim::solver::Feedback::rates`] says).
+    /// `volume`'s settings, the head at `pose` at the step's start, for `strands` strands
+    /// of `n` particles in `slots` slots; with `implicit`, the friction is left for the
+    /// spring model's solve (as [`hair_sim::solver::Feedback::rates`] says).
     #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,

@@ -195,7 +195,7 @@ fn end_substep(strand: u32, first: u32, n: u32, k: u32) {
 }
 
 // Takes back from each velocity what it leaves along the grid's push beyond how fast the
-// particle was leaving before, up to the push's size (hair_sim's `GridPush::take_back`),
+// particle was leaving before, up to the push's size (hair_sim's `GridPush::taken_back`),
 // and the same from the spring model's memory of it, which took the push with the
 // velocity (hair_sim's `take_back_grid_push`).
 fn take_back_grid_push(first: u32, n: u32) {

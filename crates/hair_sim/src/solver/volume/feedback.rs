@@ -128,8 +128,8 @@ impl VolumeGrid {
 /// does not send it on. Counted whole, the push carried hair past the cell it was pushed
 /// out of until gravity or the strand brought it back and it was pushed again: a strand at
 /// the edge of a still groom never came to rest, and a pile held up by the pressure was
-/// slower to. The push acts over the first substep alone, scaled to move the hair as far
-/// as over the whole step ([`Feedback::push_scale`]).
+/// slower to. The push acts over the first substep alone, under Follow-The-Leader scaled
+/// to move the hair as far as over the whole step ([`Feedback::push_scale`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(in crate::solver) struct GridPush {
     /// The push, m/s (zero: none).
