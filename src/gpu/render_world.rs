@@ -384,7 +384,8 @@ fn collect_copies(mut grooms: ResMut<RenderGrooms>, times: Res<RenderTimes>) {
                 continue;
             }
             match (positions.map(PositionsCopy::into_positions).transpose(), report.into_timed_report()) {
-                (Ok(positions), Ok((report, step_ms))) => {
+                (Ok(positions), Ok((report, time))) => {
+                    let step_ms = time.map(|t| t.total_ms);
                     groom.inbox().copies.push(Copied { copy, positions, report, step_ms });
                 }
                 (Err(e), _) | (_, Err(e)) => groom.inbox().failed = Some(e.to_string()),

@@ -10,12 +10,18 @@
 //! to 6 mm and back), as a skinned character's neck and jaw are: what the patch's
 //! closest-point queries cost.
 //!
+//! With `--volume` the hair has volume (`SimParams::volume`, its defaults: a 32³ grid and 8
+//! pressure iterations; `--pressure N` for N): the line adds the median milliseconds of
+//! the grid's passes and their median share of the step, from timestamp queries (none
+//! without them).
+//!
 //! ```text
 //! cargo run --release -p hair_gpu --example gpu_bench
 //! # also: --steps N (default 60), --sizes 2048x16,16384x16 (guides × particles), --skin,
 //! #       --no-segment-collision, --no-collision (what collision costs), --drape
 //! #       (no shape keeping: the hair falls onto the head and slides over it, as a
-//! #       character's does, where the exact queries and segment crossings run)
+//! #       character's does, where the exact queries and segment crossings run),
+//! #       --volume, --pressure N
 //! ```
 
 use hair_gpu::{GpuContext, GpuDrawing, GpuStrands, wgpu};
@@ -69,6 +75,12 @@ fn main() {
         segment_collision: !flag("--no-segment-collision"),
         local_stiffness: if drape { 0.0 } else { defaults.local_stiffness },
         global_stiffness_root: if drape { 0.0 } else { defaults.global_stiffness_root },
+        volume: Volume {
+            enabled: flag("--volume"),
+            pressure_iterations: arg("--pressure")
+                .map_or(defaults.volume.pressure_iterations, |n| n.parse().expect("--pressure takes a whole number")),
+            ..defaults.volume
+        },
         ..defaults
     };
     let collision = match (params.collision, params.segment_collision) {
@@ -104,6 +116,8 @@ fn main() {
             strands.finish().expect("GPU wait");
         }
         let mut times = Vec::with_capacity(steps);
+        // The grid's milliseconds and share of each step, where the step was timed.
+        let (mut volume_times, mut volume_shares) = (Vec::new(), Vec::new());
         let mut timed_on_gpu = true;
         for k in 0..steps {
             let time = k as f32 * dt;
@@ -122,7 +136,13 @@ fn main() {
             };
             let start = Instant::now();
             match strands.step_timed(&input).expect("GPU step") {
-                Some(ms) => times.push(ms),
+                Some(time) => {
+                    times.push(time.total_ms);
+                    if let Some(ms) = time.volume_ms {
+                        volume_times.push(ms);
+                        volume_shares.push(ms / time.total_ms);
+                    }
+                }
                 None => {
                     strands.finish().expect("GPU wait");
                     times.push(start.elapsed().as_secs_f64() * 1e3);
@@ -161,10 +181,24 @@ fn main() {
             .filter(|i| i % particles != 0)
             .map(|i| ((positions[i] - positions[i - 1]).length() / rest.lengths[i] - 1.0).abs())
             .fold(0.0f32, f32::max);
+        let median = |mut values: Vec<f64>| {
+            values.sort_by(f64::total_cmp);
+            values.get(values.len() / 2).map_or("null".to_string(), |v| format!("{v:.4}"))
+        };
+        let volume = if params.volume.enabled {
+            format!(
+                "{{\"pressure_iterations\":{},\"ms_per_step\":{},\"share_of_step\":{}}}",
+                params.volume.pressure_iterations,
+                median(volume_times),
+                median(volume_shares)
+            )
+        } else {
+            "null".to_string()
+        };
         times.sort_by(f64::total_cmp);
         println!(
             "{{\"guides\":{guides},\"particles_per_strand\":{particles},\"steps\":{steps},\"adapter\":\"{}\",\
-             \"backend\":\"{:?}\",\"skin\":{},\"drape\":{drape},\"collision\":\"{collision}\",\"timing\":\"{}\",\"ms_per_step\":{:.4},\"finite\":{},\"max_stretch\":{stretch:.6},\
+             \"backend\":\"{:?}\",\"skin\":{},\"drape\":{drape},\"collision\":\"{collision}\",\"volume\":{volume},\"timing\":\"{}\",\"ms_per_step\":{:.4},\"finite\":{},\"max_stretch\":{stretch:.6},\
              \"max_penetration_m\":{:.6},\"draw_ms_per_frame\":{:.4},\"draw_timing\":\"wall time, waiting for each draw\"}}",
             gpu.adapter.name.replace('"', "'"),
             gpu.adapter.backend,

@@ -72,8 +72,8 @@ pub use context::{GpuContext, GpuError};
 pub use draw::{CURVE_SHADER, DRAW_SHADER, DrawingPasses, GpuDrawing};
 pub use live::live_objects;
 pub(crate) use live::{Alive, LIVE_DRAWINGS, LIVE_STRANDS};
-use readback::{BufferCopy, StagingPool, duration_ms};
-pub use readback::{PositionsCopy, ReportCopy};
+use readback::{BufferCopy, StagingPool};
+pub use readback::{PositionsCopy, ReportCopy, StepTime};
 pub use shadow::{GpuOpacityMap, MAP_FLOATS, OpacityMapPasses, SHADOW_SHADER};
 pub use sort::{DrawOrderPasses, GpuDrawOrder, SORT_SHADER};
 use uniform::{GridInfo, StepUniform, bits, pack_patch};
@@ -601,16 +601,16 @@ impl GpuStrands {
         result
     }
 
-    /// [`Self::step`], and the GPU time of the last step that ran, milliseconds, where the
-    /// device has timestamp queries (this waits for it).
-    pub fn step_timed(&mut self, input: &StepInput) -> Result<Option<f64>, GpuError> {
+    /// [`Self::step`], and the GPU time of the last step that ran, where the device has
+    /// timestamp queries (this waits for it).
+    pub fn step_timed(&mut self, input: &StepInput) -> Result<Option<StepTime>, GpuError> {
         self.step(input)?;
         let Some(timestamps) = &self.timestamps else {
             self.submit();
             return Ok(None);
         };
         let bytes = self.copy_back(&timestamps.resolved).into_bytes()?;
-        Ok(duration_ms(&bytes, self.queue.get_timestamp_period()))
+        Ok(StepTime::from_ticks(&bytes, self.queue.get_timestamp_period()))
     }
 
     fn encode_step(&mut self, input: &StepInput, timestamps: Option<&Timestamps>) -> Result<(), GpuError> {
@@ -645,8 +645,9 @@ impl GpuStrands {
         self.upload_tables(&tables);
         // What the next step may remember: this one's spring memory, or none.
         self.springs_remembered = springs;
+        let queries = timestamps.map(|t| &t.queries);
         if p.volume.enabled {
-            self.record_volume(&p.volume, constants.poses[0], (constants.dt, substeps), springs);
+            self.record_volume(&p.volume, constants.poses[0], (constants.dt, substeps), springs, queries);
         }
         let recorder = recording(&mut self.recorder);
         recorder.upload(&self.uniform, bytemuck::bytes_of(&uniform));
@@ -679,7 +680,12 @@ impl GpuStrands {
             }
         }
         if let Some(t) = timestamps {
-            encoder.resolve_query_set(&t.queries, 0..2, &t.resolved, 0);
+            // A step without volume leaves no time of the grid's behind it.
+            let timed = if p.volume.enabled { 4 } else { 2 };
+            encoder.resolve_query_set(&t.queries, 0..timed, &t.resolved, 0);
+            if !p.volume.enabled {
+                encoder.clear_buffer(&t.resolved, 16, None);
+            }
         }
         recorder.steps += 1;
         Ok(())
@@ -688,11 +694,19 @@ impl GpuStrands {
     /// Records the volume's effect on a step of `dt` in `substeps` substeps ([`GpuVolume`]),
     /// the head at `pose` at its start, making the grid first where there is none at
     /// `volume`'s resolution.
-    fn record_volume(&mut self, volume: &hair_sim::solver::Volume, pose: Pose, steps: (f32, u32), springs: bool) {
+    fn record_volume(
+        &mut self,
+        volume: &hair_sim::solver::Volume,
+        pose: Pose,
+        steps: (f32, u32),
+        springs: bool,
+        timestamps: Option<&wgpu::QuerySet>,
+    ) {
         self.make_volume(volume.resolution);
         let grid = self.volume.as_ref().expect("made above");
         let counts = (self.strands, self.particles_per_strand, self.slots.count() as u32);
-        grid.record(&self.volume_passes, recording(&mut self.recorder), volume, pose, steps, springs, counts);
+        let recorder = (recording(&mut self.recorder), timestamps);
+        grid.record(&self.volume_passes, recorder, volume, pose, steps, springs, counts);
     }
 
     /// Makes the hair–hair grid at `resolution` where there is none at it.
@@ -1010,8 +1024,9 @@ fn bind(
     device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("hair_gpu"), layout, entries: &entries })
 }
 
-/// A pass's start and end timestamps, and the buffer they are resolved into (the latest
-/// timed pass's, copied back from there).
+/// A step's timestamps: its own pass's start and end, then the volume's
+/// ([`volume::VOLUME_BEGINS`]), and the buffer they are resolved into (the latest timed
+/// step's, copied back from there; [`StepTime`]).
 struct Timestamps {
     queries: wgpu::QuerySet,
     resolved: wgpu::Buffer,
@@ -1022,12 +1037,12 @@ impl Timestamps {
         let queries = device.create_query_set(&wgpu::QuerySetDescriptor {
             label: Some("hair_gpu step time"),
             ty: wgpu::QueryType::Timestamp,
-            count: 2,
+            count: 4,
         });
         let resolved = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("hair_gpu timestamps"),
-            size: 16,
-            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+            size: 32,
+            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
         Timestamps { queries, resolved }

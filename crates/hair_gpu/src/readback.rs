@@ -41,15 +41,15 @@ impl ReportCopy {
         self.time.as_ref().is_none_or(|(time, _)| time.arrived(wait)) && report
     }
 
-    /// The report and the GPU time of the last step before it, milliseconds (`None` where
-    /// the device has no timestamp queries, or no step was timed yet), waiting for them if
-    /// they have not arrived.
-    pub fn into_timed_report(self) -> Result<(StepReport, Option<f64>), GpuError> {
-        let ms = match self.time {
-            Some((time, period)) => duration_ms(&time.into_bytes()?, period),
+    /// The report and the GPU time of the last step before it (`None` where the device has
+    /// no timestamp queries, or no step was timed yet), waiting for them if they have not
+    /// arrived.
+    pub fn into_timed_report(self) -> Result<(StepReport, Option<StepTime>), GpuError> {
+        let time = match self.time {
+            Some((time, period)) => StepTime::from_ticks(&time.into_bytes()?, period),
             None => None,
         };
-        Ok((Self::sum(&self.report.into_bytes()?), ms))
+        Ok((Self::sum(&self.report.into_bytes()?), time))
     }
 
     /// The report of every strand, summed, waiting for it if it has not arrived.
@@ -131,13 +131,33 @@ impl BufferCopy {
     }
 }
 
-/// The milliseconds between a pass's two timestamps (`bytes`: two u64 ticks of `period`
-/// nanoseconds); `None` before any pass wrote them.
-pub(crate) fn duration_ms(bytes: &[u8], period: f32) -> Option<f64> {
-    let tick = |i: usize| Some(u64::from_le_bytes(bytes.get(8 * i..8 * i + 8)?.try_into().ok()?));
-    let (start, end) = (tick(0)?, tick(1)?);
-    let ticks = end.checked_sub(start).filter(|_| start != 0)?;
-    Some(ticks as f64 * f64::from(period) * 1e-6)
+/// A step's GPU time, from timestamp queries.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StepTime {
+    /// The whole step, milliseconds: from the start of its first pass (the volume's, where
+    /// it is on) to the end of its last.
+    pub total_ms: f64,
+    /// The volume's grid (splat, cells, pressure, potential and feedback), milliseconds;
+    /// `None` in a step without volume.
+    pub volume_ms: Option<f64>,
+}
+
+impl StepTime {
+    /// The time of a step from its resolved timestamps (`bytes`: u64 ticks of `period`
+    /// nanoseconds, the step pass's start and end, then the volume's, 0 where not
+    /// written); `None` before any step wrote them.
+    pub(crate) fn from_ticks(bytes: &[u8], period: f32) -> Option<Self> {
+        let tick = |i: usize| {
+            let tick = u64::from_le_bytes(bytes.get(8 * i..8 * i + 8)?.try_into().ok()?);
+            (tick != 0).then_some(tick)
+        };
+        let ms = |start: u64, end: u64| Some(end.checked_sub(start)? as f64 * f64::from(period) * 1e-6);
+        let (start, end) = (tick(0)?, tick(1)?);
+        let volume = tick(2).zip(tick(3));
+        // The volume's pass runs before the step's.
+        let first = volume.map_or(start, |(begins, _)| begins.min(start));
+        Some(StepTime { total_ms: ms(first, end)?, volume_ms: volume.and_then(|(begins, ends)| ms(begins, ends)) })
+    }
 }
 
 /// Staging buffers whose bytes were taken, for the next copies back: the plugin copies the
@@ -189,6 +209,23 @@ impl StagingPool {
 mod tests {
     use super::*;
     use crate::GpuContext;
+
+    fn ticks(ticks: [u64; 4]) -> Vec<u8> {
+        ticks.iter().flat_map(|t| t.to_le_bytes()).collect()
+    }
+
+    /// A step's time runs from its first pass's start, the volume's where it ran, to the
+    /// step pass's end; ticks not written (0) are no time.
+    #[test]
+    fn a_steps_time_counts_the_volume_in_it() {
+        let period = 0.5; // ns per tick
+        let time = |t: [u64; 4]| StepTime::from_ticks(&ticks(t), period);
+        assert_eq!(time([0; 4]), None, "no step timed yet");
+        assert_eq!(time([1_000_000, 5_000_000, 0, 0]), Some(StepTime { total_ms: 2.0, volume_ms: None }));
+        let with_volume = time([3_000_000, 5_000_000, 1_000_000, 2_000_000]);
+        assert_eq!(with_volume, Some(StepTime { total_ms: 2.0, volume_ms: Some(0.5) }));
+        assert_eq!(time([5_000_000, 1_000_000, 0, 0]), None, "ticks that run backward are no time");
+    }
 
     /// The GPU context, or `None` (the test skipped, saying why) without an adapter.
     fn gpu() -> Option<GpuContext> {

@@ -19,6 +19,10 @@ pub(crate) const VOLUME_SHADER: &str = concat!(include_str!("layout.wgsl"), "\n"
 /// [`VolumeGrid::mass`] and [`VolumeGrid::momentum`] hold them).
 pub type VolumeSums = (Vec<i64>, Vec<[i64; 3]>);
 
+/// The query the volume's passes write their start time into, the end in the next one:
+/// after the step's own two.
+pub(crate) const VOLUME_BEGINS: u32 = 2;
+
 /// Words per cell in the sums: mass and momentum along x, y and z, each 64 bits.
 const WORDS_PER_CELL: usize = 8;
 
@@ -174,12 +178,13 @@ impl GpuVolume {
     /// Records the volume's effect on one step of `dt` seconds in `substeps` substeps under
     /// `volume`'s settings, the head at `pose` at the step's start, for `strands` strands
     /// of `n` particles in `slots` slots; with `implicit`, the friction is left for the
-    /// spring model's solve (as [`hair_sim::solver::Feedback::rates`] says).
+    /// spring model's solve (as [`hair_sim::solver::Feedback::rates`] says). Its passes are
+    /// timed into `timestamps` where given ([`VOLUME_BEGINS`] and the query after it).
     #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
         passes: &VolumePasses,
-        recorder: &mut Recorder,
+        (recorder, timestamps): (&mut Recorder, Option<&wgpu::QuerySet>),
         volume: &hair_sim::solver::Volume,
         pose: Pose,
         (dt, substeps): (f32, u32),
@@ -208,25 +213,42 @@ impl GpuVolume {
         recorder.upload(&self.uniform, bytemuck::bytes_of(&uniform));
         let friction = if implicit { &feedback.rates } else { &feedback.shares };
         recorder.upload(&self.shares, bytemuck::cast_slice(friction));
-        recorder.encoder().clear_buffer(&self.sums, 0, None);
+        let encoder = recorder.encoder();
+        encoder.clear_buffer(&self.sums, 0, None);
+        let pressure = volume.pressure_iterations > 0;
+        if !pressure {
+            // Off: nothing left over from when it was on (`VolumeGrid::solve_pressure`).
+            encoder.clear_buffer(&self.pressure, 0, None);
+            encoder.clear_buffer(&self.backlog, 0, None);
+        }
+        // One pass, as the step's: each dispatch sees what the one before wrote.
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("hair_gpu volume"),
+            timestamp_writes: timestamps.map(|queries| wgpu::ComputePassTimestampWrites {
+                query_set: queries,
+                beginning_of_pass_write_index: Some(VOLUME_BEGINS),
+                end_of_pass_write_index: Some(VOLUME_BEGINS + 1),
+            }),
+        });
+        pass.set_bind_group(0, &self.group, &[]);
+        let mut dispatch = |pipeline: &wgpu::ComputePipeline, invocations: u32| {
+            pass.set_pipeline(pipeline);
+            crate::recorder::dispatch_over(&mut pass, invocations);
+        };
         let [splat, resolve, predict, red, black, potential, walls, feed_back] =
             std::array::from_fn(|k| &passes.pipelines[k]);
-        recorder.dispatch("hair_gpu volume splat", splat, (&self.group, &[]), slots);
-        recorder.dispatch("hair_gpu volume cells", resolve, (&self.group, &[]), cells);
-        if volume.pressure_iterations == 0 {
-            // Off: nothing left over from when it was on (`VolumeGrid::solve_pressure`).
-            recorder.encoder().clear_buffer(&self.pressure, 0, None);
-            recorder.encoder().clear_buffer(&self.backlog, 0, None);
-        } else {
-            recorder.dispatch("hair_gpu volume overflow", predict, (&self.group, &[]), cells);
+        dispatch(splat, slots);
+        dispatch(resolve, cells);
+        if pressure {
+            dispatch(predict, cells);
         }
         for _ in 0..volume.pressure_iterations {
-            recorder.dispatch("hair_gpu volume pressure, red", red, (&self.group, &[]), cells);
-            recorder.dispatch("hair_gpu volume pressure, black", black, (&self.group, &[]), cells);
+            dispatch(red, cells);
+            dispatch(black, cells);
         }
-        recorder.dispatch("hair_gpu volume potential", potential, (&self.group, &[]), cells);
-        recorder.dispatch("hair_gpu volume potential in the walls", walls, (&self.group, &[]), cells);
-        recorder.dispatch("hair_gpu volume feedback", feed_back, (&self.group, &[]), slots);
+        dispatch(potential, cells);
+        dispatch(walls, cells);
+        dispatch(feed_back, slots);
     }
 
     /// Records `state`'s pressure and backlog (one value per cell each, as

@@ -3,7 +3,7 @@
 //! says why it skipped, or fails when `BEVY_HAIR_REQUIRE_ADAPTER` is set (as `.ci/run`
 //! sets it).
 
-use hair_gpu::{GpuContext, GpuError, GpuStrands};
+use hair_gpu::{GpuContext, GpuError, GpuStrands, StepTime};
 use hair_sim::collide::SurfacePatch;
 use hair_sim::prelude::*;
 use std::sync::{Mutex, MutexGuard};
@@ -683,28 +683,40 @@ fn infinite_gravity_steps_as_its_sanitized_form_on_both() {
 }
 
 /// Where the device has timestamp queries, a step's GPU time comes back with the report
-/// and from `step_timed`; before any step, and without them, there is none.
+/// and from `step_timed`; before any step, and without them, there is none. With volume
+/// the grid's passes are timed too, and counted in the step's time; without it, no grid
+/// time is left over from a step that had one.
 #[test]
 fn a_step_is_timed_on_the_gpu_where_the_device_can_time_it() {
     let Some(gpu) = gpu() else { return };
     let (_, collider, rest) = groom(64);
     let params = SimParams::default();
+    let with_volume = SimParams { volume: Volume { enabled: true, ..Volume::default() }, ..params };
     let mut strands = GpuStrands::new(&gpu, &rest, head_pose(0.0), Some(&collider)).expect("GPU strands");
     let (_, before) = strands.copy_report().into_timed_report().expect("report");
     assert_eq!(before, None, "no step ran yet");
     // The first step's pass may hold the shader's compile (lavapipe compiles at the first
     // dispatch: 20 s with an empty cache); the next ones are timed.
-    strands.step(&input_at(0, head_pose, &collider, &params)).expect("GPU step");
-    strands.report().expect("report");
-    strands.step(&input_at(1, head_pose, &collider, &params)).expect("GPU step");
+    for (k, params) in [&params, &with_volume].into_iter().enumerate() {
+        strands.step(&input_at(k, head_pose, &collider, params)).expect("GPU step");
+        strands.report().expect("report");
+    }
+    strands.step(&input_at(2, head_pose, &collider, &params)).expect("GPU step");
     let (report, reported) = strands.copy_report().into_timed_report().expect("report");
-    let timed = strands.step_timed(&input_at(2, head_pose, &collider, &params)).expect("GPU step");
-    eprintln!("timestamps {}: reported {reported:?} ms, timed {timed:?} ms", gpu.timestamps);
+    let timed = strands.step_timed(&input_at(3, head_pose, &collider, &with_volume)).expect("GPU step");
+    let without = strands.step_timed(&input_at(4, head_pose, &collider, &params)).expect("GPU step");
+    eprintln!("timestamps {}: reported {reported:?}, timed {timed:?} with volume, {without:?} without", gpu.timestamps);
     assert!(report.contacts > 0, "the report came with the time");
-    for ms in [reported, timed] {
-        match ms {
+    for (time, volume) in [(reported, false), (timed, true), (without, false)] {
+        match time {
             // A step of 64 strands: more than nothing, less than a second even on lavapipe.
-            Some(ms) => assert!(gpu.timestamps && ms > 0.0 && ms < 1e3, "{ms} ms"),
+            Some(StepTime { total_ms, volume_ms }) => {
+                assert!(gpu.timestamps && total_ms > 0.0 && total_ms < 1e3, "{total_ms} ms");
+                match volume_ms {
+                    Some(ms) => assert!(volume && ms > 0.0 && ms < total_ms, "the grid: {ms} of {total_ms} ms"),
+                    None => assert!(!volume, "a step with volume, but no time for its grid"),
+                }
+            }
             None => assert!(!gpu.timestamps, "timestamps, but no time"),
         }
     }
