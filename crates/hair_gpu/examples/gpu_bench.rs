@@ -21,7 +21,8 @@
 //! #       --no-segment-collision, --no-collision (what collision costs), --drape
 //! #       (no shape keeping: the hair falls onto the head and slides over it, as a
 //! #       character's does, where the exact queries and segment crossings run),
-//! #       --volume, --pressure N
+//! #       --volume, --pressure N, --still (the head still, after 10 s of untimed steps in
+//! #       which the groom settles and falls asleep: what a groom at rest costs)
 //! ```
 
 use hair_gpu::{GpuContext, GpuDrawing, GpuStrands, wgpu};
@@ -30,6 +31,9 @@ use hair_sim::prelude::*;
 use std::time::Instant;
 
 fn head_pose(time: f32) -> Pose {
+    if std::env::args().any(|a| a == "--still") {
+        return Pose::new(Quat::IDENTITY, Vec3::new(0.0, 1.6, 0.0));
+    }
     let yaw = 0.8 * (time * 2.0).sin();
     let pitch = 0.3 * (time * 3.1).sin();
     Pose::new(Quat::from_rotation_y(yaw) * Quat::from_rotation_x(pitch), Vec3::new(0.0, 1.6, 0.0))
@@ -109,12 +113,18 @@ fn main() {
             params: &params,
         };
         let warm_up = Instant::now();
-        while warm_up.elapsed().as_secs_f32() < 1.0 {
+        let mut warm_steps = 0;
+        // Under a still head, the groom settles and falls asleep first.
+        let settling = if flag("--still") { 600 } else { 0 };
+        while warm_up.elapsed().as_secs_f32() < 1.0 || warm_steps < settling {
             for _ in 0..8 {
                 strands.step(&still).expect("GPU step");
             }
+            warm_steps += 8;
             strands.finish().expect("GPU wait");
         }
+        // What the timed steps did: how many strands slept through them.
+        strands.report().expect("report");
         let mut times = Vec::with_capacity(steps);
         // The grid's milliseconds and share of each step, where the step was timed.
         let (mut volume_times, mut volume_shares) = (Vec::new(), Vec::new());
@@ -151,6 +161,8 @@ fn main() {
             }
             strands.publish(input.head_to);
         }
+        // The share of the strands asleep through the timed steps.
+        let asleep = f64::from(strands.report().expect("report").sleeping) / (steps * guides) as f64;
         // The frame's drawing, into a buffer as a renderer's.
         let target = gpu.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("gpu_bench drawn"),
@@ -198,11 +210,12 @@ fn main() {
         times.sort_by(f64::total_cmp);
         println!(
             "{{\"guides\":{guides},\"particles_per_strand\":{particles},\"steps\":{steps},\"adapter\":\"{}\",\
-             \"backend\":\"{:?}\",\"skin\":{},\"drape\":{drape},\"collision\":\"{collision}\",\"volume\":{volume},\"timing\":\"{}\",\"ms_per_step\":{:.4},\"finite\":{},\"max_stretch\":{stretch:.6},\
+             \"backend\":\"{:?}\",\"skin\":{},\"drape\":{drape},\"still\":{},\"asleep\":{asleep:.3},\"collision\":\"{collision}\",\"volume\":{volume},\"timing\":\"{}\",\"ms_per_step\":{:.4},\"finite\":{},\"max_stretch\":{stretch:.6},\
              \"max_penetration_m\":{:.6},\"draw_ms_per_frame\":{:.4},\"draw_timing\":\"wall time, waiting for each draw\"}}",
             gpu.adapter.name.replace('"', "'"),
             gpu.adapter.backend,
             skin.is_some(),
+            flag("--still"),
             if timed_on_gpu { "timestamp queries" } else { "wall time, waiting for each step" },
             times[times.len() / 2],
             positions.iter().all(|p| p.is_finite()),

@@ -703,7 +703,7 @@ impl GpuStrands {
         timestamps: Option<&wgpu::QuerySet>,
     ) {
         self.make_volume(volume.resolution);
-        let grid = self.volume.as_ref().expect("made above");
+        let grid = self.volume.as_mut().expect("made above");
         let counts = (self.strands, self.particles_per_strand, self.slots.count() as u32);
         let recorder = (recording(&mut self.recorder), timestamps);
         grid.record(&self.volume_passes, recorder, volume, pose, steps, springs, counts);
@@ -731,7 +731,7 @@ impl GpuStrands {
         let replaced =
             self.volume.as_ref().is_none_or(|v| v.resolution != state.resolution).then(|| self.volume.take());
         self.make_volume(state.resolution);
-        let volume = self.volume.as_ref().expect("made above");
+        let volume = self.volume.as_mut().expect("made above");
         let taken = volume.upload_state(recording(&mut self.recorder), state);
         if let (false, Some(previous)) = (taken, replaced) {
             self.volume = previous;
@@ -746,6 +746,31 @@ impl GpuStrands {
     pub fn volume_sums(&self) -> Option<Result<VolumeSums, GpuError>> {
         let grid = self.volume.as_ref()?;
         Some(self.copy_back(&grid.sums).into_bytes().map(|bytes| GpuVolume::decode(bytemuck::cast_slice(&bytes))))
+    }
+
+    /// How many steps with volume on worked the hair–hair grid out: as on the CPU, a step
+    /// whose particles are where the last grid was made from, under the same head pose,
+    /// step and settings (a groom asleep under a still head), keeps that grid and runs only
+    /// its feedback. `None` before any step with volume. Waits for the queued steps.
+    pub fn volume_grids_made(&self) -> Option<Result<u32, GpuError>> {
+        let grid = self.volume.as_ref()?;
+        let words =
+            self.copy_back(&grid.gate).into_bytes().map(|bytes| bytemuck::pod_collect_to_vec::<u8, u32>(&bytes));
+        Some(words.map(|words| words[volume::GATE_MADE]))
+    }
+
+    /// What the hair–hair grid carries from step to step after the last step with volume
+    /// on, as [`hair_sim::solver::VolumeGrid::state`] gives the CPU's: its pressure and
+    /// backlog; `None` before any such step. Waits for the queued steps.
+    pub fn volume_state(&self) -> Option<Result<hair_sim::solver::VolumeState, GpuError>> {
+        let grid = self.volume.as_ref()?;
+        let values = |buffer: &wgpu::Buffer| -> Result<Vec<f32>, GpuError> {
+            Ok(bytemuck::pod_collect_to_vec(&self.copy_back(buffer).into_bytes()?))
+        };
+        let state = values(&grid.pressure).and_then(|pressure| {
+            Ok(hair_sim::solver::VolumeState { resolution: grid.resolution, pressure, backlog: values(&grid.backlog)? })
+        });
+        Some(state)
     }
 
     /// The uniform and the pose and alpha table for one step with `c`'s constants (the

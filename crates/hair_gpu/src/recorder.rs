@@ -144,7 +144,7 @@ pub(crate) fn dispatch_over(pass: &mut wgpu::ComputePass<'_>, invocations: u32) 
 
 /// Workgroups along x and y for `invocations`: as few rows as hold them, as short as they
 /// can be.
-fn workgroups(invocations: u32) -> [u32; 2] {
+pub(crate) fn workgroups(invocations: u32) -> [u32; 2] {
     let groups = invocations.div_ceil(WORKGROUP_SIZE);
     let rows = groups.div_ceil(MAX_WORKGROUPS_PER_DIMENSION).max(1);
     [groups.div_ceil(rows), rows]

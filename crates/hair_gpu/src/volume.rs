@@ -6,7 +6,7 @@
 //! the CPU's, bit for bit ([`GpuStrands::volume_sums`](crate::GpuStrands::volume_sums)).
 
 use crate::pass::{SharedLayout, storage};
-use crate::recorder::Recorder;
+use crate::recorder::{Recorder, dispatch_over, workgroups};
 use bytemuck::{Pod, Zeroable};
 use hair_sim::collide::HeadInterior;
 use hair_sim::math::Pose;
@@ -22,6 +22,22 @@ pub type VolumeSums = (Vec<i64>, Vec<[i64; 3]>);
 /// The query the volume's passes write their start time into, the end in the next one:
 /// after the step's own two.
 pub(crate) const VOLUME_BEGINS: u32 = 2;
+
+/// Where the shader's `gate` counts the grids made (`GATE_MADE`), and where its dispatches'
+/// workgroups start (`GATE_ARGS`), words.
+pub(crate) const GATE_MADE: usize = 1;
+const GATE_ARGS: usize = 2;
+
+/// What a grid was made under ([`GpuVolume::record`]): as the CPU's `MadeFrom`, a step
+/// under anything else makes it again whatever moved.
+#[derive(Clone, Copy, PartialEq)]
+struct MadeUnder {
+    pose: Pose,
+    steps: (f32, u32),
+    volume: hair_sim::solver::Volume,
+    implicit: bool,
+    counts: (u32, u32, u32),
+}
 
 /// Words per cell in the sums: mass and momentum along x, y and z, each 64 bits.
 const WORDS_PER_CELL: usize = 8;
@@ -39,11 +55,12 @@ struct VolumeUniform {
     feedback: [f32; 4],
     solve: [f32; 4],
     overflow: [f32; 4],
+    workgroups: [u32; 4],
 }
 
 /// The volume shader's passes (`splat_particles`, `resolve_cells`, `predict_overflow`,
-/// `relax_red`, `relax_black`, `resolve_potential`, `extend_potential`, `feed_back`) on one
-/// layout: compiled with the strands, so that a step that first asks for volume does not
+/// `relax_red`, `relax_black`, `resolve_potential`, `extend_potential`, `feed_back`, and
+/// the gate's `compare_made_from`, `open_gate` and `clear_sums`) on one layout: compiled with the strands, so that a step that first asks for volume does not
 /// wait for a compiler.
 pub(crate) struct VolumePasses {
     layout: SharedLayout,
@@ -63,6 +80,8 @@ impl VolumePasses {
             (storage(false), false),
             (storage(true), false),
             (storage(false), false),
+            (storage(false), false),
+            (storage(false), false),
         ];
         let (layout, pipelines) = SharedLayout::compile(
             device,
@@ -78,6 +97,9 @@ impl VolumePasses {
                 "resolve_potential",
                 "extend_potential",
                 "feed_back",
+                "compare_made_from",
+                "open_gate",
+                "clear_sums",
             ],
         );
         VolumePasses { layout, pipelines }
@@ -94,11 +116,22 @@ pub(crate) struct GpuVolume {
     pub sums: wgpu::Buffer,
     shares: wgpu::Buffer,
     /// Each cell's pressure, kept between steps.
-    pressure: wgpu::Buffer,
+    pub pressure: wgpu::Buffer,
     /// Each cell's backlog of overflow ([`VolumeGrid::backlog`]), kept between steps.
-    backlog: wgpu::Buffer,
+    pub backlog: wgpu::Buffer,
     group: wgpu::BindGroup,
+    /// The shader's `gate`: whether a particle moved since the grid was made, how many
+    /// times it was made, and its dispatches' workgroups ([`Self::grids_made`]).
+    pub gate: wgpu::Buffer,
+    /// The workgroups of the grid's dispatches, copied from `gate` for the indirect
+    /// dispatches (a buffer the passes write cannot be dispatched from in the same pass).
+    workgroups: wgpu::Buffer,
+    /// What the last grid was made under: the head's pose at the step's start, the step's
+    /// length and substeps, the settings, the length model and the counts; `None` where the
+    /// next grid is made whatever moved (a new grid, or a pressure carried over).
+    made_under: Option<MadeUnder>,
     /// Buffers made for it (kept alive with the bind group).
+    _made_from: wgpu::Buffer,
     _cells: wgpu::Buffer,
     _rest_mass: wgpu::Buffer,
     _solid: wgpu::Buffer,
@@ -130,8 +163,8 @@ impl GpuVolume {
         let cell_values = buffer("hair_gpu volume cells", cells * 32, wgpu::BufferUsages::empty());
         let shares = buffer("hair_gpu volume shares", rest.particles_per_strand * 4, wgpu::BufferUsages::COPY_DST);
         // Zeroed at creation, as the CPU grid's.
-        let pressure = buffer("hair_gpu volume pressure", cells * 4, wgpu::BufferUsages::COPY_DST);
-        let backlog = buffer("hair_gpu volume backlog", cells * 4, wgpu::BufferUsages::COPY_DST);
+        let pressure = buffer("hair_gpu volume pressure", cells * 4, copy);
+        let backlog = buffer("hair_gpu volume backlog", cells * 4, copy);
         // Each rest mass as its two words, low then high.
         let words: Vec<u32> = grid.rest_mass().iter().flat_map(|&m| [m as u32, (m >> 32) as u32]).collect();
         let rest_mass = crate::storage_buffer(
@@ -147,6 +180,16 @@ impl GpuVolume {
             bytemuck::cast_slice(&walls),
             wgpu::BufferUsages::empty(),
         );
+        // The positions and velocities the grid was made from: none yet (the first step
+        // makes it whatever they are).
+        let made_from = buffer("hair_gpu volume made from", 2 * positions.size() as usize, wgpu::BufferUsages::empty());
+        let gate = buffer("hair_gpu volume gate", (GATE_ARGS + 6) * 4, wgpu::BufferUsages::COPY_SRC);
+        let workgroups = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("hair_gpu volume workgroups"),
+            size: 6 * 4,
+            usage: wgpu::BufferUsages::INDIRECT | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
         let uniform = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("hair_gpu volume"),
             size: std::mem::size_of::<VolumeUniform>() as u64,
@@ -156,9 +199,22 @@ impl GpuVolume {
         let group = passes.layout.bind(
             device,
             "hair_gpu volume",
-            [&uniform, positions, motion, &sums, &cell_values, &rest_mass, &shares, &pressure, &solid, &backlog]
-                .map(|b| b.as_entire_binding())
-                .to_vec(),
+            [
+                &uniform,
+                positions,
+                motion,
+                &sums,
+                &cell_values,
+                &rest_mass,
+                &shares,
+                &pressure,
+                &solid,
+                &backlog,
+                &made_from,
+                &gate,
+            ]
+            .map(|b| b.as_entire_binding())
+            .to_vec(),
         );
         GpuVolume {
             resolution,
@@ -169,6 +225,10 @@ impl GpuVolume {
             pressure,
             backlog,
             group,
+            gate,
+            workgroups,
+            made_under: None,
+            _made_from: made_from,
             _cells: cell_values,
             _rest_mass: rest_mass,
             _solid: solid,
@@ -182,7 +242,7 @@ impl GpuVolume {
     /// timed into `timestamps` where given ([`VOLUME_BEGINS`] and the query after it).
     #[allow(clippy::too_many_arguments)]
     pub fn record(
-        &self,
+        &mut self,
         passes: &VolumePasses,
         (recorder, timestamps): (&mut Recorder, Option<&wgpu::QuerySet>),
         volume: &hair_sim::solver::Volume,
@@ -199,8 +259,12 @@ impl GpuVolume {
         let rotation = glam::Mat3::from_quat(pose.rotation);
         let origin = self.grid.origin();
         let t = pose.translation;
+        // As the CPU's `prepare`: under another pose, step or setting, made whatever moved.
+        let under = MadeUnder { pose, steps: (dt, substeps), volume: *volume, implicit, counts: (strands, n, slots) };
+        let made_whatever_moved = self.made_under.replace(under) != Some(under);
+        let ([slots_x, slots_y], [cells_x, cells_y]) = (workgroups(slots), workgroups(cells));
         let uniform = VolumeUniform {
-            counts: [strands, n, cells, 0],
+            counts: [strands, n, cells, u32::from(made_whatever_moved)],
             dims: [dx as u32, dy as u32, dz as u32, 0],
             origin: [origin.x, origin.y, origin.z, self.grid.inverse_cell()],
             inverse: columns(rotation.transpose()),
@@ -209,58 +273,83 @@ impl GpuVolume {
             feedback: [feedback.push, self.grid.rest_scale(), volume.pressure, self.grid.cell() * self.grid.cell()],
             solve: [1.0 / dt.max(1e-6), f32::from(u8::from(implicit)), dt, feedback.catch_up],
             overflow: [feedback.backlog_kept, self.grid.floor(), feedback.push_scale, 0.0],
+            workgroups: [slots_x, slots_y, cells_x, cells_y],
         };
         recorder.upload(&self.uniform, bytemuck::bytes_of(&uniform));
         let friction = if implicit { &feedback.rates } else { &feedback.shares };
         recorder.upload(&self.shares, bytemuck::cast_slice(friction));
         let encoder = recorder.encoder();
-        encoder.clear_buffer(&self.sums, 0, None);
         let pressure = volume.pressure_iterations > 0;
         if !pressure {
             // Off: nothing left over from when it was on (`VolumeGrid::solve_pressure`).
             encoder.clear_buffer(&self.pressure, 0, None);
             encoder.clear_buffer(&self.backlog, 0, None);
         }
+        let [splat, resolve, predict, red, black, potential, walls, feed_back, compare, open_gate, clear_sums] =
+            std::array::from_fn(|k| &passes.pipelines[k]);
+        let timed = |begins: bool| {
+            timestamps.map(|queries| wgpu::ComputePassTimestampWrites {
+                query_set: queries,
+                beginning_of_pass_write_index: begins.then_some(VOLUME_BEGINS),
+                end_of_pass_write_index: (!begins).then_some(VOLUME_BEGINS + 1),
+            })
+        };
+        {
+            // Whether anything moved, and so whether the grid's dispatches run.
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("hair_gpu volume gate"),
+                timestamp_writes: timed(true),
+            });
+            pass.set_bind_group(0, &self.group, &[]);
+            pass.set_pipeline(compare);
+            dispatch_over(&mut pass, slots);
+            pass.set_pipeline(open_gate);
+            dispatch_over(&mut pass, 1);
+        }
+        encoder.copy_buffer_to_buffer(&self.gate, GATE_ARGS as u64 * 4, &self.workgroups, 0, 6 * 4);
         // One pass, as the step's: each dispatch sees what the one before wrote.
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("hair_gpu volume"),
-            timestamp_writes: timestamps.map(|queries| wgpu::ComputePassTimestampWrites {
-                query_set: queries,
-                beginning_of_pass_write_index: Some(VOLUME_BEGINS),
-                end_of_pass_write_index: Some(VOLUME_BEGINS + 1),
-            }),
+            timestamp_writes: timed(false),
         });
         pass.set_bind_group(0, &self.group, &[]);
-        let mut dispatch = |pipeline: &wgpu::ComputePipeline, invocations: u32| {
+        // The grid's own dispatches, over the slots (`SLOTS`) or the cells (`CELLS`): none
+        // where nothing moved.
+        let mut grid = |pipeline: &wgpu::ComputePipeline, over: u64| {
             pass.set_pipeline(pipeline);
-            crate::recorder::dispatch_over(&mut pass, invocations);
+            pass.dispatch_workgroups_indirect(&self.workgroups, over);
         };
-        let [splat, resolve, predict, red, black, potential, walls, feed_back] =
-            std::array::from_fn(|k| &passes.pipelines[k]);
-        dispatch(splat, slots);
-        dispatch(resolve, cells);
+        const SLOTS: u64 = 0;
+        const CELLS: u64 = 12;
+        grid(clear_sums, CELLS);
+        grid(splat, SLOTS);
+        grid(resolve, CELLS);
         if pressure {
-            dispatch(predict, cells);
+            grid(predict, CELLS);
         }
         for _ in 0..volume.pressure_iterations {
-            dispatch(red, cells);
-            dispatch(black, cells);
+            grid(red, CELLS);
+            grid(black, CELLS);
         }
-        dispatch(potential, cells);
-        dispatch(walls, cells);
-        dispatch(feed_back, slots);
+        grid(potential, CELLS);
+        grid(walls, CELLS);
+        // The strands that step take the grid's answer, worked out afresh or not.
+        pass.set_pipeline(feed_back);
+        dispatch_over(&mut pass, slots);
     }
 
     /// Records `state`'s pressure and backlog (one value per cell each, as
     /// [`VolumeGrid::pressure`] and [`VolumeGrid::backlog`] hold them) as this grid's;
     /// `false` (and nothing recorded) where its cell count is not this grid's or a value is
     /// not finite.
-    pub fn upload_state(&self, recorder: &mut Recorder, state: &VolumeState) -> bool {
+    pub fn upload_state(&mut self, recorder: &mut Recorder, state: &VolumeState) -> bool {
         let cells = self.grid.rest_mass().len();
         let carried = [(&self.pressure, &state.pressure), (&self.backlog, &state.backlog)];
         if carried.iter().any(|(_, values)| values.len() != cells || !values.iter().all(|v| v.is_finite())) {
             return false;
         }
+        // The next step's grid starts from this pressure, whatever moved.
+        self.made_under = None;
         for (buffer, values) in carried {
             recorder.upload(buffer, bytemuck::cast_slice(values));
         }
@@ -300,6 +389,8 @@ mod tests {
         assert_eq!(constant("MAX_FIXED_VELOCITY"), MAX_FIXED_VELOCITY as f64);
         assert_eq!(constant("WORDS_PER_CELL"), WORDS_PER_CELL as f64);
         assert_eq!(constant("PRESSURE_SLACK"), f64::from(hair_sim::solver::PRESSURE_SLACK));
+        assert_eq!(constant("GATE_ARGS"), GATE_ARGS as f64);
+        assert_eq!(constant("GATE_MADE"), GATE_MADE as f64);
         assert_eq!(std::mem::size_of::<VolumeUniform>(), crate::pass::validated_struct_size(VOLUME_SHADER, "Volume"));
     }
 

@@ -12,9 +12,18 @@
 // the CPU's, integer for integer: a particle adds at most 2^31 to a cell's sum, and the
 // sums are 64-bit, held as two words (low, high), so they are the same in any order.
 // `layout.wgsl` is prepended: where each particle's values live.
+//
+// As on the CPU, the grid is worked out again only where something moved since it was
+// last made: `compare_made_from` compares each particle's position and velocity with
+// those it was made from, bit for bit, and `open_gate` writes the grid's dispatches'
+// workgroups (none where nothing moved and the step's head pose, length and settings are
+// the last grid's), which run from a copy of them as indirect dispatches. A groom asleep
+// under a still head keeps its grid, and its step runs only the feedback.
 
 struct Volume {
-    // Strands, particles per strand, cells.
+    // Strands, particles per strand, cells; 1 in w where the grid is worked out whatever
+    // moved (the step's head pose, length or settings are not the last grid's, or the grid
+    // is new: `open_gate`).
     counts: vec4<u32>,
     // Cells along x, y and z (x fastest).
     dims: vec4<u32>,
@@ -40,6 +49,9 @@ struct Volume {
     // (`VolumeGrid::floor`); what the push's and the pressure's velocity change is scaled
     // by, as it acts over the step's first substep alone (`Feedback::push_scale`); w unused.
     overflow: vec4<f32>,
+    // The workgroups along x and y of a dispatch over the slots, then over the cells
+    // (`open_gate`).
+    workgroups: vec4<u32>,
 }
 
 @group(0) @binding(0) var<uniform> volume: Volume;
@@ -65,6 +77,17 @@ struct Volume {
 // Per cell, the overflow the last step's pressure took away (`VolumeGrid::backlog`), kept
 // between steps.
 @group(0) @binding(9) var<storage, read_write> backlog: array<f32>;
+
+// Per slot, the position the grid was last made from, then per slot the velocity.
+@group(0) @binding(10) var<storage, read_write> made_from: array<vec4<f32>>;
+// Whether a particle moved since the grid was made (`GATE_MOVED`), how many times it was
+// made (`GATE_MADE`), and the workgroups of its dispatches over the slots and over the
+// cells (`GATE_ARGS`, six words: x, y, z each), copied to where they are dispatched from.
+@group(0) @binding(11) var<storage, read_write> gate: array<atomic<u32>>;
+
+const GATE_MOVED: u32 = 0u;
+const GATE_MADE: u32 = 1u;
+const GATE_ARGS: u32 = 2u;
 
 // hair_sim's `WEIGHT_BITS` (as a weight of one), `PARTICLE_MASS_UNITS`, `VELOCITY_BITS`
 // (as a scale) and `MAX_FIXED_VELOCITY` (a test checks).
@@ -152,6 +175,56 @@ fn particle_splat(i: u32) -> Splat {
     }
     let x = positions[i].xyz - volume.translation.xyz;
     return splat_of(volume.inverse[0].xyz * x.x + volume.inverse[1].xyz * x.y + volume.inverse[2].xyz * x.z);
+}
+
+// Whether the particle of slot `i` moved since the grid was made, bit for bit as the CPU
+// compares (`MadeFrom::moved`); where it did, what it is now is kept for the next step.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn compare_made_from(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = invocation(id, groups);
+    let slots = slot_count(volume.counts.x, volume.counts.y);
+    if i >= slots {
+        return;
+    }
+    let x = positions[i].xyz;
+    let v = motion[i].xyz;
+    let was_x = bitcast<vec3<u32>>(made_from[i].xyz);
+    let was_v = bitcast<vec3<u32>>(made_from[slots + i].xyz);
+    if any(bitcast<vec3<u32>>(x) != was_x) || any(bitcast<vec3<u32>>(v) != was_v) {
+        atomicOr(&gate[GATE_MOVED], 1u);
+        made_from[i] = vec4<f32>(x, 0.0);
+        made_from[slots + i] = vec4<f32>(v, 0.0);
+    }
+}
+
+// The grid's dispatches: their workgroups where a particle moved or the step asks
+// (`volume.counts.w`), else none. One invocation.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn open_gate(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    if invocation(id, groups) != 0u {
+        return;
+    }
+    let open = atomicExchange(&gate[GATE_MOVED], 0u) != 0u || volume.counts.w == 1u;
+    if open {
+        atomicAdd(&gate[GATE_MADE], 1u);
+    }
+    let on = select(0u, 1u, open);
+    let args = array<u32, 6>(volume.workgroups.x * on, volume.workgroups.y * on, on, volume.workgroups.z * on, volume.workgroups.w * on, on);
+    for (var k = 0u; k < 6u; k++) {
+        atomicStore(&gate[GATE_ARGS + k], args[k]);
+    }
+}
+
+// Zeroes cell `c`'s sums before the splat.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn clear_sums(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let c = invocation(id, groups);
+    if c >= volume.counts.z {
+        return;
+    }
+    for (var w = 0u; w < WORDS_PER_CELL; w++) {
+        atomicStore(&sums[c * WORDS_PER_CELL + w], 0u);
+    }
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)

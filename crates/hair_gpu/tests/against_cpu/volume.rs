@@ -295,3 +295,63 @@ fn asleep_with_volume_the_strands_keep_still_as_on_the_cpu() {
     assert_eq!((cpu_asleep, gpu_asleep), (64, 64), "every strand asleep");
     assert!(cpu_fastest == 0.0 && gpu_fastest == 0.0, "asleep but moving: {cpu_fastest}, {gpu_fastest} m/s");
 }
+
+/// A groom asleep under a still head leaves its grid as the last step that moved a strand
+/// made it, on both backends: the CPU makes it again only where a strand moved
+/// (`Strands::apply_volume`), and the GPU runs none of the grid's passes but the feedback
+/// where its positions and velocities are those it was made from, bit for bit: through a
+/// second of sleep it makes no grid, and its pressure and backlog stay as they were, to
+/// the bit. While the groom settles, each step after one that moved a strand makes one,
+/// and so does each step that the head moves in.
+#[test]
+fn a_groom_asleep_keeps_its_grid_as_on_the_cpu() {
+    let Some(gpu) = gpu() else { return };
+    let (_, collider, rest) = groom(64);
+    let params = with_volume(true);
+    // Still for 5.5 s, then turning.
+    let pose = |time: f32| head_pose((time - 5.5).max(0.0));
+    let mut cpu = Strands::new(rest.clone(), pose(0.0));
+    let mut on_gpu = GpuStrands::new(&gpu, &rest, pose(0.0), Some(&collider)).expect("GPU strands");
+    let mut states = Vec::new();
+    let mut made = Vec::new();
+    // Steps before the first check in which a strand stepped on the CPU.
+    let mut stepping = 0;
+    for k in 0..340 {
+        let input = input_at(k, pose, &collider, &params);
+        if k == 239 || k == 299 {
+            // The report counts every step since it was last taken.
+            on_gpu.report().expect("report");
+        }
+        let cpu_asleep = cpu.step(&input).sleeping;
+        on_gpu.step(&input).expect("GPU step");
+        stepping += u32::from(k < 240 && cpu_asleep < 64);
+        if k == 239 || k == 299 {
+            let gpu_asleep = on_gpu.report().expect("report").sleeping;
+            assert_eq!((cpu_asleep, gpu_asleep), (64, 64), "step {k}: every strand asleep");
+            let cpu_state = cpu.volume_grid().expect("volume on").state();
+            let gpu_state = on_gpu.volume_state().expect("volume on").expect("read back");
+            states.push((cpu_state, gpu_state));
+        }
+        if [239, 299, 339].contains(&k) {
+            made.push(on_gpu.volume_grids_made().expect("volume on").expect("read back"));
+        }
+    }
+    let changed = |a: &VolumeState, b: &VolumeState| {
+        let values = |s: &VolumeState| [s.pressure.clone(), s.backlog.clone()].concat();
+        values(a).iter().zip(&values(b)).filter(|(x, y)| x.to_bits() != y.to_bits()).count()
+    };
+    let held = states[0].0.pressure.iter().filter(|&&p| p > 0.0).count();
+    let (cpu_changed, gpu_changed) = (changed(&states[0].0, &states[1].0), changed(&states[0].1, &states[1].1));
+    let (asleep, moving) = (made[1] - made[0], made[2] - made[1]);
+    eprintln!(
+        "asleep for 1 s with volume: {cpu_changed} and {gpu_changed} of the grid's values changed (CPU, GPU), \
+         {held} cells hold pressure; the GPU made the grid {asleep} times in the 60 steps asleep, {moving} in the \
+         40 steps after, the last 10 of them under a turning head ({} before)",
+        made[0]
+    );
+    assert!(held > 0, "no cell holds pressure: the test tests nothing");
+    assert_eq!((cpu_changed, gpu_changed), (0, 0), "asleep, the grid changed");
+    // The first step's grid, then one after each step in which a strand moved.
+    assert_eq!(made[0], stepping + 1, "grids made while the groom settled, {stepping} steps stepping a strand");
+    assert_eq!((asleep, moving), (0, 10), "grids made asleep, and under a moving head");
+}
