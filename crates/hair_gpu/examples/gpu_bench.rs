@@ -21,8 +21,9 @@
 //! #       --no-segment-collision, --no-collision (what collision costs), --drape
 //! #       (no shape keeping: the hair falls onto the head and slides over it, as a
 //! #       character's does, where the exact queries and segment crossings run),
-//! #       --volume, --pressure N, --still (the head still, after 10 s of untimed steps in
-//! #       which the groom settles and falls asleep: what a groom at rest costs)
+//! #       --volume, --pressure N, --still (the head still, the groom settled as the plugin
+//! #       settles it and stepped 10 s untimed, in which it falls asleep: what a groom at
+//! #       rest costs)
 //! ```
 
 use hair_gpu::{GpuContext, GpuDrawing, GpuStrands, wgpu};
@@ -97,6 +98,13 @@ fn main() {
         let guide_params = GuideParams { segments: particles - 1, length: 0.25, ..GuideParams::default() };
         let grown = grow_guides(&head, &roots, &guide_params, 1).expect("roots on the head");
         let rest = RestShape::new(grown, particles).expect("guides");
+        // Under a still head, settled as the plugin settles a groom: a groom's rest shape
+        // is where its hair comes to rest.
+        let rest = if flag("--still") {
+            settle(rest, Some(&collider), &params, 180, Vec3::ZERO).expect("settle")
+        } else {
+            rest
+        };
         let mut strands = GpuStrands::new(&gpu, &rest, head_pose(0.0), Some(&collider)).expect("GPU strands");
         let dt = 1.0 / 60.0;
         // A GPU idles at a low clock and raises it under load within a second or so (timed
