@@ -60,8 +60,9 @@ struct VolumeUniform {
 
 /// The volume shader's passes (`splat_particles`, `resolve_cells`, `predict_overflow`,
 /// `relax_red`, `relax_black`, `resolve_potential`, `extend_potential`, `feed_back`, and
-/// the gate's `compare_made_from`, `open_gate` and `clear_sums`) on one layout: compiled with the strands, so that a step that first asks for volume does not
-/// wait for a compiler.
+/// the gate's `compare_made_from`, `open_gate` and `clear_sums`) on one layout: compiled
+/// with the strands, so that a step that first asks for volume does not wait for a
+/// compiler.
 pub(crate) struct VolumePasses {
     layout: SharedLayout,
     pipelines: Vec<wgpu::ComputePipeline>,
@@ -121,7 +122,7 @@ pub(crate) struct GpuVolume {
     pub backlog: wgpu::Buffer,
     group: wgpu::BindGroup,
     /// The shader's `gate`: whether a particle moved since the grid was made, how many
-    /// times it was made, and its dispatches' workgroups ([`Self::grids_made`]).
+    /// times it was made (`GpuStrands::volume_grids_made`), and its dispatches' workgroups.
     pub gate: wgpu::Buffer,
     /// The workgroups of the grid's dispatches, copied from `gate` for the indirect
     /// dispatches (a buffer the passes write cannot be dispatched from in the same pass).
@@ -294,19 +295,7 @@ impl GpuVolume {
                 end_of_pass_write_index: (!begins).then_some(VOLUME_BEGINS + 1),
             })
         };
-        {
-            // Whether anything moved, and so whether the grid's dispatches run.
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("hair_gpu volume gate"),
-                timestamp_writes: timed(true),
-            });
-            pass.set_bind_group(0, &self.group, &[]);
-            pass.set_pipeline(compare);
-            dispatch_over(&mut pass, slots);
-            pass.set_pipeline(open_gate);
-            dispatch_over(&mut pass, 1);
-        }
-        encoder.copy_buffer_to_buffer(&self.gate, GATE_ARGS as u64 * 4, &self.workgroups, 0, 6 * 4);
+        self.open_gate(encoder, (compare, open_gate), slots, timed(true));
         // One pass, as the step's: each dispatch sees what the one before wrote.
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("hair_gpu volume"),
@@ -336,6 +325,30 @@ impl GpuVolume {
         // The strands that step take the grid's answer, worked out afresh or not.
         pass.set_pipeline(feed_back);
         dispatch_over(&mut pass, slots);
+    }
+
+    /// Records the gate before the grid's passes: whether a particle moved since the grid
+    /// was made (`compare` over the `slots`), and the workgroups of the grid's dispatches
+    /// that follows from it (`open`), copied to where they are dispatched from.
+    fn open_gate(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        (compare, open): (&wgpu::ComputePipeline, &wgpu::ComputePipeline),
+        slots: u32,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("hair_gpu volume gate"),
+                timestamp_writes,
+            });
+            pass.set_bind_group(0, &self.group, &[]);
+            pass.set_pipeline(compare);
+            dispatch_over(&mut pass, slots);
+            pass.set_pipeline(open);
+            dispatch_over(&mut pass, 1);
+        }
+        encoder.copy_buffer_to_buffer(&self.gate, GATE_ARGS as u64 * 4, &self.workgroups, 0, 6 * 4);
     }
 
     /// Records `state`'s pressure and backlog (one value per cell each, as

@@ -208,8 +208,10 @@ fn open_gate(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgrou
     if open {
         atomicAdd(&gate[GATE_MADE], 1u);
     }
+    // x, y and z over the slots, then over the cells; all 0 where closed.
     let on = select(0u, 1u, open);
-    let args = array<u32, 6>(volume.workgroups.x * on, volume.workgroups.y * on, on, volume.workgroups.z * on, volume.workgroups.w * on, on);
+    let w = volume.workgroups * on;
+    let args = array<u32, 6>(w.x, w.y, on, w.z, w.w, on);
     for (var k = 0u; k < 6u; k++) {
         atomicStore(&gate[GATE_ARGS + k], args[k]);
     }
