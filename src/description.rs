@@ -245,7 +245,8 @@ pub struct HairGroom {
     /// spread). Changing only this does not regrow the guides.
     pub children: ChildParams,
     /// Steps of the settle ("comb") pass that lets freshly grown hair fall onto the head
-    /// before it becomes the rest shape; 0 keeps the strands standing along the normals.
+    /// before it becomes the rest shape; 0 keeps the strands standing along the normals,
+    /// where shape keeping holds them against gravity and a few may never come to rest.
     pub settle_steps: u32,
     /// Take the guides from this hair model (a `.hair` file, in the head mesh's space)
     /// instead of growing them: each strand is resampled to `segments` and moved whole onto
