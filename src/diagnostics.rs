@@ -24,10 +24,16 @@ impl HairDiagnostics {
     pub const STEP_TIME: DiagnosticPath = DiagnosticPath::const_new("hair/step_ms");
     /// GPU time of the GPU solver's step, milliseconds, summed over the grooms the GPU
     /// steps ([`HairBackend::Gpu`](crate::HairBackend::Gpu)): for each, one of its latest
-    /// steps, from its pass's start to its end by timestamp queries (the GPU may run other
-    /// work beside it meanwhile), copied back with its report a frame or two late. Published
-    /// only where the render device has timestamp queries.
+    /// steps, from its first pass's start (hair volume's, where it is on) to its last's end
+    /// by timestamp queries (the GPU may run other work beside it meanwhile), copied back
+    /// with its report a frame or two late. Published only where the render device has
+    /// timestamp queries.
     pub const GPU_STEP_TIME: DiagnosticPath = DiagnosticPath::const_new("hair/gpu_step_ms");
+    /// Of [`Self::GPU_STEP_TIME`], the hair volume grid's passes
+    /// ([`SimParams::volume`](crate::SimParams::volume)), milliseconds, summed over the grooms
+    /// whose step had volume. Published only where one did and the render device has
+    /// timestamp queries.
+    pub const GPU_VOLUME_TIME: DiagnosticPath = DiagnosticPath::const_new("hair/gpu_volume_ms");
     /// Wall time of the last fixed step's hand-over of the GPU solver's work to the render
     /// world (the step's input written down for extraction), milliseconds, summed over the
     /// grooms the GPU steps: all the main thread spends on their steps.
@@ -56,9 +62,10 @@ impl HairDiagnostics {
     pub const RENDER_TIME: DiagnosticPath = DiagnosticPath::const_new("hair/render_ms");
 
     /// Every path above, for registration.
-    pub const ALL: [DiagnosticPath; 11] = [
+    pub const ALL: [DiagnosticPath; 12] = [
         Self::STEP_TIME,
         Self::GPU_STEP_TIME,
+        Self::GPU_VOLUME_TIME,
         Self::GPU_HANDOVER_TIME,
         Self::GUIDES,
         Self::PARTICLES,

@@ -76,8 +76,9 @@
 //!
 //! **How do I read [`HairDiagnostics`]?** Add Bevy's diagnostics plugins and read the paths
 //! from `DiagnosticsStore`: `hair/step_ms` is the solver's time per step, `hair/upload_ms`
-//! the frame's drawing work on the main thread, `hair/gpu_step_ms` a GPU step on the GPU,
-//! `hair/extract_ms` and `hair/render_ms` the hair's share of the render world.
+//! the frame's drawing work on the main thread, `hair/gpu_step_ms` a GPU step on the GPU
+//! (`hair/gpu_volume_ms` its hair volume's grid), `hair/extract_ms` and `hair/render_ms`
+//! the hair's share of the render world.
 
 #![warn(missing_docs)]
 

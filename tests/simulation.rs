@@ -513,7 +513,8 @@ fn turning(k: usize) -> Transform {
 }
 
 /// Hair volume runs on the GPU too: a groom asking for the GPU with volume on is stepped
-/// there, reports nothing, and moves as the same groom on the CPU does.
+/// there, reports nothing, and moves as the same groom on the CPU does. Where the device
+/// has timestamp queries, the grid's GPU time is published, a share of the step's.
 #[test]
 fn a_gpu_groom_with_volume_steps_on_the_gpu() {
     let Some(mut app) = app_on_a_gpu() else { return };
@@ -557,6 +558,16 @@ fn a_gpu_groom_with_volume_steps_on_the_gpu() {
     // The grid couples neighbouring strands, so rounding parts the two more than without
     // volume (hair_gpu's against_cpu compares them with the CPU's own nudged twins).
     assert!(mean < 2e-4 && max < 0.01, "mean {mean} m, max {max} m apart");
+    let diagnostics = app.world().resource::<bevy::diagnostic::DiagnosticsStore>();
+    let latest = |path| diagnostics.get(path).and_then(|d| d.value());
+    let (step, grid) = (latest(&HairDiagnostics::GPU_STEP_TIME), latest(&HairDiagnostics::GPU_VOLUME_TIME));
+    let timestamps = app.world().resource::<RenderDevice>().features().contains(wgpu::Features::TIMESTAMP_QUERY);
+    println!("GPU time, timestamps {timestamps}: the step {step:?} ms, its grid {grid:?} ms");
+    match (step, grid) {
+        (Some(step), Some(grid)) => assert!(timestamps && grid > 0.0 && grid < step, "{grid} of {step} ms"),
+        (None, None) => assert!(!timestamps, "timestamps, but no GPU time"),
+        times => panic!("the step's time and its grid's come together: {times:?}"),
+    }
 }
 
 /// What [`beside_the_cpu`] saw.

@@ -132,4 +132,6 @@ pub(crate) struct Copied {
     pub report: StepReport,
     /// The GPU time of the last of them, milliseconds, where the device times passes.
     pub step_ms: Option<f64>,
+    /// Of that, the volume's grid's (none without volume).
+    pub volume_ms: Option<f64>,
 }
