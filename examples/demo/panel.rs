@@ -46,7 +46,8 @@ fn panel(
     let ctx = contexts.ctx_mut()?;
     egui::Window::new("Hair").default_width(300.0).default_pos([12.0, 12.0]).show(ctx, |ui| {
         egui::ScrollArea::vertical().max_height(680.0).show(ui, |ui| {
-            stats_section(ui, &diagnostics, &stats, status, state.as_deref(), **backend == HairBackend::Gpu);
+            let gpu = (**backend == HairBackend::Gpu, settings.0.volume.enabled);
+            stats_section(ui, &diagnostics, &stats, status, state.as_deref(), gpu);
             ui.horizontal_wrapped(|ui| {
                 ui.label("Presets:");
                 for preset in presets::all() {
@@ -127,7 +128,7 @@ fn stats_section(
     stats: &HairRenderStats,
     status: &GroomStatus,
     state: Option<&HairState>,
-    gpu_asked: bool,
+    (gpu_asked, volume): (bool, bool),
 ) {
     let smoothed = |path: &DiagnosticPath| diagnostics.get(path).and_then(|d| d.smoothed()).unwrap_or(f64::NAN);
     let status = match status {
@@ -154,6 +155,9 @@ fn stats_section(
         };
         if let Some(ms) = gpu_ms(&HairDiagnostics::GPU_STEP_TIME) {
             row("on the GPU", format!("{ms:.2} ms / step"));
+        }
+        if let Some(ms) = gpu_ms(&HairDiagnostics::GPU_VOLUME_TIME).filter(|_| volume) {
+            row("of which volume", format!("{ms:.2} ms / step"));
         }
         if let Some(ms) = gpu_ms(&HairDiagnostics::GPU_HANDOVER_TIME) {
             row("handed to the GPU", format!("{ms:.2} ms / step"));
