@@ -586,6 +586,8 @@ struct Beside {
     reported: [StepReport; 2],
     /// The first app's `HairDiagnostics::GPU_STEP_TIME`: every measurement, milliseconds.
     gpu_step_ms: Vec<f64>,
+    /// Its `GPU_VOLUME_TIME`, likewise.
+    gpu_volume_ms: Vec<f64>,
     /// Its `GPU_HANDOVER_TIME` and `STEP_TIME`, the measurements they both kept.
     submit_and_step_ms: Vec<(f64, f64)>,
 }
@@ -622,7 +624,8 @@ fn beside_the_cpu(mut app: App, backend: HairBackend, frames: usize) -> Beside {
     let values = |path: &bevy::diagnostic::DiagnosticPath| {
         diagnostics.get(path).map(|d| d.values().copied().collect::<Vec<f64>>()).unwrap_or_default()
     };
-    let gpu_step_ms = values(&HairDiagnostics::GPU_STEP_TIME);
+    let (gpu_step_ms, gpu_volume_ms) =
+        (values(&HairDiagnostics::GPU_STEP_TIME), values(&HairDiagnostics::GPU_VOLUME_TIME));
     let (submit_ms, step_ms) = (values(&HairDiagnostics::GPU_HANDOVER_TIME), values(&HairDiagnostics::STEP_TIME));
     // The latest of each, side by side (each keeps its own history).
     let submit_and_step_ms = submit_ms.iter().rev().copied().zip(step_ms.iter().rev().copied()).collect();
@@ -633,6 +636,7 @@ fn beside_the_cpu(mut app: App, backend: HairBackend, frames: usize) -> Beside {
         fallbacks,
         reported,
         gpu_step_ms,
+        gpu_volume_ms,
         submit_and_step_ms,
     }
 }
@@ -641,7 +645,7 @@ fn beside_the_cpu(mut app: App, backend: HairBackend, frames: usize) -> Beside {
 fn the_gpu_backend_steps_a_groom_as_the_cpu_does() {
     let Some(app) = app_on_a_gpu() else { return };
     let timestamps = app.world().resource::<RenderDevice>().features().contains(wgpu::Features::TIMESTAMP_QUERY);
-    let Beside { copied, exact: on_gpu, on_cpu, fallbacks, reported, gpu_step_ms, submit_and_step_ms } =
+    let Beside { copied, exact: on_gpu, on_cpu, fallbacks, reported, gpu_step_ms, gpu_volume_ms, submit_and_step_ms } =
         beside_the_cpu(app, HairBackend::Gpu, 60);
     assert!(fallbacks.is_empty(), "stepped on the GPU: {fallbacks:?}");
     let apart: Vec<f32> = on_gpu.iter().zip(&on_cpu).map(|(a, b)| a.distance(*b)).collect();
@@ -674,6 +678,8 @@ fn the_gpu_backend_steps_a_groom_as_the_cpu_does() {
     } else {
         assert!(gpu_step_ms.is_empty());
     }
+    // Without volume, no grid was timed.
+    assert!(gpu_volume_ms.is_empty(), "a grid's GPU time without volume: {gpu_volume_ms:?}");
     // Each step's hand-over to the render world was timed, within the step's own time;
     // the hair code submitted nothing itself: Bevy's frames carried its work.
     assert_eq!(bevy_hair::hair_gpu::submissions(), 0, "the hair code submitted work itself");
@@ -770,8 +776,16 @@ fn a_gpu_groom_copies_its_positions_back_only_when_asked() {
 
 #[test]
 fn without_a_render_device_the_gpu_backend_says_why_once_and_steps_on_the_cpu() {
-    let Beside { copied, exact: fell_back, on_cpu, fallbacks, reported, gpu_step_ms, submit_and_step_ms } =
-        beside_the_cpu(app(), HairBackend::Gpu, 30);
+    let Beside {
+        copied,
+        exact: fell_back,
+        on_cpu,
+        fallbacks,
+        reported,
+        gpu_step_ms,
+        gpu_volume_ms,
+        submit_and_step_ms,
+    } = beside_the_cpu(app(), HairBackend::Gpu, 30);
     assert_eq!(copied, fell_back, "nothing to wait for on the CPU");
     assert_eq!(fallbacks.len(), 1, "reported once: {fallbacks:?}");
     assert!(fallbacks[0].contains("no render device"), "{}", fallbacks[0]);
@@ -779,6 +793,6 @@ fn without_a_render_device_the_gpu_backend_says_why_once_and_steps_on_the_cpu() 
     assert_eq!(fell_back, on_cpu);
     assert_eq!(reported[0], reported[1]);
     assert!(reported[0].contacts > 0);
-    assert!(gpu_step_ms.is_empty(), "no GPU time without a GPU step");
+    assert!(gpu_step_ms.is_empty() && gpu_volume_ms.is_empty(), "no GPU time without a GPU step");
     assert!(submit_and_step_ms.is_empty(), "no hand-over without a GPU step");
 }
