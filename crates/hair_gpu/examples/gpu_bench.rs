@@ -32,9 +32,6 @@ use hair_sim::prelude::*;
 use std::time::Instant;
 
 fn head_pose(time: f32) -> Pose {
-    if std::env::args().any(|a| a == "--still") {
-        return Pose::new(Quat::IDENTITY, Vec3::new(0.0, 1.6, 0.0));
-    }
     let yaw = 0.8 * (time * 2.0).sin();
     let pitch = 0.3 * (time * 3.1).sin();
     Pose::new(Quat::from_rotation_y(yaw) * Quat::from_rotation_x(pitch), Vec3::new(0.0, 1.6, 0.0))
@@ -47,6 +44,9 @@ fn arg(name: &str) -> Option<String> {
 
 fn main() {
     let flag = |name: &str| std::env::args().any(|a| a == name);
+    // `--still`: the head kept at its first pose throughout.
+    let still_head = flag("--still");
+    let head_pose = |time: f32| head_pose(if still_head { 0.0 } else { time });
     let steps: usize = arg("--steps").map_or(60, |s| s.parse().expect("--steps takes a whole number"));
     let sizes: Vec<(usize, usize)> = arg("--sizes")
         .unwrap_or_else(|| "2048x16,16384x16,65536x32".into())
@@ -100,11 +100,8 @@ fn main() {
         let rest = RestShape::new(grown, particles).expect("guides");
         // Under a still head, settled as the plugin settles a groom: a groom's rest shape
         // is where its hair comes to rest.
-        let rest = if flag("--still") {
-            settle(rest, Some(&collider), &params, 180, Vec3::ZERO).expect("settle")
-        } else {
-            rest
-        };
+        let rest =
+            if still_head { settle(rest, Some(&collider), &params, 180, Vec3::ZERO).expect("settle") } else { rest };
         let mut strands = GpuStrands::new(&gpu, &rest, head_pose(0.0), Some(&collider)).expect("GPU strands");
         let dt = 1.0 / 60.0;
         // A GPU idles at a low clock and raises it under load within a second or so (timed
@@ -123,7 +120,7 @@ fn main() {
         let warm_up = Instant::now();
         let mut warm_steps = 0;
         // Under a still head, the groom settles and falls asleep first.
-        let settling = if flag("--still") { 600 } else { 0 };
+        let settling = if still_head { 600 } else { 0 };
         while warm_up.elapsed().as_secs_f32() < 1.0 || warm_steps < settling {
             for _ in 0..8 {
                 strands.step(&still).expect("GPU step");
@@ -180,7 +177,7 @@ fn main() {
         });
         let root_u: Vec<Vec3> = rest.root_frames.iter().map(|q| *q * Vec3::X).collect();
         let drawing = GpuDrawing::new(&strands, &root_u, &target).expect("drawing");
-        let mut draw_times: Vec<f64> = (0..steps)
+        let draw_times: Vec<f64> = (0..steps)
             .map(|k| {
                 let start = Instant::now();
                 drawing.draw(&strands, k as f32 / steps as f32, head_pose(k as f32 * dt)).expect("draw");
@@ -188,7 +185,6 @@ fn main() {
                 start.elapsed().as_secs_f64() * 1e3
             })
             .collect();
-        draw_times.sort_by(f64::total_cmp);
         let positions = strands.positions().expect("read back");
         let pose = head_pose(steps as f32 * dt);
         let deepest = positions
@@ -215,20 +211,19 @@ fn main() {
         } else {
             "null".to_string()
         };
-        times.sort_by(f64::total_cmp);
         println!(
             "{{\"guides\":{guides},\"particles_per_strand\":{particles},\"steps\":{steps},\"adapter\":\"{}\",\
-             \"backend\":\"{:?}\",\"skin\":{},\"drape\":{drape},\"still\":{},\"asleep\":{asleep:.3},\"collision\":\"{collision}\",\"volume\":{volume},\"timing\":\"{}\",\"ms_per_step\":{:.4},\"finite\":{},\"max_stretch\":{stretch:.6},\
-             \"max_penetration_m\":{:.6},\"draw_ms_per_frame\":{:.4},\"draw_timing\":\"wall time, waiting for each draw\"}}",
+             \"backend\":\"{:?}\",\"skin\":{},\"drape\":{drape},\"still\":{},\"asleep\":{asleep:.3},\"collision\":\"{collision}\",\"volume\":{volume},\"timing\":\"{}\",\"ms_per_step\":{},\"finite\":{},\"max_stretch\":{stretch:.6},\
+             \"max_penetration_m\":{:.6},\"draw_ms_per_frame\":{},\"draw_timing\":\"wall time, waiting for each draw\"}}",
             gpu.adapter.name.replace('"', "'"),
             gpu.adapter.backend,
             skin.is_some(),
-            flag("--still"),
+            still_head,
             if timed_on_gpu { "timestamp queries" } else { "wall time, waiting for each step" },
-            times[times.len() / 2],
+            median(times),
             positions.iter().all(|p| p.is_finite()),
             deepest.max(0.0),
-            draw_times[draw_times.len() / 2]
+            median(draw_times)
         );
     }
 }
