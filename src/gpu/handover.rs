@@ -25,10 +25,9 @@ pub(crate) struct GpuSolver {
     failed: Option<String>,
     /// Reports that came back and were not taken yet ([`Self::take_report`]), summed.
     arrived: Option<StepReport>,
-    /// The GPU time of the last step of the latest report that came back, milliseconds,
-    /// where the device times passes, and of its volume's grid where it had volume, until
-    /// taken ([`Self::take_step_ms`]).
-    step_ms: Option<(f64, Option<f64>)>,
+    /// The GPU time of the last step of the latest report that came back, where the
+    /// device times passes, until taken ([`Self::take_step_time`]).
+    step_time: Option<hair_gpu::StepTime>,
     /// Wall time the last step spent writing its letters, milliseconds (see
     /// [`HairDiagnostics::GPU_HANDOVER_TIME`]).
     pub handover_ms: f64,
@@ -143,9 +142,9 @@ impl GpuSolver {
             link.running = true;
         }
         let mut changed = false;
-        for Copied { copy, positions, report, step_ms, volume_ms } in copies {
+        for Copied { copy, positions, report, time } in copies {
             self.arrived.get_or_insert_default().merge(report);
-            self.step_ms = step_ms.map(|ms| (ms, volume_ms)).or(self.step_ms);
+            self.step_time = time.or(self.step_time);
             let Some((awaited, steps, moved)) = link.copy else { continue };
             if copy != awaited {
                 continue; // from before a reset
@@ -250,11 +249,10 @@ impl GpuSolver {
         self.arrived.take()
     }
 
-    /// The GPU time of one of the GPU's latest steps, milliseconds, and of its volume's grid
-    /// where it had volume, if one came back since this was last called (only where the
-    /// device has timestamp queries).
-    pub fn take_step_ms(&mut self) -> Option<(f64, Option<f64>)> {
-        self.step_ms.take()
+    /// The GPU time of one of the GPU's latest steps, if one came back since this was last
+    /// called (only where the device has timestamp queries).
+    pub fn take_step_time(&mut self) -> Option<hair_gpu::StepTime> {
+        self.step_time.take()
     }
 }
 
@@ -277,10 +275,10 @@ pub(crate) fn receive_from_gpu(mut grooms: Query<&mut HairState>, mut diagnostic
         }
         if state.gpu.running() {
             state.last_report = state.gpu.take_report().unwrap_or_default();
-            if let Some((ms, volume)) = state.gpu.take_step_ms() {
-                *step_ms.get_or_insert(0.0) += ms;
-                if let Some(volume) = volume {
-                    *volume_ms.get_or_insert(0.0) += volume;
+            if let Some(time) = state.gpu.take_step_time() {
+                *step_ms.get_or_insert(0.0) += time.total_ms;
+                if let Some(ms) = time.volume_ms {
+                    *volume_ms.get_or_insert(0.0) += ms;
                 }
             }
         }

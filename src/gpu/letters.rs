@@ -130,8 +130,6 @@ pub(crate) struct Copied {
     pub positions: Option<Vec<SimVec3>>,
     /// What the steps since the last copy did.
     pub report: StepReport,
-    /// The GPU time of the last of them, milliseconds, where the device times passes.
-    pub step_ms: Option<f64>,
-    /// Of that, the volume's grid's (none without volume).
-    pub volume_ms: Option<f64>,
+    /// The GPU time of the last of them, where the device times passes.
+    pub time: Option<hair_gpu::StepTime>,
 }

@@ -385,8 +385,7 @@ fn collect_copies(mut grooms: ResMut<RenderGrooms>, times: Res<RenderTimes>) {
             }
             match (positions.map(PositionsCopy::into_positions).transpose(), report.into_timed_report()) {
                 (Ok(positions), Ok((report, time))) => {
-                    let (step_ms, volume_ms) = (time.map(|t| t.total_ms), time.and_then(|t| t.volume_ms));
-                    groom.inbox().copies.push(Copied { copy, positions, report, step_ms, volume_ms });
+                    groom.inbox().copies.push(Copied { copy, positions, report, time });
                 }
                 (Err(e), _) | (_, Err(e)) => groom.inbox().failed = Some(e.to_string()),
             }
