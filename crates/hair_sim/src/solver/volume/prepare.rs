@@ -6,9 +6,10 @@ use crate::math::{Pose, Vec3};
 use crate::solver::RestShape;
 use crate::solver::params::{LengthMode, SimdPath, Volume};
 
-/// The volume's part of one step of `dt` seconds in `substeps` substeps, before the strands move: the grid made
-/// from `positions` and `velocities` (head-local by `pose`, the head's pose at the step's
-/// start; `next` is its pose at the step's end), its pressure solved
+/// The volume's part of one step of `dt` seconds in `substeps` substeps, before the
+/// strands move: the grid made from `positions` and `velocities` (head-local by `pose`, the
+/// head's pose at the step's start; `next` is its pose at the step's end), its pressure
+/// solved
 /// (`volume.pressure_iterations` sweeps, as much of the overflow as the length model
 /// `mode` takes a step, [`Feedback::catch_up`]) and each cell's potential. The answer then
 /// reaches each particle's velocity through [`VolumeGrid::feed_back`], strand by strand.
@@ -34,7 +35,7 @@ pub(in crate::solver) fn prepare(
     (parts, simd, run): (usize, SimdPath, impl FnOnce(&mut [SplatPart<'_>])),
 ) -> VolumeStep {
     let n = rest.particles_per_strand.max(1);
-    let under = (pose, (dt, substeps), *volume, mode);
+    let under: Under = (pose, (dt, substeps), *volume, mode);
     let moved = made_from.as_ref().and_then(|made| made.moved(positions, velocities, n, under));
     match moved {
         Some(moved) if moved.is_empty() => return made_from.as_ref().expect("compared with").step.clone(),
@@ -59,26 +60,24 @@ pub(in crate::solver) fn prepare(
 /// out and puts them back ([`VolumeGrid::resplat`]) instead of splatting every strand.
 const RESPLAT_SHARE: usize = 8;
 
+/// What a step's grid is made under: the head's pose at the step's start, the step's length
+/// and substeps, the settings and the length model. A grid made under others is made again
+/// from every strand.
+type Under = (Pose, (f32, u32), Volume, LengthMode);
+
 /// What a step's grid was last made from ([`prepare`]), and the feedback it gave.
 #[derive(Clone, Debug)]
 pub(in crate::solver) struct MadeFrom {
     positions: Vec<Vec3>,
     velocities: Vec<Vec3>,
-    /// The head's pose, the step's length and substeps, the settings and the length model.
-    under: (Pose, (f32, u32), Volume, LengthMode),
+    under: Under,
     step: VolumeStep,
 }
 
 impl MadeFrom {
     /// The strands (of `n` particles) whose positions or velocities changed since; `None`
     /// where the head, the step, the settings or the length model did (every strand then).
-    fn moved(
-        &self,
-        positions: &[Vec3],
-        velocities: &[Vec3],
-        n: usize,
-        under: (Pose, (f32, u32), Volume, LengthMode),
-    ) -> Option<Vec<usize>> {
+    fn moved(&self, positions: &[Vec3], velocities: &[Vec3], n: usize, under: Under) -> Option<Vec<usize>> {
         if self.under != under || self.positions.len() != positions.len() {
             return None;
         }
@@ -96,13 +95,7 @@ impl MadeFrom {
     }
 
     /// Keeps in `slot` what the grid was made from, reusing its buffers.
-    fn remember(
-        slot: &mut Option<MadeFrom>,
-        positions: &[Vec3],
-        velocities: &[Vec3],
-        under: (Pose, (f32, u32), Volume, LengthMode),
-        step: &VolumeStep,
-    ) {
+    fn remember(slot: &mut Option<MadeFrom>, positions: &[Vec3], velocities: &[Vec3], under: Under, step: &VolumeStep) {
         let made = slot.get_or_insert_with(|| MadeFrom {
             positions: Vec::new(),
             velocities: Vec::new(),
