@@ -28,6 +28,9 @@ pub(crate) const VOLUME_BEGINS: u32 = 2;
 pub(crate) const GATE_MADE: usize = 1;
 const GATE_ARGS: usize = 2;
 
+/// Bytes of the grid's dispatch workgroups: x, y and z over the slots, then over the cells.
+const WORKGROUP_BYTES: u64 = 6 * 4;
+
 /// What a grid was made under ([`GpuVolume::record`]): as the CPU's `MadeFrom`, a step
 /// under anything else makes it again whatever moved.
 #[derive(Clone, Copy, PartialEq)]
@@ -35,7 +38,7 @@ struct MadeUnder {
     pose: Pose,
     steps: (f32, u32),
     volume: hair_sim::solver::Volume,
-    implicit: bool,
+    mode: LengthMode,
     counts: (u32, u32, u32),
 }
 
@@ -184,10 +187,11 @@ impl GpuVolume {
         // The positions and velocities the grid was made from: none yet (the first step
         // makes it whatever they are).
         let made_from = buffer("hair_gpu volume made from", 2 * positions.size() as usize, wgpu::BufferUsages::empty());
-        let gate = buffer("hair_gpu volume gate", (GATE_ARGS + 6) * 4, wgpu::BufferUsages::COPY_SRC);
+        let gate =
+            buffer("hair_gpu volume gate", GATE_ARGS * 4 + WORKGROUP_BYTES as usize, wgpu::BufferUsages::COPY_SRC);
         let workgroups = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("hair_gpu volume workgroups"),
-            size: 6 * 4,
+            size: WORKGROUP_BYTES,
             usage: wgpu::BufferUsages::INDIRECT | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
@@ -261,7 +265,7 @@ impl GpuVolume {
         let origin = self.grid.origin();
         let t = pose.translation;
         // As the CPU's `prepare`: under another pose, step or setting, made whatever moved.
-        let under = MadeUnder { pose, steps: (dt, substeps), volume: *volume, implicit, counts: (strands, n, slots) };
+        let under = MadeUnder { pose, steps: (dt, substeps), volume: *volume, mode, counts: (strands, n, slots) };
         let made_whatever_moved = self.made_under.replace(under) != Some(under);
         let ([slots_x, slots_y], [cells_x, cells_y]) = (workgroups(slots), workgroups(cells));
         let uniform = VolumeUniform {
@@ -302,14 +306,14 @@ impl GpuVolume {
             timestamp_writes: timed(false),
         });
         pass.set_bind_group(0, &self.group, &[]);
-        // The grid's own dispatches, over the slots (`SLOTS`) or the cells (`CELLS`): none
-        // where nothing moved.
+        // The grid's own dispatches, over the slots or the cells (their workgroups' byte
+        // offsets in `workgroups`): none where nothing moved.
         let mut grid = |pipeline: &wgpu::ComputePipeline, over: u64| {
             pass.set_pipeline(pipeline);
             pass.dispatch_workgroups_indirect(&self.workgroups, over);
         };
         const SLOTS: u64 = 0;
-        const CELLS: u64 = 12;
+        const CELLS: u64 = WORKGROUP_BYTES / 2;
         grid(clear_sums, CELLS);
         grid(splat, SLOTS);
         grid(resolve, CELLS);
@@ -348,7 +352,7 @@ impl GpuVolume {
             pass.set_pipeline(open);
             dispatch_over(&mut pass, 1);
         }
-        encoder.copy_buffer_to_buffer(&self.gate, GATE_ARGS as u64 * 4, &self.workgroups, 0, 6 * 4);
+        encoder.copy_buffer_to_buffer(&self.gate, GATE_ARGS as u64 * 4, &self.workgroups, 0, WORKGROUP_BYTES);
     }
 
     /// Records `state`'s pressure and backlog (one value per cell each, as
