@@ -258,7 +258,7 @@ fn the_demo_styles_come_to_rest() {
     ];
     for (style, volume) in styles.iter().flat_map(|s| [(s, false), (s, true)]) {
         let (name, guides, grow, settle_steps, comb, params) = *style;
-        let params = with_volume(params, volume);
+        let params = common::with_volume(params, volume);
         let recipe = Recipe::Style(grow, settle_steps);
         let (collider, rest) = settled_groom(&head, &weights, guides, recipe, comb, &params);
         for shaken in [false, true] {
@@ -289,7 +289,7 @@ fn the_reference_style_on_springs_comes_to_rest() {
         [("on the vertices", true, false), ("Poisson-disc", false, false), ("on the vertices, volume on", true, true)];
     for (placement, on_vertices, volume) in cases {
         let (collider, rest) = reference_style(on_vertices, volume);
-        let params = with_volume(SimParams::reference(), volume);
+        let params = common::with_volume(SimParams::reference(), volume);
         for shaken in [false, true] {
             let pose = |k: usize| if shaken { common::shake(k as f32 * DT) } else { Pose::IDENTITY };
             let (asleep, fastest) = common::asleep_after(rest, collider, &params, (600, DT), pose);
@@ -302,7 +302,7 @@ fn the_reference_style_on_springs_comes_to_rest() {
 
 /// The demo's "Reference" style on the shipped head (1,200 guides of 11 particles, 25 cm,
 /// lengths varied by 20 %, uncombed), its roots on the scalp's vertices or Poisson-disc
-/// roots, settled under `SimParams::reference` with volume on or off ([`with_volume`]),
+/// roots, settled under `SimParams::reference` with volume on or off ([`common::with_volume`]),
 /// with the head's collider: grown once for the tests that share it.
 fn reference_style(on_vertices: bool, volume: bool) -> &'static (HeadCollider, RestShape) {
     static GROOMS: [OnceLock<(HeadCollider, RestShape)>; 4] = [const { OnceLock::new() }; 4];
@@ -311,13 +311,8 @@ fn reference_style(on_vertices: bool, volume: bool) -> &'static (HeadCollider, R
         let weights = hair_sim::groom::triangle_weights(&head, &labels);
         let grow = GuideParams { segments: 10, length: 0.25, length_variation: 0.2, ..GuideParams::default() };
         let recipe = if on_vertices { Recipe::StyleOnVertices(grow, 180, &labels) } else { Recipe::Style(grow, 180) };
-        settled_groom(&head, &weights, 1200, recipe, Vec3::ZERO, &with_volume(SimParams::reference(), volume))
+        settled_groom(&head, &weights, 1200, recipe, Vec3::ZERO, &common::with_volume(SimParams::reference(), volume))
     })
-}
-
-/// `params` with hair volume on (at its defaults) or off.
-fn with_volume(params: SimParams, on: bool) -> SimParams {
-    SimParams { volume: Volume { enabled: on, ..Volume::default() }, ..params }
 }
 
 /// The hold that rests strands on springs where the head touches them

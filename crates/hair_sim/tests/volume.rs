@@ -28,8 +28,9 @@ fn settled_under(strands: usize, params: &SimParams) -> (HeadCollider, RestShape
     (collider, rest)
 }
 
+/// The default settings with hair volume on.
 fn with_volume() -> SimParams {
-    SimParams { volume: Volume { enabled: true, ..Volume::default() }, ..SimParams::default() }
+    common::with_volume(SimParams::default(), true)
 }
 
 /// The 1 cm cube that `p` lies in.

@@ -129,6 +129,11 @@ pub fn shake(t: f32) -> Pose {
     Pose::new(Quat::from_rotation_y(angle), Vec3::ZERO)
 }
 
+/// `params` with hair volume on (at its defaults) or off.
+pub fn with_volume(params: SimParams, on: bool) -> SimParams {
+    SimParams { volume: Volume { enabled: on, ..Volume::default() }, ..params }
+}
+
 /// `rest` stepped from its rest pose with `collider` for `steps` steps of `dt` seconds,
 /// the head at `pose(k)` at the start of step `k`: the strands asleep after the last step,
 /// and the fastest particle's speed then.
