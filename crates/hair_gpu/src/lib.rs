@@ -647,7 +647,8 @@ impl GpuStrands {
         self.springs_remembered = springs;
         let queries = timestamps.map(|t| &t.queries);
         if p.volume.enabled {
-            self.record_volume(&p.volume, constants.poses[0], (constants.dt, substeps), springs, queries);
+            let poses = (constants.poses[0], constants.poses[substeps as usize]);
+            self.record_volume(&p.volume, poses, (constants.dt, substeps), springs, queries);
         }
         let recorder = recording(&mut self.recorder);
         recorder.upload(&self.uniform, bytemuck::bytes_of(&uniform));
@@ -692,12 +693,12 @@ impl GpuStrands {
     }
 
     /// Records the volume's effect on a step of `dt` in `substeps` substeps ([`GpuVolume`]),
-    /// the head at `pose` at its start, making the grid first where there is none at
-    /// `volume`'s resolution.
+    /// the head at `poses` at its start and end, making the grid first where there is none
+    /// at `volume`'s resolution.
     fn record_volume(
         &mut self,
         volume: &hair_sim::solver::Volume,
-        pose: Pose,
+        poses: (Pose, Pose),
         steps: (f32, u32),
         springs: bool,
         timestamps: Option<&wgpu::QuerySet>,
@@ -706,7 +707,7 @@ impl GpuStrands {
         let grid = self.volume.as_mut().expect("made above");
         let counts = (self.strands, self.particles_per_strand, self.slots.count() as u32);
         let recorder = (recording(&mut self.recorder), timestamps);
-        grid.record(&self.volume_passes, recorder, volume, pose, steps, springs, counts);
+        grid.record(&self.volume_passes, recorder, volume, poses, steps, springs, counts);
     }
 
     /// Makes the hair–hair grid at `resolution` where there is none at it.

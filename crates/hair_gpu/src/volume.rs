@@ -241,7 +241,8 @@ impl GpuVolume {
     }
 
     /// Records the volume's effect on one step of `dt` seconds in `substeps` substeps under
-    /// `volume`'s settings, the head at `pose` at the step's start, for `strands` strands
+    /// `volume`'s settings, the head at `pose` at the step's start and at `next` at its
+    /// end, for `strands` strands
     /// of `n` particles in `slots` slots; with `implicit`, the friction is left for the
     /// spring model's solve (as [`hair_sim::solver::Feedback::rates`] says). Its passes are
     /// timed into `timestamps` where given ([`VOLUME_BEGINS`] and the query after it).
@@ -251,7 +252,7 @@ impl GpuVolume {
         passes: &VolumePasses,
         (recorder, timestamps): (&mut Recorder, Option<&wgpu::QuerySet>),
         volume: &hair_sim::solver::Volume,
-        pose: Pose,
+        (pose, next): (Pose, Pose),
         (dt, substeps): (f32, u32),
         implicit: bool,
         (strands, n, slots): (u32, u32, u32),
@@ -299,6 +300,10 @@ impl GpuVolume {
                 end_of_pass_write_index: (!begins).then_some(VOLUME_BEGINS + 1),
             })
         };
+        // What the grid is made from matters only to a next step under the same pose, as
+        // on the CPU: under a head that moves in this step, made whatever moved, nothing
+        // is compared.
+        let compare = (!made_whatever_moved || next == pose).then_some(compare);
         self.open_gate(encoder, (compare, open_gate), slots, timed(true));
         // One pass, as the step's: each dispatch sees what the one before wrote.
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -332,12 +337,12 @@ impl GpuVolume {
     }
 
     /// Records the gate before the grid's passes: whether a particle moved since the grid
-    /// was made (`compare` over the `slots`), and the workgroups of the grid's dispatches
-    /// that follows from it (`open`), copied to where they are dispatched from.
+    /// was made (`compare` over the `slots`, where given), and the workgroups of the grid's
+    /// dispatches that follow from it (`open`), copied to where they are dispatched from.
     fn open_gate(
         &self,
         encoder: &mut wgpu::CommandEncoder,
-        (compare, open): (&wgpu::ComputePipeline, &wgpu::ComputePipeline),
+        (compare, open): (Option<&wgpu::ComputePipeline>, &wgpu::ComputePipeline),
         slots: u32,
         timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
@@ -347,8 +352,10 @@ impl GpuVolume {
                 timestamp_writes,
             });
             pass.set_bind_group(0, &self.group, &[]);
-            pass.set_pipeline(compare);
-            dispatch_over(&mut pass, slots);
+            if let Some(compare) = compare {
+                pass.set_pipeline(compare);
+                dispatch_over(&mut pass, slots);
+            }
             pass.set_pipeline(open);
             dispatch_over(&mut pass, 1);
         }
